@@ -1,0 +1,30 @@
+# whiskercal: `make demo` runs the calibration pipeline on the digital twin, `make test` the tests.
+# Both create the virtual environment (.venv) on first use.
+
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+INSTALLED := $(VENV)/.installed
+OUT ?= out/demo
+
+.PHONY: setup test demo bench firmware firmware-deps clean
+
+setup: $(INSTALLED)
+
+$(INSTALLED): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $@
+
+test: $(INSTALLED)
+	$(PY) -m pytest -n 2 -q
+
+demo: $(INSTALLED)
+	OUT=$(OUT) PY=$(PY) bash scripts/demo.sh
+
+bench: $(INSTALLED)
+	$(PY) -m whiskercal bench --out out/bench
+
+clean:
+	rm -rf out build .pytest_cache

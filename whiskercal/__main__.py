@@ -1,0 +1,3 @@
+from whiskercal.cli import main
+
+main()

@@ -1,0 +1,114 @@
+"""Shared HDF5 conventions: provenance attributes, schema versions, datasets with units."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+from pathlib import Path
+from typing import Any, Mapping
+
+import h5py
+import numpy as np
+
+from whiskercal import __version__
+from whiskercal.errors import ArtifactError
+
+
+def sha256_file(path: str | Path, chunk_bytes: int = 1 << 20) -> str:
+    """Hex SHA-256 of a file's bytes."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for chunk in iter(lambda: handle.read(chunk_bytes), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def now_iso() -> str:
+    """The current time, ISO 8601 with the local zone."""
+    return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+def write_provenance(group: h5py.Group, *, schema: str, schema_version: str, sensor_id: str,
+                     inputs: Mapping[str, str] | None = None,
+                     config: Mapping[str, Any] | None = None) -> None:
+    """Write the root attributes every whiskercal file carries.
+
+    ``inputs`` maps an input's role to its SHA-256; ``config`` is stored as JSON text.
+    """
+    group.attrs["schema"] = schema
+    group.attrs["schema_version"] = schema_version
+    group.attrs["created"] = now_iso()
+    group.attrs["whiskercal_version"] = __version__
+    group.attrs["sensor_id"] = sensor_id
+    group.attrs["inputs_sha256"] = json.dumps(dict(inputs or {}), sort_keys=True)
+    group.attrs["config"] = json.dumps(dict(config or {}), sort_keys=True, default=_json_default)
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serializable: {type(value).__name__}")
+
+
+def read_json_attr(group: h5py.Group, name: str, default: Any = None) -> Any:
+    """Parse a JSON text attribute (``config``, ``inputs_sha256``, ...)."""
+    if name not in group.attrs:
+        return default
+    return json.loads(_text(group.attrs[name]))
+
+
+def _text(value: Any) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def check_schema(group: h5py.Group, schema: str, supported_major: int, path: str | Path = "") -> str:
+    """Refuse a file of another schema or an unknown major version; return its version string."""
+    where = f"{path}: " if path else ""
+    found = _text(group.attrs.get("schema", ""))
+    if found != schema:
+        raise ArtifactError(f"{where}not a {schema} file (schema attribute is {found or 'missing'!r})")
+    version = _text(group.attrs.get("schema_version", ""))
+    try:
+        major = int(version.split(".")[0])
+    except ValueError:
+        raise ArtifactError(f"{where}bad schema_version {version!r}") from None
+    if major != supported_major:
+        raise ArtifactError(
+            f"{where}{schema} schema version {version} is not supported by whiskercal {__version__} "
+            f"(this version reads {supported_major}.x); upgrade whiskercal or re-create the file")
+    return version
+
+
+def write_array(group: h5py.Group, name: str, data: Any, units: str, **attrs: Any) -> h5py.Dataset:
+    """Create (or replace) a dataset with its ``units`` attribute (use "1" for dimensionless)."""
+    if name in group:
+        del group[name]
+    dataset = group.create_dataset(name, data=np.asarray(data))
+    dataset.attrs["units"] = units
+    for key, value in attrs.items():
+        dataset.attrs[key] = value
+    return dataset
+
+
+def read_array(group: h5py.Group, name: str, path: str | Path = "") -> np.ndarray:
+    """Read a dataset as an array, with a clear error when it is missing."""
+    if name not in group:
+        where = f"{path}: " if path else ""
+        raise ArtifactError(f"{where}missing dataset {group.name.rstrip('/')}/{name}")
+    return group[name][()]
+
+
+def open_h5(path: str | Path, mode: str = "r") -> h5py.File:
+    """Open an HDF5 file, turning 'not found' and 'not HDF5' into one clear error."""
+    path = Path(path)
+    if mode == "r" and not path.exists():
+        raise ArtifactError(f"{path}: no such file")
+    try:
+        return h5py.File(path, mode)
+    except OSError as error:
+        raise ArtifactError(f"{path}: cannot open as HDF5 ({error})") from None

@@ -1,0 +1,1 @@
+"""One module per ``whiskercal`` subcommand; each defines ``command``."""
