@@ -1,0 +1,66 @@
+"""`whiskercal collect` on the command line: dry-run, options, refusals."""
+
+from __future__ import annotations
+
+import json
+
+from click.testing import CliRunner
+
+from whiskercal.cli import cli
+
+
+def invoke(*args):
+    return CliRunner().invoke(cli, ["collect", *args], catch_exceptions=False)
+
+
+def test_dry_run_json_summarizes_the_default_plan():
+    result = invoke("--dry-run", "--json")
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary["points"] == 180 and summary["limits_ok"] and summary["problems"] == []
+    assert summary["columns"] == 17
+    assert summary["whisker_x_mm"] == [21.0, 69.0] and summary["whisker_y_mm"] == [-48.0, 0.0]
+    # 180 points at 0.4 s of dwell each plus moves of ~0.4 s: a few minutes, not seconds or hours
+    assert 120.0 < summary["estimated_stage_time_s"] < 600.0
+    assert summary["path_length_mm"] > 180 * 3.0
+
+
+def test_dry_run_text_names_points_time_and_limits():
+    result = invoke("--dry-run")
+    assert result.exit_code == 0
+    lines = result.output.splitlines()
+    assert lines[0] == "points           180 in 17 columns"
+    assert any(line.startswith("stage time") and line.endswith("s (estimated)") for line in lines)
+    assert "limits           ok (travel 200 x 200 mm)" in lines
+
+
+def test_dry_run_reports_a_plan_outside_the_travel(tmp_path):
+    config = tmp_path / "far.toml"
+    config.write_text("[rig]\norigin_stage_mm = [150.0, 100.0]\n")
+    result = CliRunner().invoke(cli, ["collect", "--dry-run", "--config", str(config)])
+    assert result.exit_code == 2
+    assert "VIOLATED" in result.output
+    assert "error: the plan leaves the stage travel" in result.output
+
+
+def test_unknown_config_key_is_one_clear_error(tmp_path):
+    config = tmp_path / "typo.toml"
+    config.write_text("[grid]\nstep_m = 2.0\n")
+    result = CliRunner().invoke(cli, ["collect", "--dry-run", "--config", str(config)])
+    assert result.exit_code == 2
+    assert result.output.strip().startswith("error:") and "unknown setting 'step_m'" in result.output
+    assert len(result.output.strip().splitlines()) == 1
+
+
+def test_a_run_needs_both_ports_and_an_output():
+    result = CliRunner().invoke(cli, ["collect", "--stage", "sim://x/stage"])
+    assert result.exit_code == 2
+    assert "needs --stage, --sensor and --out" in result.output
+
+
+def test_every_option_has_help_text():
+    from whiskercal.cli.commands.collect import command
+
+    assert command.help
+    for option in command.params:
+        assert option.help, option.name

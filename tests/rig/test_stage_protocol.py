@@ -1,0 +1,106 @@
+"""StageClient against scripted byte pairs (docs/protocol.md, stage)."""
+
+import numpy as np
+import pytest
+from byte_pairs import expected_protocol
+
+from whiskercal.errors import DeviceError
+from whiskercal.rig.stage import StageAlarmError, StageClient, StageCommandError, parse_status
+
+IDLE_ENC = b"<Idle|MPos:12.000,-3.000,0.000|FS:0,0|Enc:11.998,-3.004>\r\n"
+
+
+def test_identify_whiskercal_firmware_with_banner():
+    pairs = [(None, b"\r\nGrbl 1.1h ['$' for help]\r\n"),
+             (b"$I\n", b"[VER:1.1h.20190825:whiskercal-stage]\r\n[OPT:V,15,128]\r\n"
+                       b"[PROTO:whiskercal-stage-1]\r\nok\r\n"),
+             (b"?", IDLE_ENC)]
+    with expected_protocol(StageClient, pairs) as stage:
+        identity = stage.identify()
+    assert identity.whiskercal_firmware and identity.has_encoder
+    assert identity.proto == "whiskercal-stage-1"
+    assert identity.name == "whiskercal-stage"
+    assert identity.banner.startswith("Grbl 1.1h")
+
+
+def test_identify_stock_grbl_has_no_encoder():
+    pairs = [(b"$I\n", b"[VER:1.1h.20190825:]\r\n[OPT:V,15,128]\r\nok\r\n"),
+             (b"?", b"<Idle|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n")]
+    with expected_protocol(StageClient, pairs) as stage:
+        identity = stage.identify()
+    assert not identity.whiskercal_firmware and not identity.has_encoder
+
+
+def test_status_fields():
+    with expected_protocol(StageClient, [(b"?", IDLE_ENC)]) as stage:
+        status = stage.status()
+    assert status.state == "Idle" and status.idle
+    np.testing.assert_array_equal(status.mpos_mm, [12.0, -3.0])
+    np.testing.assert_array_equal(status.enc_mm, [11.998, -3.004])
+
+
+def test_status_ignores_unknown_fields_in_any_order():
+    status = parse_status("<Run|FS:1500,0|Ov:100,100,100|MPos:1.5,2.5,0.0|Pn:X>")
+    assert status.state == "Run" and status.feed == 1500 and status.pins == "X"
+    assert status.enc_mm is None
+
+
+def test_move_and_wait_idle_polls_until_idle():
+    polled = []
+    pairs = [(b"G90 G1 X50.000 Y10.000 F3000.0\n", b"ok\r\n"),
+             (b"?", b"<Run|MPos:10.000,2.000,0.000|FS:3000,0|Enc:10.000,2.000>\r\n"),
+             (b"?", b"<Run|MPos:40.000,8.000,0.000|FS:3000,0|Enc:40.000,8.000>\r\n"),
+             (b"?", b"<Idle|MPos:50.000,10.000,0.000|FS:0,0|Enc:50.000,10.000>\r\n")]
+    with expected_protocol(StageClient, pairs) as stage:
+        stage.move_to(50, 10, 3000)
+        final = stage.wait_idle(10, on_poll=polled.append)
+    assert [s.state for s in polled] == ["Run", "Run", "Idle"]
+    np.testing.assert_array_equal(final.mpos_mm, [50, 10])
+
+
+def test_pushed_alarm_during_wait_raises_with_table_text():
+    pairs = [(b"?", b"<Run|MPos:10.000,2.000,0.000|FS:3000,0|Enc:9.000,2.000>\r\nALARM:10\r\n")]
+    with expected_protocol(StageClient, pairs) as stage:
+        with pytest.raises(StageAlarmError, match="ALARM:10: Encoder and step positions disagree") as info:
+            stage.wait_idle(10)
+    assert info.value.code == 10
+
+
+def test_error_reply_raises_with_table_text():
+    pairs = [(b"G90 G1 X500.000 Y0.000 F1000.0\n", b"error:15\r\n")]
+    with expected_protocol(StageClient, pairs) as stage:
+        with pytest.raises(StageCommandError, match="error:15: Target exceeds machine travel"):
+            stage.move_to(500, 0, 1000)
+
+
+def test_settings_home_unlock_hold_resume_reset():
+    pairs = [(b"$$\n", b"$20=1\r\n$100=80.000\r\n$201=40.000\r\nok\r\n"),
+             (b"$110=2500\n", b"ok\r\n"),
+             (b"$H\n", b"ok\r\n"),
+             (b"$X\n", b"[MSG:Caution: Unlocked]\r\nok\r\n"),
+             (b"!", None), (b"~", None),
+             (b"\x18", b"\r\nGrbl 1.1h ['$' for help]\r\n"),
+             (None, b"[MSG:'$H'|'$X' to unlock]\r\n"),
+             (b"G4 P0.500\n", b"ok\r\n")]
+    with expected_protocol(StageClient, pairs) as stage:
+        assert stage.settings() == {20: 1.0, 100: 80.0, 201: 40.0}
+        stage.set_setting(110, 2500)
+        stage.home()
+        stage.unlock()
+        stage.hold()
+        stage.resume()
+        assert stage.reset().startswith("Grbl 1.1h")
+        stage.dwell(0.5)
+
+
+def test_silence_times_out_with_clear_message():
+    with expected_protocol(StageClient, [(b"?", None)]) as stage:
+        with pytest.raises(DeviceError, match="did not answer the status request"):
+            stage.status()
+
+
+def test_wait_idle_raises_in_alarm_state():
+    pairs = [(b"?", b"<Alarm|MPos:0.000,0.000,0.000|FS:0,0>\r\n")]
+    with expected_protocol(StageClient, pairs) as stage:
+        with pytest.raises(DeviceError, match="in alarm"):
+            stage.wait_idle(5)

@@ -1,0 +1,92 @@
+"""The study's analysis on synthetic streams whose true answer is known by construction."""
+
+import numpy as np
+import pytest
+
+from whiskercal.study.analysis import (
+    Criteria, TrialSeries, analyse_study, analyse_trial, detect_slips, distance_to_line_mm,
+    monotone_breaks)
+
+NORMAL = np.array([np.cos(np.radians(20)), np.sin(np.radians(20))])
+DIRECTION = np.array([NORMAL[1], -NORMAL[0]])
+
+
+def _series(depth_mm, n=900, noise_mm=0.1, off_plane_mm=0.0, z_uT=-5000.0, seed=0, contact=None):
+    """Estimates scattered about a plane line by a known noise, plus a known offset off it."""
+    rng = np.random.default_rng(seed)
+    point = np.array([78.0, 0.0]) - depth_mm * NORMAL
+    along = np.linspace(-10, 10, n)
+    on_line = point + along[:, None] * DIRECTION
+    raw = on_line + rng.normal(0, noise_mm, (n, 2)) + off_plane_mm * NORMAL
+    z = z_uT + rng.normal(0, 6.0, n)
+    contact = np.ones(n, bool) if contact is None else contact
+    return TrialSeries(depth_mm=depth_mm, t_s=np.arange(n) / 300, z_uT=z, contact=contact,
+                       raw_tip_mm=raw, filtered_tip_mm=raw.copy(),
+                       plane_point_mm=np.tile(point, (n, 1)), plane_normal=np.tile(NORMAL, (n, 1)),
+                       true_tip_mm=on_line, true_kind=np.array(["tip"] * n))
+
+
+def test_distance_to_line_is_the_perpendicular_distance():
+    points = np.array([[3.0, 1.5], [-2.0, -4.0], [np.nan, 0.0]])
+    distance = distance_to_line_mm(points, np.array([0.0, 0.0]), np.array([0.0, 1.0]))
+    assert distance[:2] == pytest.approx([1.5, 4.0])
+    assert np.isnan(distance[2])
+
+
+def test_error_statistics_match_the_noise_put_in():
+    metrics = analyse_trial(_series(20.0, n=20000, noise_mm=0.2))
+    # |N(0, s)| has mean s*sqrt(2/pi) and std s*sqrt(1 - 2/pi)
+    assert metrics.raw_mean_mm == pytest.approx(0.2 * np.sqrt(2 / np.pi), rel=0.03)
+    assert metrics.raw_std_mm == pytest.approx(0.2 * np.sqrt(1 - 2 / np.pi), rel=0.03)
+    assert metrics.true_raw_mean_mm == pytest.approx(0.2 * np.sqrt(np.pi / 2), rel=0.03)
+    assert not metrics.failing and metrics.n_slips == 0
+
+
+def test_estimates_off_the_plane_flag_tangential_contact():
+    metrics = analyse_trial(_series(45.0, off_plane_mm=4.0))
+    assert metrics.tangential and metrics.failing
+    assert any("tangential" in reason for reason in metrics.reasons)
+
+
+def test_slips_are_found_where_z_jumps_and_nowhere_else():
+    rng = np.random.default_rng(1)
+    z = -6000 + np.cumsum(rng.normal(0, 8, 3000))
+    z[1200:] -= 900.0
+    z[2500:] += 600.0
+    slips = detect_slips(z, np.ones(z.size, bool))
+    assert slips.tolist() == [1200, 2500]
+
+
+def test_losing_contact_is_not_a_slip():
+    z = np.r_[np.zeros(100), np.full(100, -3000.0)]
+    contact = np.abs(z) > 300
+    assert detect_slips(z, contact).size == 0
+
+
+def test_a_trial_without_contact_fails_with_a_clear_reason():
+    series = _series(5.0, contact=np.zeros(900, bool))
+    metrics = analyse_trial(series)
+    assert metrics.failing and "no contact" in metrics.reasons[0]
+    assert np.isnan(metrics.raw_mean_mm)
+
+
+def test_monotone_breaks_flag_the_depth_where_z_stops_growing():
+    depths = np.array([5, 10, 15, 20, 25.0])
+    median_z = np.array([-1000, -2000, -3000, -2500, -3500.0])
+    assert monotone_breaks(depths, median_z).tolist() == [False, False, False, True, False]
+    assert monotone_breaks(depths[::-1], median_z[::-1]).tolist() == [False, True, False, False, False]
+
+
+def test_study_rows_are_sorted_and_monotone_break_fails_a_trial():
+    trials = [_series(d, z_uT=-200.0 * d, seed=int(d)) for d in (5, 10, 15, 20)]
+    trials.append(_series(25.0, z_uT=-3000.0, seed=25))
+    rows = analyse_study(trials[::-1], Criteria())
+    assert [row.depth_mm for row in rows] == [5, 10, 15, 20, 25]
+    assert [row.failing for row in rows] == [False, False, False, False, True]
+
+
+def test_a_slide_cut_short_fails_with_a_clear_reason():
+    series = _series(15.0)
+    series.slid_mm, series.planned_travel_mm = 31.0, 80.0
+    metrics = analyse_trial(series)
+    assert metrics.failing and metrics.reasons[0] == "cut short: slid 31.0 of 80 mm"

@@ -1,0 +1,92 @@
+"""The run loop's logic against fake clients: search, trials, checkpoint and resume, safety."""
+
+import numpy as np
+import pytest
+
+from whiskercal.errors import DeviceError, UsageError
+from whiskercal.study.config import PlaneGeometry, load_config
+from whiskercal.study.dataset import PHASE_SLIDE, StudyWriter, read_study
+from whiskercal.study.recorder import OverloadError
+from whiskercal.study.run import NoContactError, StudyRun
+
+from fakes import fake_rig
+
+
+def _config(tmp_path, text=""):
+    path = tmp_path / "study.toml"
+    path.write_text("[trials]\ndepths_mm = [5.0, 10.0, 15.0]\ntravel_mm = 10.0\n"
+                    "slide_start_mm = -5.0\nspeed_mm_s = 20.0\n"
+                    "[contact]\nsearch_step_mm = 0.5\nsamples_per_step = 3\nbaseline_samples = 30\n"
+                    + text)
+    return load_config(path)
+
+
+def _run(tmp_path, config, resume=False, **rig_options):
+    rig, stage, sensor = fake_rig(config, **rig_options)
+    writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor", resume=resume)
+    return rig, StudyRun(stage, sensor, config, writer).run()
+
+
+def test_every_trial_is_recorded_at_its_depth(tmp_path):
+    config = _config(tmp_path)
+    rig, summary = _run(tmp_path, config)
+    assert summary.complete and summary.trials_done == [5.0, 10.0, 15.0]
+    study = read_study(tmp_path / "study.h5")
+    geometry = PlaneGeometry.from_config(config)
+    contact = study.header["first_contact_stage_mm"]
+    # the fake's z passes -300 µT 1.2 mm past the true contact; the search steps 0.5 mm
+    depth_at_contact = geometry.depth_of_stage_mm(contact, geometry.contact_guess_stage_mm())[0]
+    assert 1.2 <= depth_at_contact <= 1.2 + 0.5 + 1e-9
+    for trial in study.trials:
+        slide = trial.stream["phase"] == PHASE_SLIDE
+        z = trial.stream["field_uT"][slide, 1] - study.header["baseline_field_uT"][1]
+        expected = -250.0 * (trial.depth_mm + depth_at_contact)
+        assert np.median(z) == pytest.approx(expected, abs=3.0)
+        # the slide covers the configured travel along the plane
+        positions = trial.stage["enc_mm"][trial.stage["phase"] == PHASE_SLIDE]
+        assert np.linalg.norm(positions[-1] - positions[0]) == pytest.approx(10.0, abs=0.5)
+
+
+def test_resume_does_only_the_missing_trials(tmp_path):
+    config = _config(tmp_path)
+    with pytest.raises(DeviceError, match="vanished"):
+        _run(tmp_path, config, fail_after_s=18.0)
+    done_before = read_study(tmp_path / "study.h5")
+    assert 0 < len(done_before.trials) < 3 and not done_before.complete
+    _, summary = _run(tmp_path, config, resume=True)
+    assert summary.trials_skipped == [t.depth_mm for t in done_before.trials]
+    study = read_study(tmp_path / "study.h5")
+    assert study.complete and [t.depth_mm for t in study.trials] == [5.0, 10.0, 15.0]
+    assert study.missing_depths() == []
+
+
+def test_resume_with_another_config_is_refused(tmp_path):
+    config = _config(tmp_path)
+    _run(tmp_path, config)
+    other = _config(tmp_path, "[safety]\noverload_uT = 9000.0\n")
+    with pytest.raises(UsageError, match="another configuration"):
+        StudyWriter(tmp_path / "study.h5", other, "fake-sensor", resume=True)
+
+
+def test_no_contact_is_a_clear_error(tmp_path):
+    config = _config(tmp_path, "search_max_mm = 3.0\n")
+    config["contact"]["search_start_mm"] = 10.0
+    with pytest.raises(NoContactError, match="did not touch the whisker within 3 mm"):
+        _run(tmp_path, config)
+
+
+def test_overload_guard_stops_the_run(tmp_path):
+    config = _config(tmp_path, "[safety]\noverload_uT = 2800.0\n")
+    rig, stage, sensor = fake_rig(config)
+    writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor")
+    with pytest.raises(OverloadError, match="overload guard of 2800"):
+        StudyRun(stage, sensor, config, writer).run()
+    assert [t.depth_mm for t in read_study(tmp_path / "study.h5").trials] == [5.0]
+    assert rig.z_uT(rig.position) == 0.0  # backed off clear of the whisker
+
+
+def test_waypoints_outside_the_travel_are_refused_before_any_trial(tmp_path):
+    config = _config(tmp_path, "[geometry]\nwhisker_origin_stage_mm = [150.0, 100.0]\n")
+    with pytest.raises(UsageError, match="outside its travel"):
+        _run(tmp_path, config)
+    assert read_study(tmp_path / "study.h5").trials == []

@@ -1,0 +1,54 @@
+"""A calibration artifact fitted to a grid simulated straight from the twin's physics.
+
+The study judges a calibration against the twin's ground truth; what is under test is the study,
+so the calibration is made the fast way: each rod position of the default collect plan goes
+through ``mechanics.solve_rod`` (warm-started along each column, as the stage visits them), its
+noise-free z gets seeded noise of an averaged reading, and ``model.calibrate`` fits it exactly as
+``whiskercal fit`` does. No serial protocol: the study's own tests cover the acquisition.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from whiskercal.artifacts.calibration import data_from_calibration, write_calibration
+from whiskercal.collect.config import load_config as load_collect_config
+from whiskercal.collect.plan import lattice_points, visiting_order
+from whiskercal.model.calibrate import CalibrationOptions, calibrate
+from whiskercal.model.collision import CollisionParams
+from whiskercal.model.kalman import KalmanParams
+from whiskercal.twin import mechanics, truth
+from whiskercal.twin.params import DEFAULT_SENSOR
+
+ROD_RADIUS_MM = 1.5
+AVERAGED_NOISE_UT = 1.0  # 5.6 µT sample noise averaged over ~30 samples per point
+
+
+def simulated_grid(sensor=DEFAULT_SENSOR, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Rod centres (n, 2) mm and measured z (n,) µT of the default plan on the twin."""
+    points = lattice_points(load_collect_config().grid)
+    points = points[visiting_order(points)]
+    z, previous, column = [], None, None
+    for center in points:
+        if center[0] != column:
+            previous, column = None, center[0]
+        equilibrium = mechanics.solve_rod(sensor.whisker, center, ROD_RADIUS_MM, previous=previous)
+        previous = equilibrium if equilibrium.kind != "free" else None
+        z.append(truth.z_of_equilibrium(sensor, equilibrium))
+    noise = np.random.default_rng(seed).normal(0.0, AVERAGED_NOISE_UT, len(z))
+    return points, np.asarray(z) + noise
+
+
+def write_twin_calibration(path: Path, sensor=DEFAULT_SENSOR) -> Path:
+    """Fit the simulated grid and write the calibration artifact to ``path``."""
+    points, z = simulated_grid(sensor)
+    options = CalibrationOptions(trace_length_mm=sensor.whisker.reach_mm)
+    calibration = calibrate(points, z, ROD_RADIUS_MM, options)
+    data = data_from_calibration(
+        calibration, sensor_id=sensor.sensor_id, rod_radius_mm=ROD_RADIUS_MM, tracer=options.tracer,
+        kalman=KalmanParams(), collision=CollisionParams(), metrics={},
+        inputs={"simulated_grid": "tests/study/twin_calibration.py"}, config={})
+    write_calibration(path, data)
+    return path

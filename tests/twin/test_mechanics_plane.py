@@ -1,0 +1,134 @@
+"""The sliding plane: tip contact, stick-slip in the friction cone, the switch to tangential
+contact and back, the study's geometry, and bad inputs."""
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from whiskercal.errors import UsageError
+from whiskercal.twin.mechanics import Plane, WhiskerParams, plane_for_depth, solve_plane
+from whiskercal.twin.validation import equilibrium_residual
+
+WHISKER = WhiskerParams()
+STEP_MM = 10.0 / 300.0  # the study's 10 mm/s at 300 Hz
+
+
+def components(eq, plane):
+    """(normal, tangential) force on the whisker, N."""
+    return eq.force_n @ plane.normal, eq.force_n @ plane.tangent
+
+
+def slide(depth_mm, n_steps, step_mm=STEP_MM, **friction):
+    """Solve along a slide; yields (plane, equilibrium) per step."""
+    plane, previous = plane_for_depth(WHISKER, depth_mm, **friction), None
+    for i in range(n_steps):
+        plane = replace(plane, slide_mm=plane.motion_sign * i * step_mm)
+        previous = solve_plane(WHISKER, plane, previous)
+        yield plane, previous
+
+
+def test_plane_short_of_the_tip_leaves_it_free():
+    assert solve_plane(WHISKER, plane_for_depth(WHISKER, -2.0)).kind == "free"
+
+
+def test_tip_contact_lies_on_the_plane_and_balances():
+    plane = plane_for_depth(WHISKER, 20.0)
+    eq = solve_plane(WHISKER, plane)
+    assert eq.kind == "tip"
+    assert plane.normal @ eq.tip_mm == pytest.approx(plane.offset_mm, abs=1e-7)
+    normal, tangential = components(eq, plane)
+    assert normal > 0
+    # without history: steady sliding, friction dragging the tip along with the plane
+    assert tangential * plane.motion_sign == pytest.approx(plane.mu_kinetic * normal, rel=1e-8)
+    assert eq.sliding
+    assert equilibrium_residual(eq) < 1e-8
+
+
+def test_stick_slip_keeps_to_the_friction_cone():
+    stuck, slid = 0, 0
+    for plane, eq in slide(30.0, 240):
+        normal, tangential = components(eq, plane)
+        assert eq.kind == "tip" and normal > 0
+        if eq.sliding:
+            slid += 1
+            assert abs(tangential) == pytest.approx(plane.mu_kinetic * normal, rel=1e-9)
+            assert tangential * plane.motion_sign > 0  # opposes the tip's slip on the plane
+        else:
+            stuck += 1
+            assert abs(tangential) <= plane.mu_static * normal * (1 + 1e-12)
+    assert stuck > 0 and slid > 0
+
+
+def test_sticking_tip_rides_with_the_plane():
+    states = list(slide(30.0, 60))
+    pairs = [(a, b) for a, b in zip(states, states[1:]) if not b[1].sliding]
+    assert pairs
+    for (plane_a, eq_a), (plane_b, eq_b) in pairs:
+        moved = (plane_b.slide_mm - plane_a.slide_mm) * plane_b.tangent
+        np.testing.assert_allclose(eq_b.tip_mm - eq_a.tip_mm, moved, atol=1e-9)
+        assert eq_b.anchor_mm == pytest.approx(eq_a.anchor_mm, abs=1e-9)
+
+
+def test_frictionless_plane_never_sticks_off_the_normal():
+    for plane, eq in slide(25.0, 20, mu_static=0.0, mu_kinetic=0.0):
+        normal, tangential = components(eq, plane)
+        assert abs(tangential) <= 1e-9 * normal
+
+
+def test_switch_to_tangential_and_back():
+    plane, previous, kinds = plane_for_depth(WHISKER, 38.0), None, []
+    depths = np.concatenate([np.linspace(38.0, 52.0, 29), np.linspace(52.0, 38.0, 29)])
+    for i, depth in enumerate(depths):
+        plane = plane_for_depth(WHISKER, depth, plane.motion_sign * i * STEP_MM)
+        previous = solve_plane(WHISKER, plane, previous)
+        kinds.append(previous.kind)
+        if previous.kind == "tangential":
+            # the shaft meets the plane before the tip and lies on it to the tip
+            assert previous.contact_arc_mm < WHISKER.length_mm
+            lying = previous.shape_mm(301)[1:]
+            beyond = lying[np.linspace(0, WHISKER.length_mm, 301) > previous.contact_arc_mm]
+            np.testing.assert_allclose(beyond @ plane.normal, plane.offset_mm, atol=1e-7)
+            assert equilibrium_residual(previous) < 1e-8
+        assert np.all(previous.shape_mm(301)[1:] @ plane.normal >= plane.offset_mm - 1e-7)
+    assert kinds[0] == "tip" and kinds[-1] == "tip"
+    assert "tangential" in kinds
+    first, last = kinds.index("tangential"), len(kinds) - 1 - kinds[::-1].index("tangential")
+    assert set(kinds[first:last + 1]) == {"tangential"}
+
+
+def test_study_defaults_follow_the_paper():
+    # reference/README.md: tip contact up to about 40 mm, tangential near 45 mm, and at 40 mm
+    # the tip near the authors' (54.43, -50.82) mm
+    at_40 = solve_plane(WHISKER, plane_for_depth(WHISKER, 40.0))
+    assert at_40.kind == "tip"
+    assert np.linalg.norm(at_40.tip_mm - [54.43, -50.82]) < 1.5
+    assert solve_plane(WHISKER, plane_for_depth(WHISKER, 42.0)).kind == "tip"
+    assert solve_plane(WHISKER, plane_for_depth(WHISKER, 47.0)).kind == "tangential"
+
+
+def test_plane_solves_are_deterministic():
+    a = [eq.tip_mm for _, eq in slide(35.0, 30)]
+    b = [eq.tip_mm for _, eq in slide(35.0, 30)]
+    assert np.array_equal(np.array(a), np.array(b))
+
+
+@pytest.mark.parametrize("bad", [
+    dict(point_mm=(math.nan, 0.0), normal_rad=math.pi),
+    dict(point_mm=(70.0, 0.0), normal_rad=math.nan),
+    dict(point_mm=(70.0, 0.0), normal_rad=math.pi, slide_mm=math.inf),
+    dict(point_mm=(70.0, 0.0), normal_rad=math.pi, mu_static=0.1, mu_kinetic=0.2),
+    dict(point_mm=(70.0, 0.0), normal_rad=math.pi, mu_kinetic=-0.1),
+    dict(point_mm=(70.0, 0.0), normal_rad=math.pi, motion_sign=0),
+])
+def test_bad_planes_are_refused(bad):
+    with pytest.raises(UsageError):
+        Plane(**bad)
+
+
+def test_bad_depth_is_refused():
+    with pytest.raises(UsageError, match="depth_mm"):
+        plane_for_depth(WHISKER, math.nan)
+    with pytest.raises(UsageError, match="Plane"):
+        solve_plane(WHISKER, "the floor")

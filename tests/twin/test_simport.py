@@ -1,0 +1,93 @@
+"""sim:// ports: disconnects, reopening resets a board, and `sim serve` ptys for any serial tool."""
+
+import itertools
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import serial
+from world_standin import RigidWhiskerPhysics
+
+import whiskercal.rig  # noqa: F401  (registers sim://)
+from whiskercal.errors import DeviceError
+from whiskercal.rig.sensor import SensorClient
+from whiskercal.rig.stage import StageClient
+from whiskercal.twin.world import create_world
+
+_names = itertools.count()
+
+
+def _world():
+    return create_world(f"simport-test-{next(_names)}", physics=RigidWhiskerPhysics())
+
+
+def test_stage_unplugged_mid_move_raises_a_clear_device_error():
+    world = _world()
+    stage = StageClient(f"sim://{world.name}/stage?fault=disconnect@0.8")
+    stage.unlock()
+    stage.move_to(100, 0, 3000)
+    with pytest.raises(DeviceError, match=r"stage on sim://.* is disconnected .*unplugged at t=0.8"):
+        stage.wait_idle(10)
+    with pytest.raises(DeviceError, match="disconnected"):
+        stage.status()
+
+
+def test_reopening_a_port_resets_its_board_like_an_arduino():
+    world = _world()
+    stage = StageClient(f"sim://{world.name}/stage")
+    stage.unlock()
+    stage.move_to(10, 0, 3000)
+    stage.wait_idle(5)
+    stage.transport.port.close()
+    again = StageClient(f"sim://{world.name}/stage")
+    identity = again.identify()
+    assert identity.banner.startswith("Grbl 1.1h")
+    status = again.status()
+    assert status.alarm  # locked again, homing lost
+    np.testing.assert_array_equal(status.mpos_mm, [0, 0])
+
+
+def test_clients_accept_an_open_serial_object():
+    world = _world()
+    port = serial.serial_for_url(f"sim://{world.name}/sensor", timeout=0.1)
+    assert SensorClient(port).identify().startswith("whisker_nano")
+
+
+def _start_server(*args):
+    process = subprocess.Popen([sys.executable, "-m", "whiskercal", "sim", "serve", "--json", *args],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    text = ""
+    while True:
+        line = process.stdout.readline()
+        assert line, f"sim serve ended early: {process.stderr.read()}"
+        text += line
+        if line.startswith("}"):
+            return process, json.loads(text)
+
+
+@pytest.mark.slow
+def test_sim_serve_ptys_work_with_pyserial():
+    process, info = _start_server("--seed", "2", "--speed", "20", "--duration", "30")
+    try:
+        assert os.path.exists(info["stage"]) and os.path.exists(info["sensor"])
+        stage = StageClient(serial.Serial(info["stage"], 115200, timeout=1))
+        sensor = SensorClient(serial.Serial(info["sensor"], 115200, timeout=1))
+        assert stage.identify().whiskercal_firmware
+        assert sensor.identify().startswith("whisker_nano")
+        stage.unlock()
+        started = time.monotonic()
+        stage.move_to(50, 0, 3000)  # 1.25 simulated s
+        stage.wait_idle(5)
+        assert time.monotonic() - started < 1.25  # paced 20x faster than real time
+        sensor.start()
+        block = sensor.read(300, timeout_s=2)
+        sensor.stop()
+        np.testing.assert_array_equal(np.diff(block.seq), 1)
+        np.testing.assert_allclose(np.diff(block.t_s), 1 / 300, atol=1.01e-6)
+    finally:
+        process.terminate()
+        process.wait(5)

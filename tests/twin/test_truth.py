@@ -1,0 +1,102 @@
+"""Ground truth: z of poses, the tip-contact curve and its inverse."""
+
+import numpy as np
+import pytest
+
+from whiskercal.errors import UsageError
+from whiskercal.twin import mechanics
+from whiskercal.twin.magnet import field_uT
+from whiskercal.twin.params import DEFAULT_SENSOR, SECOND_SENSOR
+from whiskercal.twin.truth import (
+    TIP_ROD_RADIUS_MM,
+    static_field_uT,
+    tip_contact_sweep,
+    tip_curve,
+    true_tip,
+    z_of_equilibrium,
+    z_of_pose,
+)
+
+# The characterized model the authors ran on their robot (reference/README.md): z (µT) -> tip (mm).
+# A realism target for the twin's defaults only.
+AUTHORS_Z_UT = np.array([0.0, -1000.0, -3000.0, -5000.0, -7000.0, -8760.0, -10000.0])
+AUTHORS_TIP_MM = np.array([
+    [77.81, -3.39], [77.02, -10.64], [73.69, -23.44], [68.67, -34.36],
+    [61.98, -43.97], [54.43, -50.82], [48.02, -53.57],
+])
+
+
+def test_z_is_zero_at_rest_and_the_y_change_elsewhere():
+    assert z_of_pose(DEFAULT_SENSOR, 0.0, [0.0, 0.0]) == pytest.approx(0.0, abs=1e-9)
+    pose_field = field_uT(DEFAULT_SENSOR.magnet, -0.1, [0.02, -0.03])
+    expected = pose_field[1] - static_field_uT(DEFAULT_SENSOR)[1]
+    assert z_of_pose(DEFAULT_SENSOR, -0.1, [0.02, -0.03]) == pytest.approx(expected, rel=1e-12)
+    assert z_of_pose(DEFAULT_SENSOR, np.zeros(5), np.zeros((5, 2))).shape == (5,)
+
+
+def test_contact_pushing_to_minus_y_reads_negative():
+    equilibrium = mechanics.solve_rod(DEFAULT_SENSOR.whisker, (50.0, -8.0), 1.5)
+    assert equilibrium.kind == "shaft" and equilibrium.root_rotation_rad < 0
+    z = z_of_equilibrium(DEFAULT_SENSOR, equilibrium)
+    assert z < -300.0
+    assert z == pytest.approx(z_of_pose(DEFAULT_SENSOR, equilibrium.root_rotation_rad, equilibrium.root_shift_mm))
+
+
+def test_tip_curve_starts_undeflected_and_z_falls_monotonically():
+    z, tip = tip_curve(DEFAULT_SENSOR, 81)
+    assert z.shape == (81,) and tip.shape == (81, 2)
+    assert z[0] == pytest.approx(0.0, abs=1e-9)
+    np.testing.assert_allclose(tip[0], [DEFAULT_SENSOR.whisker.reach_mm, 0.0])
+    assert np.all(np.diff(z) < 0)
+    # The default's curve covers the paper's working range with room (target -8760 µT).
+    assert z[-1] < -12000.0
+
+
+def test_each_sweep_sample_is_a_frictionless_contact_at_the_tip():
+    whisker = DEFAULT_SENSOR.whisker
+    sweep = tip_contact_sweep(whisker, 81)
+    for i in (10, 40, 80):
+        # Solved afresh along the rod's approach, independently of the sweep's warm starts.
+        again = mechanics.solve_rod(whisker, sweep.rod_center_mm[i], TIP_ROD_RADIUS_MM)
+        np.testing.assert_allclose(again.tip_mm, sweep.tip_mm[i], atol=1e-4)
+        assert again.contact_arc_mm == pytest.approx(whisker.length_mm, abs=1e-3)
+        # The rod touches the very tip, pushing perpendicular to the wire there.
+        assert np.linalg.norm(sweep.rod_center_mm[i] - again.tip_mm) == pytest.approx(TIP_ROD_RADIUS_MM, abs=1e-4)
+        shape = again.shape_mm(400)
+        tangent = (shape[-1] - shape[-2]) / np.linalg.norm(shape[-1] - shape[-2])
+        assert abs(tangent @ again.force_n) < 1e-3 * np.linalg.norm(again.force_n)
+        assert np.arctan2(tangent[1], tangent[0]) == pytest.approx(sweep.tip_slope_rad[i], abs=1e-6)
+
+
+def test_true_tip_passes_through_the_curve_and_interpolates_between():
+    z, tip = tip_curve(DEFAULT_SENSOR, 81)
+    np.testing.assert_allclose(true_tip(DEFAULT_SENSOR, z[1:-1], n=81), tip[1:-1], atol=1e-9)
+    dense_z, dense_tip = tip_curve(DEFAULT_SENSOR, 161)
+    # Every second sample of the denser curve falls between the coarse curve's samples.
+    between = true_tip(DEFAULT_SENSOR, dense_z[1:-1:2], n=81)
+    assert np.abs(between - dense_tip[1:-1:2]).max() < 0.05
+
+
+@pytest.mark.parametrize("bad", [10.0, -1e6, np.nan])
+def test_true_tip_refuses_z_outside_the_curve(bad):
+    with pytest.raises(UsageError, match="range"):
+        true_tip(DEFAULT_SENSOR, [-1000.0, bad])
+
+
+def test_second_sensor_has_its_own_invertible_curve():
+    z, tip = tip_curve(SECOND_SENSOR, 41)
+    assert np.all(np.diff(z) < 0)
+    np.testing.assert_allclose(tip[0], [SECOND_SENSOR.whisker.reach_mm, 0.0])
+    middle = 0.5 * z[-1]
+    assert true_tip(SECOND_SENSOR, middle, n=41)[1] < 0
+
+
+def test_default_tip_curve_is_within_3_mm_of_the_authors_model():
+    distance = np.linalg.norm(true_tip(DEFAULT_SENSOR, AUTHORS_Z_UT) - AUTHORS_TIP_MM, axis=1)
+    deflected = AUTHORS_Z_UT <= -3000.0
+    assert distance[deflected].max() < 3.0
+    # At and near rest the authors' model puts the tip 3.4 mm to -y (their fitted polynomials'
+    # offset, the root "does not precisely match"); an undeflected twin is straight, so no magnet
+    # can close that gap. Those two points are held to that offset's size instead.
+    assert distance[~deflected].max() < 3.5
+    assert np.sqrt(np.mean(distance**2)) < 2.5

@@ -1,0 +1,66 @@
+"""`whiskercal twin cantilever` and `whiskercal twin validate`."""
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from whiskercal.cli import cli
+
+
+def run(*args):
+    return CliRunner().invoke(cli, list(args), catch_exceptions=False)
+
+
+def test_cantilever_json_against_the_published_table():
+    result = run("twin", "cantilever", "--alpha", "2", "--json")
+    assert result.exit_code == 0
+    payload = json.loads(result.output)
+    assert set(payload) == {"alpha", "x", "y"}
+    assert payload["alpha"] == 2.0
+    # Bisshopp & Drucker: alpha = 2 -> y/L = 0.49346, 1 - x/L = 0.16064
+    assert payload["y"] == pytest.approx(0.49346, abs=1e-5)
+    assert payload["x"] == pytest.approx(1 - 0.16064, abs=1e-5)
+
+
+def test_cantilever_text_follows_beam_theory_for_small_loads():
+    result = run("twin", "cantilever", "--alpha", "0.003")
+    assert result.exit_code == 0
+    assert result.output.startswith("alpha = 0.003: tip x/L = ")
+    y = float(result.output.strip().rsplit("=", 1)[1])
+    assert y == pytest.approx(0.001, rel=1e-4)
+
+
+def test_cantilever_out_of_range_is_one_line_and_exit_2():
+    result = CliRunner().invoke(cli, ["twin", "cantilever", "--alpha", "-1"])
+    assert result.exit_code == 2
+    assert result.output.strip().splitlines() == ["error: alpha must be in [0, 50], got -1.0."]
+
+
+def test_validate_passes_and_reports_every_check():
+    result = run("twin", "validate", "--json")
+    assert result.exit_code == 0
+    payload = json.loads(result.output)
+    assert payload["ok"] is True
+    names = [check["name"] for check in payload["checks"]]
+    assert any("Bisshopp-Drucker" in name for name in names)
+    assert any("rigidly" in name for name in names)
+    assert sum("equilibrium residual" in name for name in names) == 5
+    assert any("sticking" in name for name in names) and any("sliding" in name for name in names)
+    assert all(check["value"] <= check["limit"] for check in payload["checks"])
+
+
+def test_validate_fails_when_a_check_fails(monkeypatch):
+    from whiskercal.twin import validation
+
+    failing = validation.Check("a check that fails", 2.0, 1.0)
+    monkeypatch.setattr(validation, "run_all", lambda: [failing])
+    result = CliRunner().invoke(cli, ["twin", "validate"])
+    assert result.exit_code == 1
+    assert "FAIL" in result.output
+    assert "error: 1 of 1 mechanics checks failed." in result.output
+
+
+def test_twin_group_lists_its_commands():
+    result = run("twin", "--help")
+    assert "cantilever" in result.output and "validate" in result.output

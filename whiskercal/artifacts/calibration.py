@@ -1,0 +1,351 @@
+"""The calibration artifact (schema ``whiskercal.calibration``, version 1.x): read, write, validate.
+
+Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units`` attribute:
+
+- ``/surface``: Legendre coefficients of z = f(x, y) (total degree), their exponents and the
+  map of the basis' variables onto [-1, 1]; attributes ``degree``, ``basis``, ``coordinates``
+  ("polar": r mm, θ rad about the origin; "cartesian": x, y mm).
+- ``/domain``: hull vertices of the (rod-corrected) grid and the margin.
+- ``/trace``: root position and its shift with z, trace length, entry radius, tip-side extension.
+- ``/lookup``: sample z values and their traced tips; attribute ``kind`` (the interpolant).
+- ``/filter``, ``/collision``: settings as attributes.
+- ``/metrics``: fit and lookup evidence; ``/metrics/truth`` when the raw grid came from the twin.
+- ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``.
+
+Reading never executes code: plain arrays and JSON text only.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from whiskercal.artifacts.h5io import (check_schema, open_h5, read_array, read_json_attr,
+                                       write_array, write_provenance)
+from whiskercal.errors import ArtifactError
+
+SCHEMA = "whiskercal.calibration"
+SCHEMA_VERSION = "1.0.0"
+SUPPORTED_MAJOR = 1
+BASIS = "legendre-total-degree"
+
+
+@dataclass
+class CalibrationData:
+    """Everything a calibration artifact holds, as plain numbers and arrays (mm, µT)."""
+
+    sensor_id: str
+    degree: int
+    coordinates: str
+    coefficients: np.ndarray
+    exponents: np.ndarray
+    scale_center: np.ndarray
+    scale_half_width: np.ndarray
+    hull_vertices_mm: np.ndarray
+    domain_margin_mm: float
+    trace_length_mm: float
+    entry_radius_mm: float
+    extension_radius_mm: float | None
+    tip_extension_mm: float
+    min_gradient_uT_per_mm: float
+    root_mm: np.ndarray
+    root_shift_mm_per_uT: np.ndarray
+    rod_radius_mm: float
+    tracer: str
+    lookup_z_uT: np.ndarray
+    lookup_tip_mm: np.ndarray
+    lookup_kind: str
+    filter: dict[str, Any]
+    collision: dict[str, Any]
+    metrics: dict[str, Any] = field(default_factory=dict)
+    truth: dict[str, np.ndarray] | None = None
+    inputs: dict[str, str] = field(default_factory=dict)
+    config: dict[str, Any] = field(default_factory=dict)
+    target_z_uT: float | None = None
+    schema_version: str = SCHEMA_VERSION
+    created: str = ""
+    whiskercal_version: str = ""
+
+
+def _none_to_nan(value):
+    return math.nan if value is None else value
+
+
+def _nan_to_none(value):
+    value = value.item() if isinstance(value, np.generic) else value
+    return None if isinstance(value, float) and math.isnan(value) else value
+
+
+def write_calibration(path: str | Path, data: CalibrationData) -> Path:
+    """Write a calibration artifact (version 1.0.0); the file is replaced atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    scratch = path.with_name(path.name + ".partial")
+    with h5py.File(scratch, "w") as handle:
+        write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+                         sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
+        handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
+        _write_surface(handle.create_group("surface"), data)
+        _write_trace(handle, data)
+        _write_lookup(handle.create_group("lookup"), data)
+        _write_settings(handle, data)
+        _write_metrics(handle.create_group("metrics"), data)
+    scratch.replace(path)
+    return path
+
+
+def _write_surface(group: h5py.Group, data: CalibrationData) -> None:
+    group.attrs["degree"] = int(data.degree)
+    group.attrs["basis"] = BASIS
+    group.attrs["coordinates"] = data.coordinates
+    variable_units = "mm, rad" if data.coordinates == "polar" else "mm, mm"
+    write_array(group, "coefficients", data.coefficients, "µT")
+    write_array(group, "exponents", np.asarray(data.exponents, np.int32), "1")
+    write_array(group, "scale_center", data.scale_center, variable_units)
+    write_array(group, "scale_half_width", data.scale_half_width, variable_units)
+
+
+def _write_trace(handle: h5py.File, data: CalibrationData) -> None:
+    domain = handle.create_group("domain")
+    write_array(domain, "hull_vertices_mm", data.hull_vertices_mm, "mm")
+    domain.attrs["margin_mm"] = float(data.domain_margin_mm)
+    trace = handle.create_group("trace")
+    write_array(trace, "root_mm", data.root_mm, "mm")
+    write_array(trace, "root_shift_mm_per_uT", data.root_shift_mm_per_uT, "mm/µT")
+    for name in ("trace_length_mm", "entry_radius_mm", "extension_radius_mm", "tip_extension_mm",
+                 "min_gradient_uT_per_mm"):
+        trace.attrs[name] = float(_none_to_nan(getattr(data, name)))
+    trace.attrs["tracer"] = data.tracer
+
+
+def _write_lookup(group: h5py.Group, data: CalibrationData) -> None:
+    write_array(group, "z_uT", data.lookup_z_uT, "µT")
+    write_array(group, "tip_mm", data.lookup_tip_mm, "mm")
+    group.attrs["kind"] = data.lookup_kind
+
+
+def _write_settings(handle: h5py.File, data: CalibrationData) -> None:
+    for name, settings in (("filter", data.filter), ("collision", data.collision)):
+        group = handle.create_group(name)
+        for key, value in settings.items():
+            group.attrs[key] = _none_to_nan(value)
+
+
+def _write_metrics(group: h5py.Group, data: CalibrationData) -> None:
+    for key, value in data.metrics.items():
+        if isinstance(value, np.ndarray):
+            write_array(group, key, value, _metric_units(key))
+        elif isinstance(value, dict):
+            group.attrs[key] = json.dumps(value, sort_keys=True)
+        else:
+            group.attrs[key] = _none_to_nan(value)
+    if data.truth is not None:
+        truth = group.create_group("truth")
+        for key, value in data.truth.items():
+            write_array(truth, key, value, _metric_units(key))
+
+
+def _metric_units(name: str) -> str:
+    for suffix, units in (("_uT", "µT"), ("_mm", "mm"), ("_s", "s")):
+        if name.endswith(suffix) or f"{suffix}_" in name:
+            return units
+    return "1"
+
+
+def read_calibration(path: str | Path) -> CalibrationData:
+    """Load and validate a calibration artifact of major version 1.
+
+    Raises
+    ------
+    ArtifactError
+        When the file is missing, not HDF5, not a calibration artifact, of another major version,
+        or missing a part.
+    """
+    path = Path(path)
+    with open_h5(path) as handle:
+        version = check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
+        try:
+            data = _read(handle, path)
+        except KeyError as error:
+            raise ArtifactError(f"{path}: incomplete calibration artifact ({error})") from None
+        data.schema_version = version
+    validate(data, path)
+    return data
+
+
+def _read(handle: h5py.File, path: Path) -> CalibrationData:
+    surface, trace, lookup = handle["surface"], handle["trace"], handle["lookup"]
+    metrics = handle["metrics"] if "metrics" in handle else None
+    return CalibrationData(
+        sensor_id=_text(handle.attrs["sensor_id"]),
+        degree=int(surface.attrs["degree"]),
+        coordinates=_text(surface.attrs["coordinates"]),
+        coefficients=read_array(surface, "coefficients", path),
+        exponents=read_array(surface, "exponents", path),
+        scale_center=read_array(surface, "scale_center", path),
+        scale_half_width=read_array(surface, "scale_half_width", path),
+        hull_vertices_mm=read_array(handle["domain"], "hull_vertices_mm", path),
+        domain_margin_mm=float(handle["domain"].attrs["margin_mm"]),
+        trace_length_mm=float(trace.attrs["trace_length_mm"]),
+        entry_radius_mm=float(trace.attrs["entry_radius_mm"]),
+        extension_radius_mm=_nan_to_none(float(trace.attrs["extension_radius_mm"])),
+        tip_extension_mm=float(trace.attrs["tip_extension_mm"]),
+        min_gradient_uT_per_mm=float(trace.attrs["min_gradient_uT_per_mm"]),
+        root_mm=read_array(trace, "root_mm", path),
+        root_shift_mm_per_uT=read_array(trace, "root_shift_mm_per_uT", path),
+        rod_radius_mm=float(handle.attrs["rod_radius_mm"]),
+        tracer=_text(trace.attrs["tracer"]),
+        lookup_z_uT=read_array(lookup, "z_uT", path),
+        lookup_tip_mm=read_array(lookup, "tip_mm", path),
+        lookup_kind=_text(lookup.attrs["kind"]),
+        filter=_settings(handle["filter"]),
+        collision=_settings(handle["collision"]),
+        metrics=_read_metrics(metrics) if metrics is not None else {},
+        truth=_read_truth(metrics),
+        inputs=read_json_attr(handle, "inputs_sha256", {}),
+        config=read_json_attr(handle, "config", {}),
+        target_z_uT=float(handle["target"]["z_uT"][()]) if "target" in handle else None,
+        created=_text(handle.attrs.get("created", "")),
+        whiskercal_version=_text(handle.attrs.get("whiskercal_version", "")),
+    )
+
+
+def _text(value: Any) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _settings(group: h5py.Group) -> dict[str, Any]:
+    return {key: _nan_to_none(_plain(value)) for key, value in group.attrs.items()}
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, bytes):
+        return value.decode()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _read_metrics(group: h5py.Group) -> dict[str, Any]:
+    metrics: dict[str, Any] = {}
+    for key, value in group.attrs.items():
+        value = _plain(value)
+        if isinstance(value, str) and value.startswith("{"):
+            value = json.loads(value)
+        metrics[key] = _nan_to_none(value)
+    for key, item in group.items():
+        if isinstance(item, h5py.Dataset):
+            metrics[key] = item[()]
+    return metrics
+
+
+def _read_truth(metrics: h5py.Group | None) -> dict[str, np.ndarray] | None:
+    if metrics is None or "truth" not in metrics:
+        return None
+    return {key: dataset[()] for key, dataset in metrics["truth"].items()}
+
+
+def validate(data: CalibrationData, path: str | Path = "") -> None:
+    """Check shapes and values that the runtime relies on; raise ArtifactError on the first fault."""
+    where = f"{path}: " if path else ""
+    n_terms = (data.degree + 1) * (data.degree + 2) // 2
+    checks = [
+        (np.shape(data.coefficients) == (n_terms,), f"{n_terms} surface coefficients"),
+        (np.shape(data.exponents) == (n_terms, 2), "surface exponents of shape (terms, 2)"),
+        (np.all(np.asarray(data.scale_half_width) > 0), "positive surface scaling"),
+        (data.coordinates in ("polar", "cartesian"), "polar or cartesian surface coordinates"),
+        (np.ndim(data.lookup_z_uT) == 1 and len(data.lookup_z_uT) >= 2, "at least two lookup samples"),
+        (np.shape(data.lookup_tip_mm) == (len(data.lookup_z_uT), 2), "one lookup tip per sample"),
+        (bool(np.all(np.diff(data.lookup_z_uT) > 0)), "increasing lookup z values"),
+        (bool(np.all(np.isfinite(data.lookup_tip_mm))), "finite lookup tips"),
+        (np.shape(data.root_mm) == (2,), "a root position (2,)"),
+        (data.trace_length_mm > 0, "a positive trace length"),
+    ]
+    for ok, expectation in checks:
+        if not ok:
+            raise ArtifactError(f"{where}corrupt calibration artifact: expected {expectation}")
+
+
+# --- between the artifact and the models -------------------------------------------------------
+
+def data_from_calibration(calibration, *, sensor_id: str, rod_radius_mm: float, tracer: str,
+                          kalman, collision, metrics: dict[str, Any],
+                          truth: dict[str, np.ndarray] | None = None,
+                          inputs: dict[str, str] | None = None,
+                          config: dict[str, Any] | None = None) -> CalibrationData:
+    """The artifact's content for a :class:`whiskercal.model.calibrate.Calibration`."""
+    from dataclasses import asdict
+
+    from whiskercal.model.surface import term_indices
+
+    surface, problem, lookup = calibration.surface, calibration.problem, calibration.lookup
+    return CalibrationData(
+        sensor_id=sensor_id, degree=surface.degree, coordinates=surface.coordinates,
+        coefficients=surface.coefficients, exponents=term_indices(surface.degree),
+        scale_center=surface.scaling.center, scale_half_width=surface.scaling.half_width,
+        hull_vertices_mm=problem.domain.vertices_mm, domain_margin_mm=problem.domain.margin_mm,
+        trace_length_mm=problem.trace_length_mm, entry_radius_mm=problem.entry_radius_mm,
+        extension_radius_mm=problem.extension_radius_mm, tip_extension_mm=problem.tip_extension_mm,
+        min_gradient_uT_per_mm=problem.min_gradient_uT_per_mm,
+        root_mm=np.asarray(problem.root_mm, float),
+        root_shift_mm_per_uT=np.asarray(problem.root_shift_mm_per_uT, float),
+        rod_radius_mm=rod_radius_mm, tracer=tracer,
+        lookup_z_uT=lookup.z_knots_uT, lookup_tip_mm=lookup.tips_mm, lookup_kind=lookup.kind,
+        filter=asdict(kalman), collision=asdict(collision), metrics=metrics, truth=truth,
+        inputs=dict(inputs or {}), config=dict(config or {}))
+
+
+def surface_of(data: CalibrationData):
+    """The :class:`~whiskercal.model.surface.Surface` stored in an artifact."""
+    from whiskercal.model.surface import Scaling, Surface, term_indices
+
+    if not np.array_equal(np.asarray(data.exponents), term_indices(data.degree)):
+        raise ArtifactError("the artifact's surface exponents are not in the expected order")
+    return Surface(data.degree, data.coefficients,
+                   Scaling(np.asarray(data.scale_center, float),
+                           np.asarray(data.scale_half_width, float)), data.coordinates)
+
+
+def problem_of(data: CalibrationData):
+    """The :class:`~whiskercal.model.trace.LevelSetProblem` stored in an artifact."""
+    from whiskercal.model.trace import Domain, LevelSetProblem
+
+    return LevelSetProblem(
+        surface=surface_of(data),
+        domain=Domain.from_points(data.hull_vertices_mm, data.domain_margin_mm),
+        trace_length_mm=data.trace_length_mm,
+        z_range_uT=(float(data.lookup_z_uT[0]), float(data.lookup_z_uT[-1])),
+        entry_radius_mm=data.entry_radius_mm, root_mm=np.asarray(data.root_mm, float),
+        root_shift_mm_per_uT=np.asarray(data.root_shift_mm_per_uT, float),
+        min_gradient_uT_per_mm=data.min_gradient_uT_per_mm,
+        extension_radius_mm=data.extension_radius_mm, tip_extension_mm=data.tip_extension_mm)
+
+
+def lookup_of(data: CalibrationData):
+    """The :class:`~whiskercal.model.lookup.TipLookup` stored in an artifact."""
+    from whiskercal.model.lookup import TipLookup
+
+    return TipLookup(data.lookup_z_uT, data.lookup_tip_mm, data.lookup_kind)
+
+
+def kalman_params_of(data: CalibrationData):
+    """The filter settings stored in an artifact."""
+    from whiskercal.model.kalman import KalmanParams
+
+    return KalmanParams(**{key: data.filter[key] for key in
+                           ("q_mm2", "p0_mm2", "window", "r_floor_mm2", "r_prior_mm2")
+                           if key in data.filter})
+
+
+def collision_params_of(data: CalibrationData):
+    """The collision settings stored in an artifact."""
+    from whiskercal.model.collision import CollisionParams
+
+    return CollisionParams(**{key: data.collision[key] for key in
+                              ("threshold_uT", "release_uT", "static_uT") if key in data.collision})

@@ -1,0 +1,134 @@
+"""``whiskercal collect``: run the calibration grid on the stage and record the raw dataset."""
+
+from __future__ import annotations
+
+import signal
+import sys
+from contextlib import contextmanager
+
+import click
+
+from whiskercal.cli.app import App, abort, echo_json, pass_app
+from whiskercal.errors import UsageError
+
+
+@contextmanager
+def _stop_on_ctrl_c():
+    """First Ctrl-C asks the run to stop after the current point; a second one interrupts."""
+    requested = {"stop": False}
+    previous = signal.getsignal(signal.SIGINT)
+
+    def handler(signum, frame):
+        if requested["stop"]:
+            raise KeyboardInterrupt
+        requested["stop"] = True
+        click.echo("\nstopping after the current point (Ctrl-C again to abort at once)", err=True)
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield lambda: requested["stop"]
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _progress_printer(app: App):
+    if not app.interactive:
+        return None
+
+    def show(progress) -> None:
+        left = progress.remaining_s
+        left_text = "--" if left == float("inf") else f"{int(left // 60)}m{int(left % 60):02d}s"
+        click.echo(f"\r  {progress.done}/{progress.total} points  {progress.rate_per_s:.2f} pt/s  "
+                   f"{left_text} left ", err=True, nl=progress.done == progress.total)
+    return show
+
+
+def _print_plan(summary: dict, as_json: bool) -> None:
+    if as_json:
+        echo_json(summary)
+        return
+    click.echo(f"points           {summary['points']} in {summary['columns']} columns")
+    click.echo(f"whisker frame    x {summary['whisker_x_mm'][0]:g}..{summary['whisker_x_mm'][1]:g} mm, "
+               f"y {summary['whisker_y_mm'][0]:g}..{summary['whisker_y_mm'][1]:g} mm")
+    click.echo(f"stage frame      x {summary['stage_x_mm'][0]:g}..{summary['stage_x_mm'][1]:g} mm, "
+               f"y {summary['stage_y_mm'][0]:g}..{summary['stage_y_mm'][1]:g} mm")
+    click.echo(f"path             {summary['path_length_mm']:.0f} mm in {summary['moves']} moves")
+    click.echo(f"stage time       {summary['estimated_stage_time_s']:.0f} s (estimated)")
+    click.echo(f"limits           {'ok' if summary['limits_ok'] else 'VIOLATED'} "
+               f"(travel {summary['travel_mm'][0]:g} x {summary['travel_mm'][1]:g} mm)")
+    for problem in summary["problems"]:
+        click.echo(f"  {problem}")
+
+
+def _print_run(summary, as_json: bool) -> None:
+    if as_json:
+        echo_json(summary.to_dict())
+        return
+    drift = "n/a" if summary.baseline_drift_uT is None else f"{summary.baseline_drift_uT:.1f} µT"
+    click.echo(f"points           {summary.points}/{summary.planned} "
+               f"({'complete' if summary.complete else 'partial'})")
+    click.echo(f"stage time       {summary.stage_time_s:.1f} s (wall {summary.wall_time_s:.1f} s)")
+    click.echo(f"frames           {summary.dropped} dropped, {summary.corrupt} corrupt")
+    click.echo(f"baseline drift   {drift}")
+    click.echo(f"output           {summary.output}")
+
+
+def _dry_run(plan, stage: str | None, as_json: bool) -> None:
+    from whiskercal.collect.estimate import plan_summary
+    from whiskercal.collect.run import read_stage_settings
+
+    travel, accel, rate = None, None, None
+    if stage:
+        settings = read_stage_settings(stage)
+        if 130 in settings and 131 in settings:
+            travel = (settings[130], settings[131])
+        accel = min(settings.get(120, 0), settings.get(121, 0)) or None
+        rate = min(settings.get(110, 0), settings.get(111, 0)) or None
+    summary = plan_summary(plan, travel, accel, rate)
+    _print_plan(summary, as_json)
+    if not summary["limits_ok"]:
+        abort("the plan leaves the stage travel (see above)", UsageError.exit_code)
+
+
+@click.command("collect")
+@click.option("--stage", metavar="URL", help="Stage port: /dev/ttyUSB0 or sim://NAME/stage.")
+@click.option("--sensor", metavar="URL", help="Sensor port: /dev/ttyUSB1 or sim://NAME/sensor.")
+@click.option("--out", "out", type=click.Path(dir_okay=False), metavar="RAW.h5",
+              help="The raw dataset to write (refuses to overwrite; see --resume).")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False), metavar="FILE",
+              help="TOML file overriding the defaults in whiskercal/collect/default_grid.toml.")
+@click.option("--resume", is_flag=True,
+              help="Continue the partial run in --out (same plan and config) without "
+                   "re-taking or losing any point.")
+@click.option("--dry-run", is_flag=True,
+              help="Print the plan (points, ranges, path, estimated time, limit checks) and "
+                   "move nothing; with --stage, only its settings are read.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@pass_app
+def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json) -> None:
+    """Collect the calibration grid: touch the whisker at every planned point.
+
+    Homes the stage (or requires it homed), measures the static baseline with the rod parked,
+    visits each grid point from +y, averages the sensor there and appends the point to RAW.h5
+    at once; then measures the baseline again. Ctrl-C stops cleanly after the current point;
+    a crash, kill or unplugged device loses nothing: continue with --resume.
+    """
+    from whiskercal.collect.config import load_config
+    from whiskercal.collect.plan import build_plan
+
+    plan = build_plan(load_config(config_path))
+    if dry_run:
+        _dry_run(plan, stage, as_json)
+        return
+    if not (stage and sensor and out):
+        raise UsageError("collect needs --stage, --sensor and --out (or --dry-run)")
+    from whiskercal.collect.run import collect
+
+    with _stop_on_ctrl_c() as stop_requested:
+        summary = collect(stage, sensor, out, plan, resume=resume,
+                          on_progress=_progress_printer(app), stop_requested=stop_requested)
+    _print_run(summary, as_json)
+    if summary.stopped:
+        click.echo(f"stopped: {summary.points} of {summary.planned} points saved in "
+                   f"{summary.output}; continue with --resume", err=True)
+        sys.exit(130)

@@ -1,0 +1,161 @@
+"""``whiskercal optimal-depth``: the flat-plane study (``run``) and its analysis (``report``)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from whiskercal.cli.app import App, abort, echo_json, pass_app
+
+
+@click.group("optimal-depth")
+def command() -> None:
+    """Choose the deflection target with the flat-plane study.
+
+    `run` slides a flat plane past the whisker at several contact distances while recording the
+    sensor; `report` localizes the tip in every trial with a calibration artifact, measures the
+    error against the plane, flags slips and tangential contact, chooses the target and writes it
+    into a new version of the artifact.
+    """
+
+
+class _Progress:
+    """One status line on stderr: trial, depth, elapsed time and an estimate of the time left."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.started = time.monotonic()
+
+    def __call__(self, info: dict) -> None:
+        if not self.enabled:
+            return
+        done, total = info["trial"], info["trials"]
+        elapsed = time.monotonic() - self.started
+        left = f", ~{elapsed / done * (total - done):.0f} s left" if done else ""
+        sys.stderr.write(f"\rtrial {done + 1}/{total} at {info['depth_mm']:g} mm "
+                         f"({elapsed:.0f} s{left})   ")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+
+
+@command.command("run")
+@click.option("--stage", "stage_url", required=True, envvar="WHISKERCAL_STAGE",
+              help="Stage port: /dev/ttyUSB0 or sim://NAME/stage?scene=plane [env: WHISKERCAL_STAGE].")
+@click.option("--sensor", "sensor_url", required=True, envvar="WHISKERCAL_SENSOR",
+              help="Sensor port: /dev/ttyUSB1 or sim://NAME/sensor [env: WHISKERCAL_SENSOR].")
+@click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="The study file to write (HDF5).")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="TOML file overriding the documented defaults (whiskercal/study/default_study.toml).")
+@click.option("--resume", is_flag=True, help="Continue a partial study file; finished trials are kept.")
+@click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
+@pass_app
+def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, config_path: Path | None,
+                resume: bool, as_json: bool) -> None:
+    """Run the flat-plane study: first contact, then one constant-velocity slide per depth."""
+    from whiskercal.rig import SensorClient, StageClient
+    from whiskercal.study.config import load_config
+    from whiskercal.study.dataset import StudyWriter
+    from whiskercal.study.run import StudyRun
+
+    config = load_config(config_path)
+    stage = StageClient(stage_url)
+    sensor = SensorClient(sensor_url)
+    world = getattr(sensor.transport.port, "world", None)
+    sensor_id = _sensor_id(world, sensor)
+    writer = StudyWriter(out_path, config, sensor_id, resume=resume)
+    progress = _Progress(app.interactive and not as_json)
+    wall_started = time.monotonic()
+    try:
+        summary = StudyRun(stage, sensor, config, writer, world=world, progress=progress).run()
+    finally:
+        progress.close()
+    result = {**summary.__dict__, "wall_time_s": round(time.monotonic() - wall_started, 3)}
+    if as_json:
+        echo_json(result)
+        return
+    click.echo(f"{out_path}: {len(summary.trials_done)} trials done, "
+               f"{len(summary.trials_skipped)} kept from before; "
+               f"stage time {summary.stage_time_s:.1f} s, wall time {result['wall_time_s']:.1f} s")
+
+
+def _sensor_id(world, sensor) -> str:
+    """The twin's sensor id, else the board's identity line."""
+    sensor_params = getattr(world, "sensor", None)
+    if sensor_params is not None and getattr(sensor_params, "sensor_id", None):
+        return str(sensor_params.sensor_id)
+    return sensor.identify()
+
+
+@command.command("report")
+@click.argument("study_path", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--artifact", "artifact_path", required=True,
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="The calibration artifact (CAL.h5) that localizes the tip.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Directory for the figures and the artifact with the target [default: next to STUDY].")
+@click.option("--out-artifact", "out_artifact", type=click.Path(dir_okay=False, path_type=Path),
+              help="Where to write the artifact with the target [default: DIR/<CAL>-target.h5].")
+@click.option("--no-figures", is_flag=True, help="Skip drawing the PNG figures.")
+@click.option("--allow-missing", is_flag=True,
+              help="Analyse a study that lacks planned trials (they count as failing).")
+@click.option("--margin-weight", "margin_weight_mm", type=float, default=0.1, show_default=True,
+              help="Target rule: penalty (mm) for a depth one step from a failing one.")
+@click.option("--json", "as_json", is_flag=True, help="Print the per-trial table and the choice as JSON.")
+def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
+                   out_artifact: Path | None, no_figures: bool, allow_missing: bool,
+                   margin_weight_mm: float, as_json: bool) -> None:
+    """Analyse a study: errors, slips, failing trials; choose and write the target.
+
+    STUDY_PATH is the file `optimal-depth run` wrote.
+    """
+    from whiskercal import runtime
+    from whiskercal.study.artifact_target import target_artifact_path, write_target
+    from whiskercal.study.figures import write_figures
+    from whiskercal.study.report import build_report
+
+    calibration = runtime.load(artifact_path)
+    report = build_report(study_path, calibration, margin_weight_mm=margin_weight_mm,
+                          allow_missing=allow_missing)
+    out_dir = out_dir or Path(study_path).parent
+    if not no_figures:
+        report.figures = write_figures(report.series, report.rows, out_dir)
+    if report.choice is not None:
+        destination = out_artifact or target_artifact_path(artifact_path, out_dir)
+        report.artifact_out = write_target(artifact_path, destination, report.choice,
+                                           report.study.sha256)
+    if as_json:
+        echo_json(report.as_dict())
+    else:
+        click.echo(format_table(report))
+    if report.choice is None:
+        abort(f"no target written: {report.no_target}")
+
+
+def format_table(report) -> str:
+    """The per-trial table and the choice as text."""
+    lines = [f"{'depth':>6} {'contact':>7} {'median z':>9} {'raw mean±std':>14} "
+             f"{'filt mean±std':>14} {'vs true tip':>11} {'slips':>5}  verdict",
+             f"{'mm':>6} {'':>7} {'µT':>9} {'mm':>14} {'mm':>14} {'mm':>11}"]
+    for row in report.rows:
+        verdict = "FAIL: " + "; ".join(row.reasons) if row.failing else "ok"
+        lines.append(f"{row.depth_mm:6g} {row.contact_fraction:7.0%} {row.median_z_uT:9.0f} "
+                     f"{row.raw_mean_mm:6.3f}±{row.raw_std_mm:<7.3f} "
+                     f"{row.filtered_mean_mm:6.3f}±{row.filtered_std_mm:<7.3f} "
+                     f"{row.true_filtered_mean_mm:11.3f} {row.n_slips:5d}  {verdict}")
+    if report.choice is not None:
+        choice = report.choice
+        lines += ["", f"target: {choice.z_uT:.0f} µT at {choice.depth_mm:g} mm",
+                  f"rule:   {choice.rule}", f"why:    {choice.reason}"]
+        if report.artifact_out:
+            lines.append(f"wrote:  {report.artifact_out}")
+    else:
+        lines += ["", f"no target: {report.no_target}"]
+    lines += [f"figure: {path}" for path in report.figures]
+    return "\n".join(lines)

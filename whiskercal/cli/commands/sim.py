@@ -1,0 +1,67 @@
+"""``whiskercal sim``: the digital twin's rig as serial ports for any tool."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import click
+
+from whiskercal.cli.app import App, echo_json, pass_app
+
+
+@click.group("sim")
+def command() -> None:
+    """Run the digital twin's stage and sensor boards outside whiskercal.
+
+    In-process code opens them as sim://NAME/stage and sim://NAME/sensor instead.
+    """
+
+
+@command.command("serve")
+@click.option("--scene", type=click.Choice(["rod", "plane", "none"]), default="rod", show_default=True,
+              help="What rides on the stage's end effector.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise and faults.")
+@click.option("--speed", type=float, default=1.0, show_default=True,
+              help="Simulated seconds per real second (1 = real time).")
+@click.option("--rod-radius", type=float, default=1.5, show_default=True, help="Touch rod radius, mm.")
+@click.option("--stock", is_flag=True, help="Stage behaves like plain grbl 1.1 (no encoders).")
+@click.option("--fault", "faults", multiple=True, metavar="NAME@SECONDS",
+              help="Inject a fault: missed_steps@T[:mm], stall@T, encoder_magnet@T, encoder_bus@T.")
+@click.option("--duration", type=float, default=None,
+              help="Stop after this many real seconds (default: run until Ctrl-C).")
+@click.option("--json", "as_json", is_flag=True, help="Print the pty paths as JSON.")
+@pass_app
+def serve(app: App, scene: str, seed: int, speed: float, rod_radius: float, stock: bool,
+          faults: tuple[str, ...], duration: float | None, as_json: bool) -> None:
+    """Expose a simulated rig on two pseudo-terminals until Ctrl-C.
+
+    Prints the stage's and the sensor's pty paths; open them with any serial tool or pass
+    them to whiskercal commands as device names.
+    """
+    from whiskercal.errors import UsageError
+    from whiskercal.twin.simport import PtyBridge, world_from_options
+
+    if speed <= 0:
+        raise UsageError("--speed must be positive (1 = real time).")
+    options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
+               "stock": ["1" if stock else "0"], "fault": list(faults)}
+    try:
+        world = world_from_options("serve", "stage", options)
+    except Exception as error:  # noqa: BLE001  (a bad --fault is the user's to fix)
+        raise UsageError(str(error)) from None
+    bridge = PtyBridge(world, speed)
+    info = {"stage": bridge.paths["stage"], "sensor": bridge.paths["sensor"], "scene": scene,
+            "seed": seed, "speed": speed}
+    if as_json:
+        echo_json(info)
+    else:
+        click.echo(f"stage  {info['stage']}\nsensor {info['sensor']}\n(Ctrl-C to stop)")
+    sys.stdout.flush()
+    end = time.monotonic() + duration if duration is not None else float("inf")
+    try:
+        bridge.serve(lambda: time.monotonic() >= end)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        bridge.close()

@@ -1,0 +1,376 @@
+"""The raw calibration dataset (schema ``whiskercal.raw_grid``): written point by point, read whole.
+
+``whiskercal collect`` appends one grid point at a time through :class:`RawGridWriter` and
+flushes after each, so a stopped run leaves a valid file with every point taken so far;
+``whiskercal fit`` reads it with :func:`read_raw_grid`. docs/formats.md describes the layout.
+The crash-proof copy of the same records is the side journal (``collect/checkpoint.py``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import h5py
+import numpy as np
+
+from whiskercal.artifacts.h5io import (check_schema, open_h5, read_array, read_json_attr,
+                                       sha256_file, write_array, write_provenance)
+from whiskercal.errors import ArtifactError
+
+SCHEMA = "whiskercal.raw_grid"
+SCHEMA_VERSION = "1.0.0"
+SUPPORTED_MAJOR = 1
+
+# name: (trailing shape, dtype, units); N rows grow along the first axis.
+POINT_FIELDS: dict[str, tuple[tuple[int, ...], Any, str]] = {
+    "plan_index": ((), np.int32, "1"),
+    "commanded_mm": ((2,), np.float64, "mm"),
+    "encoder_mm": ((2,), np.float64, "mm"),
+    "rod_center_mm": ((2,), np.float64, "mm"),
+    "field_mean_uT": ((3,), np.float64, "µT"),
+    "field_std_uT": ((3,), np.float64, "µT"),
+    "n_samples": ((), np.int32, "1"),
+    "t_start_s": ((), np.float64, "s"),
+    "t_end_s": ((), np.float64, "s"),
+    "dropped": ((), np.int32, "1"),
+    "corrupt": ((), np.int32, "1"),
+}
+STREAM_FIELDS: dict[str, tuple[tuple[int, ...], Any, str]] = {
+    "seq": ((), np.int32, "1"),
+    "t_s": ((), np.float64, "s"),
+    "counts": ((3,), np.int16, "1"),
+    "status": ((), np.uint8, "1"),
+    "point": ((), np.int32, "1"),
+}
+# The twin's ground truth per point, kept apart under /truth.
+TRUTH_FIELDS: dict[str, tuple[tuple[int, ...], Any, str]] = {
+    "stage_mm": ((2,), np.float64, "mm"),
+    "rod_center_mm": ((2,), np.float64, "mm"),
+    "contact_mm": ((2,), np.float64, "mm"),
+    "contact_arc_mm": ((), np.float64, "mm"),
+    "tip_mm": ((2,), np.float64, "mm"),
+    "kind": ((), h5py.string_dtype(), "1"),
+    "root_rotation_rad": ((), np.float64, "rad"),
+    "z_uT": ((), np.float64, "µT"),
+}
+
+
+@dataclass
+class RawHeader:
+    """What a raw dataset knows before its first point: the plan and the run's settings.
+
+    ``config`` is the whole configuration (plan summary, rig geometry, rod radius, sensor
+    settings, device identities) as JSON-able values.
+    """
+
+    plan_stage_mm: np.ndarray
+    plan_rod_center_mm: np.ndarray
+    config: dict[str, Any]
+    sensor_id: str
+    rod_radius_mm: float
+    inputs: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def fingerprint(self) -> str:
+        """SHA-256 of the plan and the settings that shape the data: resume needs it equal."""
+        return plan_fingerprint(self.plan_stage_mm, self.config)
+
+
+def plan_fingerprint(plan_stage_mm: np.ndarray, config: Mapping[str, Any]) -> str:
+    """SHA-256 over the planned positions and the configuration (device identities excluded)."""
+    shaping = {key: value for key, value in config.items() if key != "devices"}
+    digest = hashlib.sha256(json.dumps(shaping, sort_keys=True, default=str).encode())
+    digest.update(np.ascontiguousarray(plan_stage_mm, dtype=np.float64).tobytes())
+    return digest.hexdigest()
+
+
+@dataclass
+class PointRecord:
+    """One grid point as measured: positions in mm, field in µT, device times in s."""
+
+    plan_index: int
+    commanded_mm: np.ndarray
+    encoder_mm: np.ndarray
+    rod_center_mm: np.ndarray
+    field_mean_uT: np.ndarray
+    field_std_uT: np.ndarray
+    n_samples: int
+    t_start_s: float
+    t_end_s: float
+    dropped: int = 0
+    corrupt: int = 0
+
+
+@dataclass
+class StreamChunk:
+    """Raw samples as received: sequence numbers, device time s, counts, status, plan index."""
+
+    seq: np.ndarray
+    t_s: np.ndarray
+    counts: np.ndarray
+    status: np.ndarray
+    point: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.seq)
+
+
+@dataclass
+class Baseline:
+    """A static (no contact) reading: mean and standard deviation in µT, device time in s."""
+
+    field_uT: np.ndarray
+    std_uT: np.ndarray
+    t_s: float
+
+
+def _create_growing(group: h5py.Group, name: str, spec: tuple) -> None:
+    shape, dtype, units = spec
+    dataset = group.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape),
+                                   dtype=dtype, chunks=(256, *shape))
+    dataset.attrs["units"] = units
+
+
+def _append_rows(dataset: h5py.Dataset, rows: Any) -> None:
+    if len(rows) == 0:
+        return
+    rows = np.asarray(rows)
+    start = dataset.shape[0]
+    dataset.resize(start + len(rows), axis=0)
+    dataset[start:] = rows
+
+
+def _truth_fill(name: str) -> Any:
+    shape, dtype, _ = TRUTH_FIELDS[name]
+    return "" if dtype is TRUTH_FIELDS["kind"][1] else np.full(shape, np.nan)
+
+
+class RawGridWriter:
+    """Append-only writer of a raw dataset; every append is flushed to the file.
+
+    Create a new file with :meth:`create`, or continue one with :meth:`open_append`.
+    """
+
+    def __init__(self, handle: h5py.File) -> None:
+        self._file = handle
+
+    @classmethod
+    def create(cls, path: str | Path, header: RawHeader) -> "RawGridWriter":
+        """Write a new file (replacing any) with the header and empty point tables."""
+        handle = open_h5(path, "w")
+        write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+                         sensor_id=header.sensor_id, inputs=header.inputs, config=header.config)
+        handle.attrs["rod_radius_mm"] = float(header.rod_radius_mm)
+        handle.attrs["complete"] = False
+        handle.attrs["plan_fingerprint"] = header.fingerprint
+        plan = handle.create_group("plan")
+        write_array(plan, "stage_mm", np.asarray(header.plan_stage_mm, float), "mm")
+        write_array(plan, "rod_center_mm", np.asarray(header.plan_rod_center_mm, float), "mm")
+        for group_name, fields in (("points", POINT_FIELDS), ("stream", STREAM_FIELDS)):
+            group = handle.create_group(group_name)
+            for name, spec in fields.items():
+                _create_growing(group, name, spec)
+        handle.create_group("baseline")
+        handle.flush()
+        return cls(handle)
+
+    @classmethod
+    def open_append(cls, path: str | Path) -> "RawGridWriter":
+        """Open an existing raw dataset to append more points."""
+        handle = open_h5(path, "a")
+        check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
+        return cls(handle)
+
+    @property
+    def n_points(self) -> int:
+        """Points written so far."""
+        return int(self._file["points/plan_index"].shape[0])
+
+    @property
+    def taken(self) -> np.ndarray:
+        """Plan indices of the points written so far."""
+        return self._file["points/plan_index"][()]
+
+    @property
+    def fingerprint(self) -> str:
+        """The plan fingerprint recorded at creation."""
+        return str(self._file.attrs.get("plan_fingerprint", ""))
+
+    def append_point(self, point: PointRecord, stream: StreamChunk | None = None,
+                     truth: Mapping[str, Any] | None = None) -> None:
+        """Append one point (its stream samples and twin truth too) and flush."""
+        points = self._file["points"]
+        for name in POINT_FIELDS:
+            _append_rows(points[name], [getattr(point, name)])
+        if truth is not None or "truth" in self._file:
+            self._append_truth(truth or {})
+        if stream is not None and len(stream):
+            self._append_stream(stream)
+        self._file.flush()
+
+    def append_stream(self, stream: StreamChunk) -> None:
+        """Append samples taken between points (``point`` = -1) and flush."""
+        if len(stream):
+            self._append_stream(stream)
+            self._file.flush()
+
+    def _append_stream(self, stream: StreamChunk) -> None:
+        group = self._file["stream"]
+        for name in STREAM_FIELDS:
+            _append_rows(group[name], getattr(stream, name))
+
+    def _append_truth(self, truth: Mapping[str, Any]) -> None:
+        """One truth row per point: fields missing from a row are NaN (or "" for text)."""
+        unknown = set(truth) - set(TRUTH_FIELDS)
+        if unknown:
+            raise ValueError(f"unknown truth fields {sorted(unknown)}")
+        group = self._file.require_group("truth")
+        n_before = self.n_points - 1
+        for name in truth:
+            if name not in group:
+                _create_growing(group, name, TRUTH_FIELDS[name])
+                _append_rows(group[name], [_truth_fill(name)] * n_before)
+        for name in group:
+            _append_rows(group[name], [truth.get(name, _truth_fill(name))])
+
+    def set_baseline(self, which: str, baseline: Baseline) -> None:
+        """Store the ``before`` or ``after`` static reading and flush."""
+        if which not in ("before", "after"):
+            raise ValueError(f"baseline must be 'before' or 'after', not {which!r}")
+        group = self._file["baseline"]
+        write_array(group, f"{which}_field_uT", np.asarray(baseline.field_uT, float), "µT")
+        write_array(group, f"{which}_std_uT", np.asarray(baseline.std_uT, float), "µT")
+        write_array(group, f"t_{which}_s", float(baseline.t_s), "s")
+        self._file.flush()
+
+    def mark_complete(self) -> None:
+        """Record that every planned point and the after-baseline are in the file."""
+        self._file.attrs["complete"] = True
+        self._file.flush()
+
+    def close(self) -> None:
+        """Flush and close the file."""
+        if self._file.id.valid:
+            self._file.flush()
+            self._file.close()
+
+
+@dataclass
+class RawGrid:
+    """A raw calibration dataset as numpy arrays (mm, µT, s).
+
+    ``z_uT`` is the field's Y mean minus the static baseline, which is interpolated linearly in
+    device time between the before and after readings when both exist (drift), else the before
+    reading. ``truth`` holds the twin's ground truth per point (None for a real rig).
+    """
+
+    rod_center_mm: np.ndarray
+    z_uT: np.ndarray
+    z_std_uT: np.ndarray
+    n_samples: np.ndarray
+    rod_radius_mm: float
+    sensor_id: str
+    config: dict[str, Any]
+    sha256: str
+    complete: bool
+    truth: dict[str, np.ndarray] | None
+    plan_index: np.ndarray
+    field_mean_uT: np.ndarray
+    commanded_mm: np.ndarray
+    encoder_mm: np.ndarray
+    t_mid_s: np.ndarray
+    plan_stage_mm: np.ndarray
+    plan_rod_center_mm: np.ndarray
+    baseline_before_uT: np.ndarray
+    baseline_after_uT: np.ndarray | None
+    path: str = ""
+
+    def __len__(self) -> int:
+        return len(self.z_uT)
+
+
+def baseline_y_at(t_s: np.ndarray, before: tuple[float, float],
+                  after: tuple[float, float] | None) -> np.ndarray:
+    """Static Y reading (µT) at device times ``t_s``, from (time s, value µT) pairs.
+
+    Linear in time between ``before`` and ``after`` (sensor drift), constant when only the
+    before reading exists or both were taken at the same time.
+    """
+    t_s = np.asarray(t_s, dtype=float)
+    t0, y0 = before
+    if after is None or after[0] == t0:
+        return np.full_like(t_s, y0)
+    t1, y1 = after
+    return y0 + (y1 - y0) * (t_s - t0) / (t1 - t0)
+
+
+def _read_truth(handle: h5py.File) -> dict[str, np.ndarray] | None:
+    if "truth" not in handle:
+        return None
+    truth = {}
+    for name, dataset in handle["truth"].items():
+        values = dataset[()]
+        if dataset.dtype.kind == "O":
+            values = np.array([v.decode() if isinstance(v, bytes) else str(v) for v in values])
+        truth[name] = values
+    return truth
+
+
+def _read_baselines(handle: h5py.File, path: Path) -> tuple[tuple[float, np.ndarray],
+                                                              tuple[float, np.ndarray] | None]:
+    group = handle["baseline"] if "baseline" in handle else None
+    if group is None or "before_field_uT" not in group:
+        raise ArtifactError(f"{path}: no static baseline recorded (the run stopped before it)")
+    before = (float(group["t_before_s"][()]), group["before_field_uT"][()])
+    after = None
+    if "after_field_uT" in group:
+        after = (float(group["t_after_s"][()]), group["after_field_uT"][()])
+    return before, after
+
+
+def read_raw_grid(path: str | Path) -> RawGrid:
+    """Load a raw calibration dataset (complete or partial).
+
+    Raises
+    ------
+    ArtifactError
+        When the file is missing, not a raw grid, of an unknown major version, or has no
+        static baseline.
+    """
+    path = Path(path)
+    with open_h5(path) as handle:
+        check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
+        points = handle["points"]
+        columns = {name: read_array(points, name, path) for name in POINT_FIELDS}
+        before, after = _read_baselines(handle, path)
+        t_mid = 0.5 * (columns["t_start_s"] + columns["t_end_s"])
+        static_y = baseline_y_at(t_mid, (before[0], before[1][1]),
+                                 None if after is None else (after[0], after[1][1]))
+        grid = RawGrid(
+            rod_center_mm=columns["rod_center_mm"],
+            z_uT=columns["field_mean_uT"][:, 1] - static_y,
+            z_std_uT=columns["field_std_uT"][:, 1],
+            n_samples=columns["n_samples"],
+            rod_radius_mm=float(handle.attrs["rod_radius_mm"]),
+            sensor_id=str(handle.attrs["sensor_id"]),
+            config=read_json_attr(handle, "config", {}),
+            sha256="",
+            complete=bool(handle.attrs.get("complete", False)),
+            truth=_read_truth(handle),
+            plan_index=columns["plan_index"],
+            field_mean_uT=columns["field_mean_uT"],
+            commanded_mm=columns["commanded_mm"],
+            encoder_mm=columns["encoder_mm"],
+            t_mid_s=t_mid,
+            plan_stage_mm=read_array(handle["plan"], "stage_mm", path),
+            plan_rod_center_mm=read_array(handle["plan"], "rod_center_mm", path),
+            baseline_before_uT=before[1],
+            baseline_after_uT=None if after is None else after[1],
+            path=str(path),
+        )
+    grid.sha256 = sha256_file(path)
+    return grid

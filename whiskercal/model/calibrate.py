@@ -1,0 +1,163 @@
+"""From a raw grid to a calibration: rod-radius correction, surface, level-set problem, lookup.
+
+Arrays in, arrays out; reading the raw file and writing the artifact happen elsewhere.
+
+Steps (docs/model.md says why each is done the way it is):
+
+1. Drop points without contact (z indistinguishable from the static reading).
+2. Fit the surface to the rod centres once, and move every point by the rod radius along the
+   local level-set normal, toward the side the whisker was pushed to: the shaft passes one rod
+   radius from the rod's centre. Refit on the corrected points.
+3. The level-set problem: domain = hull of the corrected points plus a margin; the trace enters
+   the data at ``entry_radius_mm`` and may extend straight past the grid's far edge.
+4. The lookup over the traceable z range, its interpolant chosen by hold-out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from whiskercal.model.errors import FitError
+from whiskercal.model.lookup import LookupReport, TipLookup, build_lookup
+from whiskercal.model.surface import FitReport, Surface, fit_surface
+from whiskercal.model.trace import Domain, LevelSetProblem, far_edge_radius
+
+# Level sets within about a third of the whisker from the root are shaped by the suspension's
+# translation (the rod pushes hard that close), not by the bending that the tip sees; measured
+# on the twin (docs/model.md): mean tip error 2.5 mm entering at 20 mm, 1.2 mm at 26 mm.
+ENTRY_FRACTION_OF_TRACE = 1.0 / 3.0
+# How far past the grid's far edge the trace may be extended straight (mm, beyond the gap
+# between the farthest grid point and the trace length).
+EXTENSION_ALLOWANCE_MM = 8.0
+
+
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """Choices of ``whiskercal fit`` (mm, µT)."""
+
+    degree: int | str = 5
+    coordinates: str = "polar"
+    samples: int = 20
+    tracer: str = "fast"
+    lookup_kind: str = "auto"
+    trace_length_mm: float = 78.0
+    root_mm: tuple[float, float] = (0.0, 0.0)
+    entry_radius_mm: float | None = None
+    domain_margin_mm: float = 1.0
+    correct_rod_radius: bool = True
+    min_standard_errors: float = 5.0
+    folds: int = 5
+    seed: int = 0
+
+
+@dataclass
+class Calibration:
+    """The fitted models and their evidence."""
+
+    surface: Surface
+    fit: FitReport
+    problem: LevelSetProblem
+    lookup: TipLookup
+    lookup_report: LookupReport
+    contact_points_mm: np.ndarray
+    z_uT: np.ndarray
+    used: np.ndarray                      # mask of the raw points used
+    rod_shift_mm: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+
+def correct_for_rod(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
+                    surface: Surface) -> np.ndarray:
+    """Contact points (n, 2) mm: rod centres moved by the radius along the level-set normal.
+
+    The rod pushes the whisker toward larger |z|, so the shaft lies on that side of the rod:
+    along sign(median z) * grad f / |grad f|.
+    """
+    gradient = surface.gradient(rod_center_mm)
+    norm = np.linalg.norm(gradient, axis=1, keepdims=True)
+    if np.any(norm == 0):
+        raise FitError("the surface is flat at a grid point: cannot tell the rod's side")
+    deeper = np.sign(np.median(z_uT)) or -1.0
+    return rod_center_mm + rod_radius_mm * deeper * gradient / norm
+
+
+def contact_mask(z_uT: np.ndarray, z_sem_uT: np.ndarray | None = None,
+                 min_standard_errors: float = 5.0) -> np.ndarray:
+    """Points that carry shape information: finite z, distinguishable from the static reading.
+
+    A rod that misses the whisker (near the suspension, or past the tip) leaves z at the static
+    reading; such a point says nothing about the level sets and would pin f to 0 where the
+    whisker never was. It is dropped when |z| < ``min_standard_errors`` standard errors of its
+    mean (``z_sem_uT``, µT).
+    """
+    mask = np.isfinite(z_uT)
+    if z_sem_uT is not None:
+        mask &= np.abs(z_uT) > min_standard_errors * np.asarray(z_sem_uT, float)
+    return mask
+
+
+def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
+              options: CalibrationOptions = CalibrationOptions(),
+              z_sem_uT: np.ndarray | None = None, progress=None) -> Calibration:
+    """Fit the surface, build the level-set problem and the lookup from a raw grid.
+
+    Parameters
+    ----------
+    rod_center_mm : ndarray (n, 2)
+        Rod centres in the whisker frame, mm.
+    z_uT : ndarray (n,)
+        Deflection per point (Y field minus static), µT.
+    rod_radius_mm : float
+        Touch rod radius, mm.
+    options : CalibrationOptions
+    z_sem_uT : ndarray (n,), optional
+        Standard error of each point's mean z (µT); points within ``min_standard_errors`` of
+        zero are taken as no contact.
+    progress : callable(str), optional
+        Told the name of each stage as it starts.
+    """
+    say = progress or (lambda _message: None)
+    rod_center_mm, z_uT = np.asarray(rod_center_mm, float), np.asarray(z_uT, float)
+    used = contact_mask(z_uT, z_sem_uT, options.min_standard_errors)
+    if used.sum() < 10:
+        raise FitError(f"only {int(used.sum())} grid points with contact: too few to calibrate")
+    points, z = rod_center_mm[used], z_uT[used]
+    say("fitting the surface")
+    if options.correct_rod_radius and rod_radius_mm > 0:
+        first, _ = fit_surface(points, z, options.degree, options.coordinates, options.folds,
+                               options.seed)
+        points = correct_for_rod(points, z, rod_radius_mm, first)
+    surface, report = fit_surface(points, z, options.degree, options.coordinates, options.folds,
+                                  options.seed)
+    problem = build_problem(surface, points, z, options)
+    say(f"tracing {options.samples} tips and the hold-out set")
+    lookup, lookup_report = build_lookup(problem, options.samples, options.tracer,
+                                         options.lookup_kind)
+    return Calibration(surface, report, problem, lookup, lookup_report, points, z, used,
+                       points - rod_center_mm[used])
+
+
+def build_problem(surface: Surface, points_mm: np.ndarray, z_uT: np.ndarray,
+                  options: CalibrationOptions) -> LevelSetProblem:
+    """The level-set problem over the corrected grid (domain, entry, extension, z range)."""
+    root = np.asarray(options.root_mm, float)
+    reach = float(np.max(np.linalg.norm(points_mm - root, axis=1)))
+    entry = options.entry_radius_mm
+    if entry is None:
+        nearest = float(np.min(np.linalg.norm(points_mm - root, axis=1)))
+        entry = max(nearest + options.domain_margin_mm,
+                    ENTRY_FRACTION_OF_TRACE * options.trace_length_mm)
+    z_span = float(np.ptp(z_uT))
+    domain = Domain.from_points(points_mm, options.domain_margin_mm)
+    return LevelSetProblem(
+        surface=surface,
+        domain=domain,
+        trace_length_mm=float(options.trace_length_mm),
+        z_range_uT=(float(z_uT.min()), float(z_uT.max())),
+        entry_radius_mm=float(entry),
+        root_mm=root,
+        min_gradient_uT_per_mm=1e-6 * z_span,  # a millionth of the range per mm: flat
+        extension_radius_mm=far_edge_radius(points_mm, root),
+        tip_extension_mm=max(0.0, options.trace_length_mm - reach) + EXTENSION_ALLOWANCE_MM,
+    )

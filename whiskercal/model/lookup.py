@@ -1,0 +1,217 @@
+"""The tip lookup: tips traced at a few z values, and a fast interpolant z -> (x_tip, y_tip).
+
+Tracing is far too slow for 300 Hz, so tips are traced once at ``n`` z values spread evenly over
+the calibrated range and an interpolant is built. The interpolant's kind is chosen by hold-out
+error against dense traces (z values between the samples). Every kind is stored as a table of
+polynomial pieces on the uniform z grid (a single piece for the global polynomial), so evaluation
+is one index computation and a Horner loop: plain floats for one sample, numpy for a batch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator, PPoly
+
+from whiskercal.model.errors import ModelError, TraceError, ZOutOfRangeError
+from whiskercal.model.trace import TRACERS, LevelSetProblem, trace_many
+
+KINDS = ("linear", "cubic", "pchip", "akima", "polynomial")
+POLYNOMIAL_DEGREE = 5  # the authors' characterized model: one 5th-order polynomial per axis
+OUT_OF_RANGE_POLICIES = ("raise", "nan", "clip")
+
+
+def piece_table(z_knots_uT: np.ndarray, tips_mm: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """Breakpoints (m+1,) and coefficients (m, order, 2), highest power first, of one kind.
+
+    Local variable: z - breakpoint (µT). The breakpoints are the knots, or the range's two ends
+    for the global polynomial.
+    """
+    z, tips = np.asarray(z_knots_uT, float), np.asarray(tips_mm, float)
+    if kind == "polynomial":
+        degree = min(POLYNOMIAL_DEGREE, len(z) - 1)
+        # fit in a scaled variable, then expand about the low end so the table is one piece
+        scale = (z[-1] - z[0]) / 2
+        fits = [np.polynomial.Polynomial.fit((z - z[0]) / scale, tips[:, k], degree, domain=[0, 2],
+                                             window=[0, 2]) for k in range(2)]
+        coefficients = np.stack([f.coef[::-1] / scale ** np.arange(degree, -1, -1) for f in fits],
+                                axis=-1)
+        return np.array([z[0], z[-1]]), coefficients[None, :, :]
+    if kind == "linear":
+        slopes = np.diff(tips, axis=0) / np.diff(z)[:, None]
+        return z, np.stack([slopes, tips[:-1]], axis=1)
+    builders = {"cubic": CubicSpline, "pchip": PchipInterpolator, "akima": Akima1DInterpolator}
+    if kind not in builders:
+        raise ModelError(f"unknown interpolant {kind!r}; choose one of {', '.join(KINDS)}")
+    spline: PPoly = builders[kind](z, tips, axis=0)
+    return z, np.moveaxis(spline.c, 0, 1)  # (order, m, 2) -> (m, order, 2)
+
+
+class TipLookup:
+    """z (µT) -> tip (mm) from a piece table on uniform breakpoints.
+
+    Parameters
+    ----------
+    z_knots_uT : ndarray (n,)
+        Increasing, evenly spaced sample z values; their ends are the calibrated range.
+    tips_mm : ndarray (n, 2)
+        Traced tips at those z.
+    kind : str
+        One of :data:`KINDS`.
+    """
+
+    def __init__(self, z_knots_uT: np.ndarray, tips_mm: np.ndarray, kind: str) -> None:
+        self.z_knots_uT = np.asarray(z_knots_uT, float)
+        self.tips_mm = np.asarray(tips_mm, float)
+        self.kind = kind
+        if len(self.z_knots_uT) < 2 or np.any(np.diff(self.z_knots_uT) <= 0):
+            raise ModelError("lookup knots must be at least two increasing z values")
+        breaks, self._table = piece_table(self.z_knots_uT, self.tips_mm, kind)
+        self.z_min_uT, self.z_max_uT = float(breaks[0]), float(breaks[-1])
+        self._n_pieces = len(breaks) - 1
+        self._inv_width = self._n_pieces / (self.z_max_uT - self.z_min_uT)
+        self._breaks = breaks
+        self._rows = [[tuple(c) for c in piece] for piece in self._table.tolist()]
+
+    def _out_of_range(self, z: float) -> ZOutOfRangeError:
+        return ZOutOfRangeError(f"z = {z:.1f} µT is outside the calibrated range "
+                                f"[{self.z_min_uT:.1f}, {self.z_max_uT:.1f}] µT")
+
+    def tip_scalar(self, z_uT: float, out_of_range: str = "raise") -> tuple[float, float]:
+        """One tip (x, y) mm from one z in plain floats (the per-sample path)."""
+        if not self.z_min_uT <= z_uT <= self.z_max_uT:
+            if out_of_range == "clip" and z_uT == z_uT:
+                z_uT = min(max(z_uT, self.z_min_uT), self.z_max_uT)
+            elif out_of_range == "raise":
+                raise self._out_of_range(z_uT)
+            else:
+                return float("nan"), float("nan")
+        piece = min(int((z_uT - self.z_min_uT) * self._inv_width), self._n_pieces - 1)
+        t = z_uT - self._breaks[piece]
+        x = y = 0.0
+        for cx, cy in self._rows[piece]:
+            x, y = x * t + cx, y * t + cy
+        return x, y
+
+    def __call__(self, z_uT, out_of_range: str = "raise") -> np.ndarray:
+        """Tips (..., 2) mm for z (...) µT; ``out_of_range`` is "raise", "nan" or "clip"."""
+        if out_of_range not in OUT_OF_RANGE_POLICIES:
+            raise ModelError(f"out_of_range must be one of {OUT_OF_RANGE_POLICIES}, "
+                             f"not {out_of_range!r}")
+        z = np.asarray(z_uT, float)
+        if z.ndim == 0:
+            return np.array(self.tip_scalar(float(z), out_of_range))
+        return self._batch(z, out_of_range)
+
+    def _batch(self, z: np.ndarray, out_of_range: str) -> np.ndarray:
+        outside = ~((z >= self.z_min_uT) & (z <= self.z_max_uT))
+        if out_of_range == "raise" and outside.any():
+            raise self._out_of_range(float(z[outside].flat[0]))
+        zc = np.clip(z, self.z_min_uT, self.z_max_uT)
+        zc[np.isnan(zc)] = self.z_min_uT  # its row becomes NaN below ("clip" cannot place it)
+        piece = np.minimum(((zc - self.z_min_uT) * self._inv_width).astype(np.intp),
+                           self._n_pieces - 1)
+        t = (zc - self._breaks[piece])[..., None]
+        rows = self._table[piece]  # (..., order, 2)
+        tips = rows[..., 0, :].copy()
+        for k in range(1, rows.shape[-2]):
+            tips *= t
+            tips += rows[..., k, :]
+        if out_of_range == "nan":
+            tips[outside] = np.nan
+        else:
+            tips[np.isnan(z)] = np.nan
+        return tips
+
+
+@dataclass(frozen=True)
+class LookupReport:
+    """Hold-out evidence for the interpolant choice (mm)."""
+
+    kind: str
+    holdout_rmse_mm: float          # Euclidean RMSE of the chosen kind
+    holdout_rmse_xy_mm: np.ndarray  # per axis, chosen kind
+    rmse_by_kind_mm: dict           # kind -> Euclidean hold-out RMSE
+    holdout_z_uT: np.ndarray
+    holdout_tips_mm: np.ndarray
+
+
+def supported_z_range(problem: LevelSetProblem, tracer: str = "fast", iterations: int = 12,
+                      ) -> tuple[float, float]:
+    """The part of the data's z range over which the trace succeeds (µT).
+
+    The ends of the data's range are often not traceable (their level sets leave the grid before
+    reaching the tip's arc length); each end is moved inward by bisection to the last z that traces.
+    """
+    low, high = problem.z_range_uT
+    middle = _traceable_middle(problem, tracer)
+    return (_bisect_end(problem, tracer, middle, low, iterations),
+            _bisect_end(problem, tracer, middle, high, iterations))
+
+
+def _traces(problem: LevelSetProblem, tracer: str, z: float) -> bool:
+    try:
+        TRACERS[tracer](problem, z)
+    except TraceError:
+        return False
+    return True
+
+
+def _traceable_middle(problem: LevelSetProblem, tracer: str) -> float:
+    low, high = problem.z_range_uT
+    for fraction in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8):
+        z = low + fraction * (high - low)
+        if _traces(problem, tracer, z):
+            return z
+    raise ModelError("no z in the calibrated range can be traced to the tip: the grid does not "
+                     "cover the whisker out to its trace length")
+
+
+def _bisect_end(problem, tracer, good: float, end: float, iterations: int) -> float:
+    if _traces(problem, tracer, end):
+        return end
+    bad = end
+    for _ in range(iterations):
+        middle = (good + bad) / 2
+        good, bad = (middle, bad) if _traces(problem, tracer, middle) else (good, middle)
+    return good
+
+
+def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "fast",
+                 kind: str = "auto", holdout_per_interval: int = 9) -> tuple[TipLookup, LookupReport]:
+    """Trace ``n_samples`` tips over the supported range and pick the interpolant by hold-out.
+
+    The hold-out set is ``holdout_per_interval`` z values strictly inside every sample interval,
+    traced densely with the same tracer; the chosen kind has the smallest Euclidean RMSE there
+    (or ``kind`` is forced).
+    """
+    if n_samples < 2:
+        raise ModelError("the lookup needs at least 2 samples")
+    low, high = supported_z_range(problem, tracer)
+    problem = _with_range(problem, (low, high))
+    z_knots = np.linspace(low, high, n_samples)
+    tips = trace_many(problem, z_knots, tracer)
+    fine = np.linspace(low, high, (n_samples - 1) * (holdout_per_interval + 1) + 1)
+    holdout_z = np.delete(fine, np.arange(0, len(fine), holdout_per_interval + 1))
+    holdout_tips = trace_many(problem, holdout_z, tracer)
+    errors = {k: _holdout_error(TipLookup(z_knots, tips, k), holdout_z, holdout_tips)
+              for k in KINDS if k != "akima" or n_samples >= 3}
+    chosen = min(errors, key=lambda k: errors[k][0]) if kind == "auto" else kind
+    if chosen not in errors:
+        raise ModelError(f"unknown interpolant {kind!r}; choose one of {', '.join(KINDS)} or auto")
+    report = LookupReport(chosen, errors[chosen][0], errors[chosen][1],
+                          {k: e[0] for k, e in errors.items()}, holdout_z, holdout_tips)
+    return TipLookup(z_knots, tips, chosen), report
+
+
+def _holdout_error(lookup: TipLookup, z: np.ndarray, tips: np.ndarray) -> tuple[float, np.ndarray]:
+    residual = lookup(z) - tips
+    return (float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1)))),
+            np.sqrt(np.mean(residual ** 2, axis=0)))
+
+
+def _with_range(problem: LevelSetProblem, z_range: tuple[float, float]) -> LevelSetProblem:
+    from dataclasses import replace
+
+    return replace(problem, z_range_uT=(float(z_range[0]), float(z_range[1])))

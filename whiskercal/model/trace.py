@@ -1,0 +1,387 @@
+"""Tip extraction: trace the level set f(x, y) = z from the root for the whisker's arc length.
+
+The root is singular: every level set meets there, and the grid starts well away from it (the
+rod cannot touch the shaft next to the suspension), so the polynomial near the root is pure
+extrapolation. Both tracers therefore start the same way:
+
+1. the **entry point**: on the circle of radius ``entry_radius_mm`` about the root (chosen inside
+   the data, see :func:`default_entry_radius`), the point where f = z (a bracketed root search
+   over the circle's arc that lies in the calibrated domain);
+2. the **root segment**: a straight line from the root to the entry point. Near the root the
+   whisker is a rigid stub on a rotating suspension, so the level set there is a ray; its arc
+   length is counted in full;
+3. the **traced part**: from the entry point along f = z, outward, for the remaining arc length.
+
+The trace must stay inside the calibrated domain (the grid's convex hull grown by a margin), |grad
+f| must not vanish, and z must lie in the calibrated range; otherwise a :class:`TraceError`
+subclass says which. Two tracers share this: :func:`trace_paper` (the paper's fixed step, tangent
+plus Gauss-Newton pull-back) and :func:`trace_fast` (adaptive DOP853 on the unit tangent field with
+a stabilizing pull-back and a final Newton projection).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+from scipy.spatial import ConvexHull
+
+from whiskercal.model.errors import (DomainExitError, NonConvergenceError, VanishingGradientError,
+                                     ZOutOfRangeError)
+from whiskercal.model.ode import integrate
+from whiskercal.model.surface import Surface
+
+PAPER_STEP_MM = 1e-3
+EXTENSION_CHORD_MM = 5.0  # chord length that sets the tip-side extension's direction
+
+
+@dataclass(frozen=True)
+class Domain:
+    """The calibrated domain: convex hull of the grid points grown by ``margin_mm``."""
+
+    equations: np.ndarray  # (m, 3): unit outward normal (a, b) and offset c, a·p + c <= 0 inside
+    vertices_mm: np.ndarray  # (m, 2) hull vertices
+    margin_mm: float
+
+    @classmethod
+    def from_points(cls, points_mm: np.ndarray, margin_mm: float) -> "Domain":
+        """Domain of grid points (n, 2) mm."""
+        hull = ConvexHull(np.asarray(points_mm, float))
+        return cls(hull.equations.copy(), hull.points[hull.vertices].copy(), float(margin_mm))
+
+    def distance_inside_mm(self, points_mm: np.ndarray) -> np.ndarray:
+        """Signed distance (mm) to the grown hull's boundary, positive inside, vectorized."""
+        p = np.asarray(points_mm, float)
+        return self.margin_mm - np.max(p @ self.equations[:, :2].T + self.equations[:, 2], axis=-1)
+
+    def contains(self, points_mm: np.ndarray) -> np.ndarray:
+        """True where points (..., 2) lie in the grown hull."""
+        return self.distance_inside_mm(points_mm) >= 0.0
+
+    def contains_xy(self, x_mm: float, y_mm: float) -> bool:
+        """Scalar :meth:`contains` in plain floats (the tracers' inner loop)."""
+        limit = self.margin_mm
+        for a, b, c in self.equations.tolist():
+            if a * x_mm + b * y_mm + c > limit:
+                return False
+        return True
+
+    def angle_range_rad(self, center_mm) -> tuple[float, float]:
+        """Angles (rad) spanned by the hull as seen from a point outside it (no wrap-around)."""
+        offsets = self.vertices_mm - np.asarray(center_mm, float)
+        mean_direction = math.atan2(offsets[:, 1].mean(), offsets[:, 0].mean())
+        relative = np.arctan2(offsets[:, 1], offsets[:, 0]) - mean_direction
+        relative = (relative + math.pi) % (2 * math.pi) - math.pi
+        return mean_direction + float(relative.min()), mean_direction + float(relative.max())
+
+
+@dataclass(frozen=True)
+class LevelSetProblem:
+    """Everything a tracer needs besides z.
+
+    Attributes
+    ----------
+    surface : Surface
+        z = f(x, y), µT over mm (contact coordinates).
+    domain : Domain
+        Where f is trusted.
+    trace_length_mm : float
+        Arc length from the root to the tip (rigid stub + wire).
+    z_range_uT : (float, float)
+        Calibrated deflection range, low to high.
+    entry_radius_mm : float
+        Radius about the root at which the trace enters the data.
+    root_mm : ndarray (2,)
+        Root position at z = 0.
+    root_shift_mm_per_uT : ndarray (2,)
+        Linear displacement of the root with z (the suspension translates); zero for the paper's
+        fixed p_r.
+    min_gradient_uT_per_mm : float
+        Below this |grad f| the level set has no trustworthy direction.
+    extension_radius_mm : float or None
+        The grid stops short of the tip (so that the rod cannot slip off it): a trace reaching this
+        radius about the root inside the domain continues straight for the rest of its arc (past
+        the last contact the shaft carries no moment). A circle rather than the hull's polygon,
+        so the tip moves smoothly with z. None: the whole arc must lie inside the domain.
+    tip_extension_mm : float
+        Longest straight extension allowed (mm); a longer one is a domain exit.
+    """
+
+    surface: Surface
+    domain: Domain
+    trace_length_mm: float
+    z_range_uT: tuple[float, float]
+    entry_radius_mm: float
+    root_mm: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    root_shift_mm_per_uT: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    min_gradient_uT_per_mm: float = 1e-3
+    extension_radius_mm: float | None = None
+    tip_extension_mm: float = 0.0
+
+    def root_at(self, z_uT: float) -> np.ndarray:
+        """Root position (mm) at deflection z."""
+        return np.asarray(self.root_mm, float) + z_uT * np.asarray(self.root_shift_mm_per_uT, float)
+
+
+@dataclass(frozen=True)
+class TraceResult:
+    """A successful trace: the tip and how it was reached."""
+
+    tip_mm: np.ndarray
+    entry_mm: np.ndarray
+    root_mm: np.ndarray
+    evaluations: int
+    extension_mm: float = 0.0
+    path_mm: np.ndarray | None = None
+
+
+def default_entry_radius(points_mm: np.ndarray, root_mm=(0.0, 0.0)) -> float:
+    """Entry radius (mm): nearest grid radius plus one median grid spacing, so f is interpolated."""
+    points_mm = np.asarray(points_mm, float)
+    radius = np.linalg.norm(points_mm - np.asarray(root_mm, float), axis=1)
+    gaps = np.linalg.norm(points_mm[:, None, :] - points_mm[None, :, :], axis=-1)
+    np.fill_diagonal(gaps, np.inf)
+    return float(radius.min() + np.median(gaps.min(axis=1)))
+
+
+def _check_z(problem: LevelSetProblem, z_uT: float) -> None:
+    low, high = problem.z_range_uT
+    if not (np.isfinite(z_uT) and low <= z_uT <= high):
+        raise ZOutOfRangeError(f"z = {z_uT:.1f} µT is outside the calibrated range "
+                               f"[{low:.1f}, {high:.1f}] µT")
+
+
+def find_entry(problem: LevelSetProblem, z_uT: float, n_angles: int = 121,
+               radius_step_mm: float = 1.0) -> np.ndarray:
+    """The point where the trace enters the data: f = z on a circle about the root (mm).
+
+    The smallest circle of radius ``entry_radius_mm + k * radius_step_mm`` (up to half the trace
+    length) whose arc inside the domain crosses f = z is used (steep deflections on a rectangular
+    grid enter further out); the crossing is refined by a bracketed root search on that circle.
+    """
+    root = problem.root_at(z_uT)
+    radii = np.arange(problem.entry_radius_mm, problem.trace_length_mm / 2, radius_step_mm)
+    entry = _first_entry(problem, z_uT, root, radii[:1], n_angles)  # the usual case, cheaply
+    if entry is None:
+        entry = _first_entry(problem, z_uT, root, radii[1:], n_angles)
+    if entry is None:
+        raise ZOutOfRangeError(f"z = {z_uT:.1f} µT has no level set entering the calibrated domain "
+                               f"within {problem.trace_length_mm / 2:.1f} mm of the root")
+    return entry
+
+
+def _first_entry(problem: LevelSetProblem, z_uT: float, root: np.ndarray, radii: np.ndarray,
+                 n_angles: int) -> np.ndarray | None:
+    low, high = problem.domain.angle_range_rad(root)
+    pad = (high - low) * 0.05  # the grown margin widens the hull slightly
+    angles = np.linspace(low - pad, high + pad, n_angles)
+    circles = root + radii[:, None, None] * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    residual = problem.surface(circles) - z_uT
+    inside = problem.domain.contains(circles)
+    crossing = (inside[:, :-1] & inside[:, 1:]
+                & (np.sign(residual[:, :-1]) != np.sign(residual[:, 1:])))
+    rows = np.flatnonzero(crossing.any(axis=1))
+    if rows.size == 0:
+        return None
+    radius, k = radii[rows[0]], int(np.flatnonzero(crossing[rows[0]])[0])
+
+    def on_circle(angle: float) -> float:
+        x, y = root[0] + radius * math.cos(angle), root[1] + radius * math.sin(angle)
+        return problem.surface.value_and_gradient(x, y)[0] - z_uT
+
+    angle = brentq(on_circle, angles[k], angles[k + 1], xtol=1e-14)
+    return root + radius * np.array([math.cos(angle), math.sin(angle)])
+
+
+def _orientation(problem: LevelSetProblem, entry: np.ndarray, root: np.ndarray) -> float:
+    """+1 or -1: which of the two level-set tangents points away from the root."""
+    _, fx, fy = problem.surface.value_and_gradient(*entry)
+    return 1.0 if (fy * (entry[0] - root[0]) - fx * (entry[1] - root[1])) >= 0 else -1.0
+
+
+def _gradient_floor_error(problem: LevelSetProblem, point) -> VanishingGradientError:
+    return VanishingGradientError(
+        f"|grad f| fell below {problem.min_gradient_uT_per_mm:g} µT/mm at "
+        f"({point[0]:.2f}, {point[1]:.2f}) mm: the level set has no direction there")
+
+
+def _start(problem: LevelSetProblem, z_uT: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    _check_z(problem, z_uT)
+    root = problem.root_at(z_uT)
+    entry = find_entry(problem, z_uT)
+    remaining = problem.trace_length_mm - float(np.linalg.norm(entry - root))
+    if remaining <= 0:
+        raise ZOutOfRangeError("the trace length is shorter than the entry radius")
+    return root, entry, remaining, _orientation(problem, entry, root)
+
+
+FAR_SIDE_FRACTION = 0.8  # of the grid's reach: exits beyond it are on the far side
+
+
+def far_edge_radius(points_mm: np.ndarray, root_mm=(0.0, 0.0), quantile: float = 0.95) -> float:
+    """Radius (mm) about the root where tracing hands over to the straight extension.
+
+    The 95th percentile of the grid's radii: inside the grid's far side for a grid laid out in
+    reach and angle bands (the trace then stops on a circle, and the tip moves smoothly with z);
+    on other grids the hull's far side may come first, which :func:`_check_stop` also accepts.
+    """
+    radius = np.linalg.norm(np.asarray(points_mm, float) - np.asarray(root_mm, float), axis=1)
+    return float(np.quantile(radius, quantile))
+
+
+def _region(problem: LevelSetProblem, root: np.ndarray):
+    """Signed distance (mm, positive inside) to where tracing stops: domain edge or extension circle."""
+    hull = problem.domain.distance_inside_mm
+    radius, rx, ry = problem.extension_radius_mm, float(root[0]), float(root[1])
+    if radius is None:
+        return lambda x, y: float(hull(np.array([x, y])))
+    return lambda x, y: min(float(hull(np.array([x, y]))), radius - math.hypot(x - rx, y - ry))
+
+
+def _check_stop(problem: LevelSetProblem, root: np.ndarray, x: float, y: float,
+                remaining_mm: float) -> None:
+    """A trace that stopped short must have reached the grid's far side (the extension circle, or
+    the hull beyond ``FAR_SIDE_FRACTION`` of the reach), not a side or the root's end."""
+    if remaining_mm <= 1e-12:
+        return
+    radius = problem.extension_radius_mm
+    reach = float(np.max(np.linalg.norm(problem.domain.vertices_mm - root, axis=1)))
+    if radius is None or math.hypot(x - root[0], y - root[1]) < FAR_SIDE_FRACTION * reach:
+        raise DomainExitError(f"the trace left the calibrated domain at ({x:.2f}, {y:.2f}) mm "
+                              f"with {remaining_mm:.1f} mm of arc to go: z needs a larger grid")
+
+
+def _extend(problem: LevelSetProblem, edge: tuple[float, float], back: tuple[float, float],
+            remaining_mm: float) -> tuple[np.ndarray, float]:
+    """Continue straight from the domain's edge for the remaining arc.
+
+    The direction is the chord from ``back`` (a point ``EXTENSION_CHORD_MM`` back along the
+    level set) to ``edge``: a polynomial's gradient is least accurate at the edge of its data,
+    and the chord averages it out (measured on a ray surface: 0.7° off with the edge gradient).
+    """
+    if remaining_mm <= 1e-12:
+        return np.array(edge), 0.0
+    if remaining_mm > problem.tip_extension_mm:
+        raise DomainExitError(
+            f"the trace reached the grid's far edge at ({edge[0]:.2f}, {edge[1]:.2f}) mm with "
+            f"{remaining_mm:.1f} mm of arc to go (at most {problem.tip_extension_mm:.1f} mm may be "
+            f"extrapolated)")
+    chord = np.subtract(edge, back)
+    return np.asarray(edge) + remaining_mm * chord / np.linalg.norm(chord), remaining_mm
+
+
+def _paper_walk(problem: LevelSetProblem, start: tuple[float, float], z_uT: float, sign: float,
+                length_mm: float, step_mm: float, path: list | None = None,
+                region=None) -> tuple[float, float, float]:
+    """Fixed steps from ``start`` for ``length_mm`` or until the domain's edge; (x, y, travelled).
+
+    The domain is tested whenever the distance to its boundary could have been used up, so the
+    edge is found to within one step.
+    """
+    vg, floor2 = problem.surface.value_and_gradient, problem.min_gradient_uT_per_mm ** 2
+    x, y = start
+    n_full = int(length_mm // step_mm)
+    next_check = 0 if region is not None else n_full + 1
+    for k in range(n_full + 1):
+        if k >= next_check:
+            margin = region(x, y)
+            if margin < 0:
+                return x, y, k * step_mm
+            next_check = k + max(1, int(0.5 * margin / step_mm))
+        h = step_mm if k < n_full else length_mm - n_full * step_mm
+        f, fx, fy = vg(x, y)
+        g2 = fx * fx + fy * fy
+        if g2 < floor2:
+            raise _gradient_floor_error(problem, (x, y))
+        inv, pull = 1.0 / math.sqrt(g2), (f - z_uT) / g2
+        x += sign * h * fy * inv - pull * fx
+        y -= sign * h * fx * inv + pull * fy
+        if path is not None:
+            path.append((x, y))
+    if region is not None and region(x, y) < 0:
+        return x, y, n_full * step_mm
+    return x, y, length_mm
+
+
+def trace_paper(problem: LevelSetProblem, z_uT: float, step_mm: float = PAPER_STEP_MM,
+                keep_path: bool = False) -> TraceResult:
+    """The paper's tracer: fixed steps along the tangent plus a pull-back onto f = z.
+
+    Each step moves ``step_mm`` along the unit tangent and adds the Gauss-Newton step of
+    (f - z)²/2, -(f - z) grad f / |grad f|², which pulls the point back onto the level set; the
+    arc length counts the tangent advances.
+    """
+    root, entry, remaining, sign = _start(problem, z_uT)
+    path = [tuple(entry)] if keep_path else None
+    x, y, travelled = _paper_walk(problem, (float(entry[0]), float(entry[1])), z_uT, sign,
+                                  remaining, step_mm, path, _region(problem, root))
+    _check_stop(problem, root, x, y, remaining - travelled)
+    back = (x, y)
+    if remaining - travelled > 1e-12:
+        back = _paper_walk(problem, (x, y), z_uT, -sign, min(EXTENSION_CHORD_MM, travelled),
+                           step_mm)[:2]
+    tip, extension = _extend(problem, (x, y), back, remaining - travelled)
+    evaluations = int(round((travelled + (remaining - travelled > 0) * EXTENSION_CHORD_MM) / step_mm))
+    return TraceResult(tip, entry, root, evaluations, extension,
+                       np.array(path) if keep_path else None)
+
+
+def _project(problem: LevelSetProblem, point: np.ndarray, z_uT: float,
+             tolerance_uT: float = 1e-9, max_iterations: int = 20) -> np.ndarray:
+    """Newton along the gradient onto f = z."""
+    x, y = float(point[0]), float(point[1])
+    for _ in range(max_iterations):
+        f, fx, fy = problem.surface.value_and_gradient(x, y)
+        g2 = fx * fx + fy * fy
+        if g2 < problem.min_gradient_uT_per_mm ** 2:
+            raise _gradient_floor_error(problem, (x, y))
+        if abs(f - z_uT) <= tolerance_uT * max(1.0, abs(z_uT)):
+            return np.array([x, y])
+        x, y = x - (f - z_uT) * fx / g2, y - (f - z_uT) * fy / g2
+    raise NonConvergenceError(f"projection onto f = {z_uT:.1f} µT did not converge")
+
+
+def trace_fast(problem: LevelSetProblem, z_uT: float, rtol: float = 1e-7, atol_mm: float = 1e-7,
+               pull_per_mm: float = 0.0) -> TraceResult:
+    """Adaptive tracer: Dormand-Prince 5(4) on the unit tangent field of f, then a Newton projection.
+
+    dp/ds = sign * t(p) - pull_per_mm * (f - z) grad f / |grad f|², with t the unit tangent.
+    The tangent field's integral curves are the level sets themselves, so without the pull term
+    (the default) the error is only the integrator's, removed across the level set by the final
+    projection; a positive pull makes f = z attracting but costs steps (measured: 5x more at
+    1/mm). A step that would leave the domain is shortened to end on its boundary.
+    """
+    root, entry, remaining, sign = _start(problem, z_uT)
+    vg, floor2 = problem.surface.value_and_gradient, problem.min_gradient_uT_per_mm ** 2
+    counter = [0]
+
+    def field(x: float, y: float) -> tuple[float, float]:
+        counter[0] += 1
+        f, fx, fy = vg(x, y)
+        g2 = fx * fx + fy * fy
+        if g2 < floor2:
+            raise _gradient_floor_error(problem, (x, y))
+        inv, pull = 1.0 / math.sqrt(g2), pull_per_mm * (f - z_uT) / g2
+        return sign * fy * inv - pull * fx, -sign * fx * inv - pull * fy
+
+    x, y, travelled, _ = integrate(field, (float(entry[0]), float(entry[1])), remaining,
+                                   rtol=rtol, atol=atol_mm, inside=_region(problem, root))
+    _check_stop(problem, root, x, y, remaining - travelled)
+    edge = tuple(_project(problem, np.array([x, y]), z_uT))
+    back = edge
+    if remaining - travelled > 1e-12:
+        sign = -sign  # walk back along the level set for the extension's chord
+        back = integrate(field, edge, min(EXTENSION_CHORD_MM, travelled), rtol=rtol, atol=atol_mm)[:2]
+    tip, extension = _extend(problem, edge, back, remaining - travelled)
+    return TraceResult(tip, entry, root, counter[0], extension)
+
+
+TRACERS = {"fast": trace_fast, "paper": trace_paper}
+
+
+def trace_many(problem: LevelSetProblem, z_uT: np.ndarray, tracer: str = "fast") -> np.ndarray:
+    """Tips (n, 2) mm for several z with one tracer; raises on the first failure."""
+    trace = TRACERS[tracer]
+    return np.array([trace(problem, float(z)).tip_mm for z in np.atleast_1d(z_uT)])

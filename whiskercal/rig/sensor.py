@@ -1,0 +1,230 @@
+"""Client for the whisker sensor board's framed stream (docs/protocol.md, "Sensor").
+
+Commands are ASCII lines; every answer and every sample comes back as a frame. Samples that
+arrive while a command waits for its answer are kept, so commands can be sent mid-stream.
+Sequence numbers and board times are unwrapped; gaps in ``seq`` count as dropped samples and
+frames that fail their CRC as corrupt ones.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from whiskercal.errors import DeviceError
+from whiskercal.rig.codes import describe
+from whiskercal.rig.frames import SAMPLE_FRAME_BYTES, FrameDecoder, Sample
+from whiskercal.rig.mlx90393 import lsb_uT
+from whiskercal.rig.transport import Transport, open_port
+
+_CONFIG_FIELD = re.compile(r"(\w+)=(-?\d+)")
+_READ_CHUNK_BYTES = 4096
+
+
+class SensorCommandError(DeviceError):
+    """The sensor answered ``ERR:N``; ``code`` is N (see ``codes.SensorError``)."""
+
+    def __init__(self, code: int, command: str, where: str) -> None:
+        self.code = code
+        super().__init__(f"sensor on {where} refused {command!r} with ERR:{code}: "
+                         f"{describe('SENSOR_ERROR', code)}")
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """The board's settings: sample rate in Hz and the MLX90393's GAIN_SEL, RES, OSR, DIG_FILT."""
+
+    rate_hz: int = 300
+    gain: int = 7
+    res: int = 2
+    osr: int = 0
+    filt: int = 2
+
+    @property
+    def lsb_uT(self) -> np.ndarray:
+        """µT per count on (x, y, z)."""
+        return lsb_uT(self.gain, self.res)
+
+
+@dataclass
+class SampleBlock:
+    """Consecutive samples as arrays.
+
+    ``seq`` (n,) int64 unwrapped; ``t_s`` (n,) board time in s, unwrapped; ``counts`` (n, 3)
+    raw int; ``field_uT`` (n, 3) float in µT; ``status`` (n,) bit mask (``codes.SensorStatus``);
+    ``dropped`` samples missing in or just before this block; ``corrupt`` frames rejected since
+    the previous block.
+    """
+
+    seq: np.ndarray
+    t_s: np.ndarray
+    counts: np.ndarray
+    field_uT: np.ndarray
+    status: np.ndarray
+    dropped: int = 0
+    corrupt: int = 0
+
+    def __len__(self) -> int:
+        return len(self.seq)
+
+
+@dataclass
+class _Unwrapper:
+    """Turns wrapping u16 sequence numbers and u32 µs times into monotonic ones."""
+
+    last_seq: int | None = None
+    last_t_us: int = 0
+    seq: int = 0
+    t_us: int = 0
+    dropped: int = 0
+    rows: list = field(default_factory=list)
+
+    def add(self, sample: Sample) -> None:
+        if self.last_seq is None:
+            self.seq, self.t_us = sample.seq, sample.t_us
+        else:
+            step = (sample.seq - self.last_seq) & 0xFFFF
+            self.dropped += max(step - 1, 0)
+            self.seq += step
+            self.t_us += (sample.t_us - self.last_t_us) & 0xFFFFFFFF
+        self.last_seq, self.last_t_us = sample.seq, sample.t_us
+        self.rows.append((self.seq, self.t_us, sample.x, sample.y, sample.z, sample.status))
+
+
+class SensorClient:
+    """Talk to the sensor board on ``port`` (a name/URL or an open pyserial object).
+
+    Parameters
+    ----------
+    port
+        ``/dev/ttyUSB0``, ``sim://NAME/sensor`` or an open pyserial object.
+    timeout_s
+        How long a command may take to be answered, s.
+    """
+
+    def __init__(self, port, timeout_s: float = 1.0) -> None:
+        self.transport = Transport(open_port(port), "sensor")
+        self.timeout_s = timeout_s
+        self._decoder = FrameDecoder()
+        self._unwrapper = _Unwrapper()
+        self._frames: list = []  # decoded, not yet consumed (samples after a command's answer)
+        self._config: SensorConfig | None = None
+        self.dropped = 0
+        self._corrupt_reported = 0
+        self.streaming = False
+
+    @property
+    def corrupt(self) -> int:
+        """Frames rejected (CRC or header) and resynchronizations since the port was opened."""
+        return self._decoder.corrupt
+
+    # -- commands ---------------------------------------------------------------------------
+    def command(self, line: str) -> str:
+        """Send one command line and return the text after ``OK``; ``ERR:N`` raises."""
+        self.transport.write(line.encode("ascii") + b"\n")
+        deadline = self.transport.now_s() + self.timeout_s
+        while True:
+            if not self._frames:
+                self._receive(deadline, repr(line))
+                continue
+            frame = self._frames.pop(0)
+            if isinstance(frame, Sample):
+                self._unwrapper.add(frame)
+            elif frame.startswith("ERR:"):
+                raise SensorCommandError(_code(frame), line, self.transport.name)
+            elif frame == "OK" or frame.startswith("OK "):
+                return frame[3:]
+
+    def _receive(self, deadline: float, what: str) -> None:
+        remaining = deadline - self.transport.now_s()
+        data = self.transport.read_some(_READ_CHUNK_BYTES, max(remaining, 0.0))
+        if not data and remaining <= 0:
+            raise self.transport.timed_out(what, self.timeout_s)
+        self._frames += self._decoder.feed(data)
+
+    def identify(self) -> str:
+        """The board's identity, e.g. ``whisker_nano fw=0.1.0 proto=1``."""
+        return self.command("ID")
+
+    def config(self) -> SensorConfig:
+        """Ask the board for its current settings (``CFG?``)."""
+        values = dict((k, int(v)) for k, v in _CONFIG_FIELD.findall(self.command("CFG?")))
+        try:
+            self._config = SensorConfig(values["rate"], values["gain"], values["res"],
+                                        values["osr"], values["filt"])
+        except KeyError as error:
+            raise DeviceError(f"sensor on {self.transport.name} sent a CFG? answer without "
+                              f"{error.args[0]}") from None
+        return self._config
+
+    def configure(self, rate_hz: int | None = None, gain: int | None = None, res: int | None = None,
+                  osr: int | None = None, filt: int | None = None) -> SensorConfig:
+        """Change the given settings (only while stopped) and return the board's new settings."""
+        wanted = {"RATE": rate_hz, "GAIN": gain, "RES": res, "OSR": osr, "FILT": filt}
+        for name, value in wanted.items():
+            if value is not None:
+                self.command(f"{name} {int(value)}")
+        return self.config()
+
+    def start(self) -> None:
+        """Start the sample stream; sequence and time unwrapping start afresh."""
+        if self._config is None:
+            self.config()
+        self._unwrapper = _Unwrapper()
+        self.command("START")
+        self.streaming = True
+
+    def stop(self) -> None:
+        """Stop the sample stream; samples that arrived before the answer stay readable."""
+        self.command("STOP")
+        self.streaming = False
+
+    # -- samples ----------------------------------------------------------------------------
+    def read(self, n: int, timeout_s: float = 1.0) -> SampleBlock:
+        """The next ``n`` samples; fewer within ``timeout_s`` (s, port clock) raise ``DeviceError``."""
+        deadline = self.transport.now_s() + timeout_s
+        self._take([])
+        while len(self._unwrapper.rows) < n:
+            missing_bytes = (n - len(self._unwrapper.rows)) * SAMPLE_FRAME_BYTES
+            remaining = deadline - self.transport.now_s()
+            data = self.transport.read_exactly(min(missing_bytes, _READ_CHUNK_BYTES), max(remaining, 0.0))
+            if not data and remaining <= 0:
+                raise DeviceError(f"sensor on {self.transport.name} delivered "
+                                  f"{len(self._unwrapper.rows)} of {n} samples within {timeout_s:g} s; "
+                                  "is it streaming (START)?")
+            self._take(self._decoder.feed(data))
+        return self._block(n)
+
+    def read_available(self) -> SampleBlock:
+        """Every sample already received, without waiting (possibly none)."""
+        self._take(self._decoder.feed(self.transport.read_some(1 << 16, 0.0)))
+        return self._block(len(self._unwrapper.rows))
+
+    def _take(self, frames: list) -> None:
+        """Move decoded samples into the unwrapper; a stray text frame is not a sample."""
+        self._frames += frames
+        for frame in self._frames:
+            if isinstance(frame, Sample):
+                self._unwrapper.add(frame)
+        self._frames.clear()
+
+    def _block(self, n: int) -> SampleBlock:
+        rows = np.array(self._unwrapper.rows[:n], dtype=np.int64).reshape(-1, 6)
+        del self._unwrapper.rows[:n]
+        dropped, self._unwrapper.dropped = self._unwrapper.dropped, 0
+        self.dropped += dropped
+        corrupt, self._corrupt_reported = self.corrupt - self._corrupt_reported, self.corrupt
+        counts = rows[:, 2:5]
+        config = self._config or SensorConfig()
+        return SampleBlock(seq=rows[:, 0], t_s=rows[:, 1] * 1e-6, counts=counts,
+                           field_uT=counts * config.lsb_uT, status=rows[:, 5].astype(np.uint8),
+                           dropped=dropped, corrupt=corrupt)
+
+
+def _code(text: str) -> int:
+    try:
+        return int(text.split(":", 1)[1].split()[0])
+    except (IndexError, ValueError):
+        raise DeviceError(f"sensor sent an unreadable error answer: {text!r}") from None

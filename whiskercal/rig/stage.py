@@ -1,0 +1,274 @@
+"""Client for the grbl-style stage (docs/protocol.md, "Stage").
+
+Works with any grbl 1.1 board; with whiskercal's firmware (``[PROTO:whiskercal-stage-1]``) it
+also reads the AS5600 encoder positions from the ``Enc:`` status field. Replies are matched to
+commands in order; pushed ``ALARM:N`` lines raise :class:`StageAlarmError` wherever they appear.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from whiskercal.errors import DeviceError
+from whiskercal.rig.codes import describe
+from whiskercal.rig.transport import Transport, open_port
+
+_STATUS = re.compile(r"^<([^|>]+)((?:\|[^|>]*)*)>$")
+_POLL_INTERVAL_S = 0.02
+_MAX_LINE_BYTES = 256
+
+
+class StageAlarmError(DeviceError):
+    """The stage reported ``ALARM:N``; ``code`` is N (see ``codes.StageAlarm``)."""
+
+    def __init__(self, code: int, where: str) -> None:
+        self.code = code
+        super().__init__(f"stage on {where} raised ALARM:{code}: {describe('STAGE_ALARM', code)}")
+
+
+class StageCommandError(DeviceError):
+    """The stage answered ``error:N`` to a command; ``code`` is N (see ``codes.StageError``)."""
+
+    def __init__(self, code: int, command: str, where: str) -> None:
+        self.code = code
+        super().__init__(f"stage on {where} refused {command!r} with error:{code}: "
+                         f"{describe('STAGE_ERROR', code)}")
+
+
+@dataclass(frozen=True)
+class StageStatus:
+    """One status report. Positions in mm (machine coordinates); ``enc_mm`` is None on stock grbl."""
+
+    state: str
+    mpos_mm: np.ndarray
+    enc_mm: np.ndarray | None
+    feed_mm_min: float
+    pins: str = ""
+
+    @property
+    def feed(self) -> float:
+        """Current feed rate, mm/min (same as ``feed_mm_min``)."""
+        return self.feed_mm_min
+
+    @property
+    def idle(self) -> bool:
+        """True when the stage stands still with an empty motion queue."""
+        return self.state == "Idle"
+
+    @property
+    def alarm(self) -> bool:
+        """True when the stage is locked in alarm."""
+        return self.state.startswith("Alarm")
+
+
+@dataclass(frozen=True)
+class StageIdentity:
+    """What ``$I`` and the first status report told about the board."""
+
+    version: str
+    name: str
+    options: str
+    proto: str | None
+    has_encoder: bool
+    banner: str | None = None
+
+    @property
+    def whiskercal_firmware(self) -> bool:
+        """True for whiskercal's firmware (or its twin), False for a stock grbl board."""
+        return self.proto is not None
+
+
+def parse_status(line: str) -> StageStatus:
+    """Parse ``<Idle|MPos:1,2,0|FS:0,0|Enc:1,2>``; unknown fields are ignored."""
+    match = _STATUS.match(line.strip())
+    if match is None:
+        raise DeviceError(f"stage sent a malformed status report: {line!r}")
+    fields = dict(_split_field(f) for f in match.group(2).split("|") if f)
+    try:
+        mpos = np.array([float(v) for v in fields["MPos"].split(",")[:2]])
+        enc = np.array([float(v) for v in fields["Enc"].split(",")[:2]]) if "Enc" in fields else None
+        feed = float(fields.get("FS", fields.get("F", "0")).split(",")[0])
+    except (KeyError, ValueError) as error:
+        raise DeviceError(f"stage sent a status report without a readable MPos: {line!r}") from error
+    return StageStatus(match.group(1), mpos, enc, feed, fields.get("Pn", ""))
+
+
+def _split_field(field: str) -> tuple[str, str]:
+    name, _, value = field.partition(":")
+    return name, value
+
+
+class StageClient:
+    """Talk to the stage on ``port`` (a name/URL or an open pyserial object).
+
+    Parameters
+    ----------
+    port
+        ``/dev/ttyUSB0``, ``sim://NAME/stage`` or an open pyserial object.
+    timeout_s
+        How long a command may take to be answered, s (homing has its own timeout).
+    """
+
+    def __init__(self, port, timeout_s: float = 2.0) -> None:
+        self.transport = Transport(open_port(port), "stage")
+        self.timeout_s = timeout_s
+        self._pending = bytearray()
+        self.banner: str | None = None
+
+    # -- lines ------------------------------------------------------------------------------
+    def _read_line(self, timeout_s: float, what: str) -> str:
+        deadline = self.transport.now_s() + timeout_s
+        while b"\n" not in self._pending:
+            remaining = deadline - self.transport.now_s()
+            chunk = self.transport.read_some(_MAX_LINE_BYTES, max(remaining, 0.0))
+            if not chunk and remaining <= 0:
+                raise self.transport.timed_out(what, timeout_s)
+            self._pending += chunk
+        line, _, rest = bytes(self._pending).partition(b"\n")
+        self._pending = bytearray(rest)
+        return line.decode("ascii", errors="replace").rstrip("\r")
+
+    def _reply_line(self, timeout_s: float, what: str) -> str:
+        """The next line that is not a push; pushed alarms raise, banners are remembered."""
+        while True:
+            line = self._read_line(timeout_s, what)
+            if line.startswith("ALARM:"):
+                raise StageAlarmError(_code(line), self.transport.name)
+            if line.startswith("Grbl "):
+                self.banner = line
+                continue
+            if line and not line.startswith("[MSG:"):
+                return line
+
+    def command(self, line: str, timeout_s: float | None = None) -> list[str]:
+        """Send one line, wait for ``ok``; return the lines before it. ``error:N`` raises."""
+        timeout_s = self.timeout_s if timeout_s is None else timeout_s
+        self.transport.write(line.encode("ascii") + b"\n")
+        answer: list[str] = []
+        while True:
+            reply = self._reply_line(timeout_s, repr(line))
+            if reply == "ok":
+                return answer
+            if reply.startswith("error:"):
+                raise StageCommandError(_code(reply), line, self.transport.name)
+            if not reply.startswith("<"):
+                answer.append(reply)
+
+    # -- queries ----------------------------------------------------------------------------
+    def status(self) -> StageStatus:
+        """Ask for a status report (realtime ``?``) and parse it."""
+        self.transport.write(b"?")
+        while True:
+            line = self._reply_line(self.timeout_s, "the status request '?'")
+            if line.startswith("<"):
+                return parse_status(line)
+
+    def identify(self) -> StageIdentity:
+        """Read the banner if one is waiting, ask ``$I``, and check for the encoder field."""
+        self._drain_pushes()
+        version, name, options, proto = "", "", "", None
+        for line in self.command("$I"):
+            if line.startswith("[VER:"):
+                version, _, name = line[5:-1].partition(":")
+            elif line.startswith("[OPT:"):
+                options = line[5:-1]
+            elif line.startswith("[PROTO:"):
+                proto = line[7:-1]
+        if not version:
+            raise DeviceError(f"the device on {self.transport.name} does not answer '$I' like grbl")
+        has_encoder = self.status().enc_mm is not None
+        return StageIdentity(version, name, options, proto, has_encoder, self.banner)
+
+    def settings(self) -> dict[int, float]:
+        """All ``$N=value`` settings as numbers."""
+        settings = {}
+        for line in self.command("$$"):
+            key, _, value = line.partition("=")
+            if key.startswith("$") and key[1:].isdigit():
+                settings[int(key[1:])] = float(value.split()[0])
+        return settings
+
+    def set_setting(self, number: int, value: float) -> None:
+        """Write setting ``$number`` (stored in the board's EEPROM)."""
+        self.command(f"${number}={value:g}")
+
+    # -- motion -----------------------------------------------------------------------------
+    def move_to(self, x_mm: float, y_mm: float, feed_mm_min: float) -> None:
+        """Queue a linear move to machine position (x, y) mm at ``feed_mm_min``; returns at ``ok``."""
+        if feed_mm_min <= 0:
+            raise ValueError(f"feed rate must be positive, got {feed_mm_min} mm/min")
+        self.command(f"G90 G1 X{x_mm:.3f} Y{y_mm:.3f} F{feed_mm_min:.1f}")
+
+    def dwell(self, seconds: float) -> None:
+        """Queue a dwell of ``seconds`` s behind the queued moves."""
+        self.command(f"G4 P{seconds:.3f}")
+
+    def wait_idle(self, timeout_s: float = 60.0,
+                  on_poll: Callable[[StageStatus], None] | None = None) -> StageStatus:
+        """Poll ``?`` until the stage is ``Idle``; an alarm raises, as does ``timeout_s`` (s).
+
+        ``on_poll(status)`` is called after every report, so the caller can read the sensor
+        stream while the stage moves; without it the client waits ~20 ms between polls by
+        reading (which also catches a pushed ``ALARM:N`` at once).
+        """
+        deadline = self.transport.now_s() + timeout_s
+        while True:
+            status = self.status()
+            if on_poll is not None:
+                on_poll(status)
+            if status.idle:
+                return status
+            if status.alarm:
+                raise DeviceError(f"stage on {self.transport.name} is in alarm; "
+                                  "send $X to unlock or $H to home")
+            if self.transport.now_s() > deadline:
+                raise self.transport.timed_out("Idle (the move did not finish)", timeout_s)
+            if on_poll is None:
+                self._drain_pushes(_POLL_INTERVAL_S)
+
+    def home(self, timeout_s: float = 120.0) -> None:
+        """Run the homing cycle ``$H``; grbl answers ``ok`` once homing is done."""
+        self.command("$H", timeout_s)
+
+    def unlock(self) -> None:
+        """Clear an alarm lock without homing (``$X``)."""
+        self.command("$X")
+
+    def hold(self) -> None:
+        """Feed hold (realtime ``!``): decelerate to a stop, keep the queue."""
+        self.transport.write(b"!")
+
+    def resume(self) -> None:
+        """Cycle start (realtime ``~``): continue after a hold."""
+        self.transport.write(b"~")
+
+    def reset(self, timeout_s: float = 5.0) -> str:
+        """Soft reset (0x18): stop at once, flush the queue; returns the banner."""
+        self.transport.write(b"\x18")
+        self._pending.clear()
+        while True:
+            line = self._read_line(timeout_s, "the soft reset")
+            if line.startswith("Grbl "):
+                self.banner = line
+                return line
+
+    def _drain_pushes(self, wait_s: float = 0.0) -> None:
+        """Consume pushed lines (banner, messages, alarms) that arrive within ``wait_s`` s."""
+        self._pending += self.transport.read_some(_MAX_LINE_BYTES, wait_s)
+        while b"\n" in self._pending:
+            line = self._read_line(0.0, "a pushed message")
+            if line.startswith("ALARM:"):
+                raise StageAlarmError(_code(line), self.transport.name)
+            if line.startswith("Grbl "):
+                self.banner = line
+
+
+def _code(line: str) -> int:
+    try:
+        return int(line.split(":", 1)[1])
+    except (IndexError, ValueError):
+        raise DeviceError(f"stage sent an unreadable code line: {line!r}") from None

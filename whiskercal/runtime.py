@@ -1,0 +1,130 @@
+"""What a robot loads: a calibration artifact -> tip position per sample, with contact and filter.
+
+>>> from whiskercal import runtime
+>>> calibration = runtime.load("CAL.h5")              # doctest: +SKIP
+>>> calibration.tip(-3000.0)                           # (x, y) mm     # doctest: +SKIP
+>>> tracker = calibration.tracker()                    # doctest: +SKIP
+>>> state = tracker.update(z_uT)   # per sample: contact, raw and filtered tip   # doctest: +SKIP
+
+Loading validates the schema (an unknown major version is refused with a clear message) and
+never executes code. Evaluation uses only the precomputed lookup: one sample takes about a
+microsecond, a batch runs at tens of millions of samples a second (docs/model.md).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from whiskercal.artifacts.calibration import (CalibrationData, collision_params_of,
+                                              kalman_params_of, lookup_of, problem_of,
+                                              read_calibration)
+from whiskercal.model.collision import CollisionDetector
+from whiskercal.model.errors import ModelError
+from whiskercal.model.kalman import ConstantStateKalman
+from whiskercal.model.lookup import OUT_OF_RANGE_POLICIES
+from whiskercal.model.trace import TRACERS
+
+
+@dataclass(frozen=True)
+class TrackerState:
+    """One sample's result (mm).
+
+    ``raw_tip_mm`` is None without contact (or with z outside the calibrated range under the
+    "nan" policy); ``filtered_tip_mm`` is None until the filter has its first tip in a contact.
+    """
+
+    contact: bool
+    raw_tip_mm: np.ndarray | None
+    filtered_tip_mm: np.ndarray | None
+
+
+class Tracker:
+    """Streaming collision detection, lookup and constant-state Kalman filter, one z at a time."""
+
+    def __init__(self, calibration: "Calibration", out_of_range: str = "raise") -> None:
+        _check_policy(out_of_range)
+        self._calibration = calibration
+        self._out_of_range = out_of_range
+        self._detector = CollisionDetector(calibration.collision_params)
+        self._kalman = ConstantStateKalman(calibration.kalman_params)
+
+    def update(self, z_uT: float) -> TrackerState:
+        """Feed one deflection sample (µT, relative to static).
+
+        Raises
+        ------
+        ZOutOfRangeError
+            In contact with z outside the calibrated range under the "raise" policy; the tracker
+            stays usable and keeps its filter state.
+        """
+        was_in_contact = self._detector.contact
+        contact = self._detector.update(float(z_uT))
+        if not contact:
+            if was_in_contact:
+                self._kalman.reset()
+            return TrackerState(False, None, None)
+        x, y = self._calibration.lookup.tip_scalar(float(z_uT), self._out_of_range)
+        if x != x:  # NaN under the "nan" policy
+            filtered = self._kalman.state_mm
+            return TrackerState(True, None, None if filtered is None else filtered.copy())
+        raw = np.array([x, y])
+        return TrackerState(True, raw, self._kalman.update(raw))
+
+
+class Calibration:
+    """A loaded calibration artifact.
+
+    Attributes
+    ----------
+    data : CalibrationData
+        Everything the file holds (metrics, provenance, settings).
+    z_range_uT : (float, float)
+        The calibrated range the lookup covers.
+    target_z_uT : float or None
+        The optimal deflection target once the optimal-depth study has written one.
+    """
+
+    def __init__(self, data: CalibrationData) -> None:
+        self.data = data
+        self.lookup = lookup_of(data)
+        self.kalman_params = kalman_params_of(data)
+        self.collision_params = collision_params_of(data)
+        self.z_range_uT = (self.lookup.z_min_uT, self.lookup.z_max_uT)
+        self.target_z_uT = data.target_z_uT
+        self.sensor_id = data.sensor_id
+        self._problem = None
+
+    def tip(self, z_uT, out_of_range: str = "raise") -> np.ndarray:
+        """Tip (2,) or (..., 2) mm for z (scalar or array, µT).
+
+        ``out_of_range``: "raise" (ZOutOfRangeError), "nan" (NaN tips) or "clip" (the nearest
+        end of the calibrated range).
+        """
+        _check_policy(out_of_range)
+        return self.lookup(z_uT, out_of_range)
+
+    def tracker(self, out_of_range: str = "raise") -> Tracker:
+        """A fresh streaming tracker (collision detection + lookup + filter)."""
+        return Tracker(self, out_of_range)
+
+    def trace(self, z_uT: float, tracer: str = "fast") -> np.ndarray:
+        """The tip traced on the stored surface (slow; for checks, not for the control loop)."""
+        if self._problem is None:
+            self._problem = problem_of(self.data)
+        if tracer not in TRACERS:
+            raise ModelError(f"unknown tracer {tracer!r}; choose one of {', '.join(TRACERS)}")
+        return TRACERS[tracer](self._problem, float(z_uT)).tip_mm
+
+
+def _check_policy(out_of_range: str) -> None:
+    if out_of_range not in OUT_OF_RANGE_POLICIES:
+        raise ModelError(f"out_of_range must be one of {', '.join(OUT_OF_RANGE_POLICIES)}, "
+                         f"not {out_of_range!r}")
+
+
+def load(path: str | Path) -> Calibration:
+    """Load and validate a calibration artifact (schema ``whiskercal.calibration`` 1.x)."""
+    return Calibration(read_calibration(path))

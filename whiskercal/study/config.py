@@ -1,0 +1,158 @@
+"""The study's configuration: documented TOML defaults, user overrides, and the plane geometry.
+
+Defaults live in ``default_study.toml`` next to this module (every key commented). A user file
+overrides any subset of keys; an unknown key or a bad value is refused with one clear sentence.
+
+Geometry (docs/study.md): in the whisker frame the plane is pushed toward the root along
+``push = -(cos tilt, sin tilt)`` and slides along ``slide = slide_sign * (sin tilt, -cos tilt)``.
+The stage frame is the whisker frame rotated by ``whisker_angle_deg`` and shifted to
+``whisker_origin_stage_mm``. The plane's line in the whisker frame at a stage position S passes
+through ``R^T (S + fixture_offset - origin)``, where R is that rotation.
+"""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from whiskercal.errors import UsageError
+
+DEFAULTS_RESOURCE = "default_study.toml"
+
+
+def default_config() -> dict[str, Any]:
+    """The documented defaults as a nested dict."""
+    text = resources.files("whiskercal.study").joinpath(DEFAULTS_RESOURCE).read_text("utf-8")
+    return tomllib.loads(text)
+
+
+def _merge(base: dict, override: dict, where: str = "") -> dict:
+    """Defaults updated by a user's keys; keys that the defaults do not know are refused."""
+    merged = copy.deepcopy(base)
+    for key, value in override.items():
+        name = f"{where}{key}"
+        if key not in base:
+            raise UsageError(f"unknown configuration key {name!r}")
+        if isinstance(base[key], dict):
+            if not isinstance(value, dict):
+                raise UsageError(f"configuration key {name!r} must be a table")
+            merged[key] = _merge(base[key], value, f"{name}.")
+        else:
+            merged[key] = value
+    return merged
+
+
+def load_config(path: str | Path | None = None) -> dict[str, Any]:
+    """Defaults, overridden by the TOML file at ``path`` when given, validated.
+
+    Raises
+    ------
+    UsageError
+        When the file is missing, not TOML, has unknown keys or values out of range.
+    """
+    config = default_config()
+    if path is not None:
+        try:
+            user = tomllib.loads(Path(path).read_text("utf-8"))
+        except FileNotFoundError:
+            raise UsageError(f"{path}: no such configuration file") from None
+        except tomllib.TOMLDecodeError as error:
+            raise UsageError(f"{path}: not valid TOML ({error})") from None
+        config = _merge(config, user)
+    _validate(config)
+    return config
+
+
+def _validate(config: dict[str, Any]) -> None:
+    trials = config["trials"]
+    depths = np.asarray(trials["depths_mm"], float)
+    if depths.size == 0 or np.any(depths <= 0) or np.any(np.diff(depths) <= 0):
+        raise UsageError("trials.depths_mm must be positive and increasing")
+    for key in ("speed_mm_s", "travel_mm", "approach_speed_mm_s", "rapid_speed_mm_s", "retract_mm"):
+        if not float(trials[key]) > 0:
+            raise UsageError(f"trials.{key} must be positive")
+    if trials["slide_sign"] not in (1, -1):
+        raise UsageError("trials.slide_sign must be 1 or -1")
+    contact = config["contact"]
+    if not 0 < float(contact["search_step_mm"]) <= 1.0:
+        raise UsageError("contact.search_step_mm must be in (0, 1] mm")
+    if not float(contact["threshold_uT"]) > 0:
+        raise UsageError("contact.threshold_uT must be positive")
+    if float(config["safety"]["overload_uT"]) <= float(contact["threshold_uT"]):
+        raise UsageError("safety.overload_uT must exceed contact.threshold_uT")
+
+
+@dataclass(frozen=True)
+class PlaneGeometry:
+    """Where the plane is, in the whisker frame and in stage coordinates (mm, unit vectors)."""
+
+    origin_stage_mm: np.ndarray
+    angle_rad: float
+    tilt_rad: float
+    slide_sign: int
+    tip_reach_mm: float
+    fixture_offset_mm: np.ndarray
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any]) -> "PlaneGeometry":
+        """The geometry a configuration describes."""
+        geometry = config["geometry"]
+        return cls(origin_stage_mm=np.asarray(geometry["whisker_origin_stage_mm"], float),
+                   angle_rad=float(np.radians(geometry["whisker_angle_deg"])),
+                   tilt_rad=float(np.radians(geometry["plane_tilt_deg"])),
+                   slide_sign=int(config["trials"]["slide_sign"]),
+                   tip_reach_mm=float(geometry["tip_reach_mm"]),
+                   fixture_offset_mm=np.asarray(geometry["fixture_offset_mm"], float))
+
+    @property
+    def push_whisker(self) -> np.ndarray:
+        """Unit direction (whisker frame) in which the plane is pushed in: toward the root."""
+        return -np.array([np.cos(self.tilt_rad), np.sin(self.tilt_rad)])
+
+    @property
+    def slide_whisker(self) -> np.ndarray:
+        """Unit direction (whisker frame) of the slide, along the plane."""
+        return self.slide_sign * np.array([np.sin(self.tilt_rad), -np.cos(self.tilt_rad)])
+
+    def _rotation(self) -> np.ndarray:
+        c, s = np.cos(self.angle_rad), np.sin(self.angle_rad)
+        return np.array([[c, -s], [s, c]])
+
+    def to_stage_vector(self, vector_whisker: np.ndarray) -> np.ndarray:
+        """A direction or displacement (whisker frame) in stage coordinates."""
+        return self._rotation() @ np.asarray(vector_whisker, float)
+
+    def contact_guess_stage_mm(self) -> np.ndarray:
+        """Stage position at which the plane would pass through the undeflected tip."""
+        tip_stage = self.origin_stage_mm + self.to_stage_vector([self.tip_reach_mm, 0.0])
+        return tip_stage - self.fixture_offset_mm
+
+    def plane_line_whisker(self, stage_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The plane's line in the whisker frame for stage positions (n, 2): points and normals."""
+        stage_mm = np.atleast_2d(np.asarray(stage_mm, float))
+        points = (stage_mm + self.fixture_offset_mm - self.origin_stage_mm) @ self._rotation()
+        normals = np.tile(self.push_whisker, (stage_mm.shape[0], 1))
+        return points, normals
+
+    def depth_of_stage_mm(self, stage_mm: np.ndarray, contact_stage_mm: np.ndarray) -> np.ndarray:
+        """How far (mm) stage positions push the plane past the first-contact position."""
+        push_stage = self.to_stage_vector(self.push_whisker)
+        return (np.atleast_2d(stage_mm) - np.asarray(contact_stage_mm, float)) @ push_stage
+
+    def trial_waypoints_stage_mm(self, contact_stage_mm: np.ndarray, depth_mm: float,
+                                 config: dict[str, Any]) -> dict[str, np.ndarray]:
+        """Stage positions of one trial: retracted start, slide start at depth, slide end, retracted end."""
+        trials = config["trials"]
+        push = self.to_stage_vector(self.push_whisker)
+        slide = self.to_stage_vector(self.slide_whisker)
+        start = np.asarray(contact_stage_mm, float) + float(trials["slide_start_mm"]) * slide
+        end = start + float(trials["travel_mm"]) * slide
+        back = -float(trials["retract_mm"]) * push
+        return {"retracted_start": start + back, "slide_start": start + depth_mm * push,
+                "slide_end": end + depth_mm * push, "retracted_end": end + back}

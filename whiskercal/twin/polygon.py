@@ -1,0 +1,179 @@
+"""Frictionless contact with a convex polygon: a corner on the shaft, the tip on an edge, or the
+tip on a corner (the force anywhere inside the corner's cone of normals).
+
+Each pose is solved by following the contact the last pose had; when that state stops being
+physical (the wire would cut into the polygon, the force would pull, the tip would leave its
+edge) the other candidates are tried from the same starting state and the physical one is kept.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from whiskercal.errors import UsageError
+from whiskercal.twin import elastica as el
+from whiskercal.twin.contacts import (PATH_STEP, base_params, check_whisker, circle_params,
+                                      free, make_equilibrium, solve_kind)
+from whiskercal.twin.scenes import Polygon
+from whiskercal.twin.whisker import Equilibrium
+
+SHAPE_NODES = 64
+DEPTH_TOL_MM = 1e-6
+# A candidate is (code, index): a corner on the shaft, the tip on an edge, the tip on a corner.
+
+
+def _params(whisker, polygon: Polygon, code: int, index: int) -> np.ndarray:
+    vertices = polygon.vertices_mm
+    if code == el.SHAFT_CIRCLE:
+        return circle_params(whisker, vertices[index], 0.0, polygon.side)
+    p = base_params(whisker)
+    if code == el.TIP_LINE:
+        normal = polygon.outward_normals[index]
+        p[el.P_NX], p[el.P_NY] = normal
+        p[el.P_OFFSET] = normal @ vertices[index] / whisker.length_mm
+    else:
+        p[el.P_AX], p[el.P_AY] = vertices[index] / whisker.length_mm
+    return p
+
+
+def _candidates(polygon: Polygon):
+    k = len(polygon.vertices_mm)
+    for index in range(k):
+        yield el.SHAFT_CIRCLE, index
+        yield el.TIP_LINE, index
+        yield el.TIP_POINT, index
+
+
+def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
+    """Pushing force, contact where it claims to be, and no part of the wire inside."""
+    moment, fx, fy, arc = el.unpack(code, z, p)
+    force = np.array([fx, fy])
+    normals = polygon.outward_normals
+    _, _, th, tip_x, tip_y = el.end_state(code, z, p, el.DEFAULT_STEPS)
+    if code == el.SHAFT_CIRCLE:
+        across = polygon.side * np.array([math.sin(th), -math.cos(th)])
+        if not (0.0 < arc <= 1.0 and force @ across > 0.0):
+            return False
+    elif code == el.TIP_LINE:
+        tip = np.array([tip_x, tip_y]) * whisker.length_mm
+        start, end = polygon.vertices_mm[index], np.roll(polygon.vertices_mm, -1, axis=0)[index]
+        along = (tip - start) @ (end - start) / ((end - start) @ (end - start))
+        if not (force @ normals[index] > 0.0 and 0.0 <= along <= 1.0):
+            return False
+    else:
+        pair = np.column_stack([normals[index - 1], normals[index]])
+        weights = np.linalg.solve(pair, force)
+        if np.any(weights < 0.0) or not np.any(weights > 0.0):
+            return False
+    points = el.shape(code, z, p, el.DEFAULT_STEPS, SHAPE_NODES)[1:] * whisker.length_mm
+    return bool(np.all(polygon.depth_mm(points) <= DEPTH_TOL_MM * whisker.length_mm))
+
+
+def _solve_pose(whisker, polygon: Polygon, state):
+    """From state (code, index, z): the physical state at this pose, or None."""
+    code, index, z = state
+    order = [(code, index)] + [c for c in _candidates(polygon) if c != (code, index)]
+    for cand_code, cand_index in order:
+        p = _params(whisker, polygon, cand_code, cand_index)
+        start = np.append(z[:3], z[3] if len(z) > 3 else 0.999) \
+            if cand_code == el.SHAFT_CIRCLE else z[:3]
+        z_new, ok = solve_kind(cand_code, start, p)
+        if ok and _physical(whisker, polygon, cand_code, cand_index, z_new, p):
+            return cand_code, cand_index, z_new
+    return None
+
+
+def _first_touch(whisker, polygon: Polygon):
+    """Shift (mm, along side·y) at which the polygon first touches the undeflected wire, and
+    the starting state there; None when the polygon does not overlap the wire."""
+    side, clamp, reach = polygon.side, whisker.root_offset_mm, whisker.reach_mm
+    vertices = polygon.vertices_mm
+    depth_on_axis = polygon.depth_mm(np.column_stack([np.linspace(clamp, reach, 400),
+                                                      np.zeros(400)]))
+    if np.all(depth_on_axis <= 0.0):
+        return None
+    inside = (vertices[:, 0] > clamp) & (vertices[:, 0] < reach)
+    lowest = np.where(inside, side * vertices[:, 1], np.inf)
+    # of corners equally low (a flat face), the one nearest the root keeps the contact as
+    # the whisker turns away
+    tied = np.flatnonzero(lowest <= np.min(lowest) + 1e-9)
+    index = int(tied[np.argmin(vertices[tied, 0])])
+    edge_y = _edge_heights_at(vertices, reach)
+    tip_low = min((side * y for y in edge_y), default=np.inf)
+    if tip_low < lowest[index]:
+        edge = int(np.argmin([abs(side * y - tip_low) for y in edge_y]))
+        return -tip_low, (el.TIP_LINE, _edge_index_at(vertices, reach)[edge], np.zeros(3))
+    if not np.isfinite(lowest[index]):
+        raise UsageError("the polygon meets the whisker only at its rigid root stub.")
+    arc = (vertices[index, 0] - clamp) / whisker.length_mm
+    return -lowest[index], (el.SHAFT_CIRCLE, index, np.array([0.0, 0.0, 0.0, arc]))
+
+
+def _edge_index_at(vertices, x):
+    following = np.roll(vertices, -1, axis=0)
+    return [i for i in range(len(vertices))
+            if (vertices[i, 0] - x) * (following[i, 0] - x) < 0.0]
+
+
+def _edge_heights_at(vertices, x):
+    following = np.roll(vertices, -1, axis=0)
+    heights = []
+    for i in _edge_index_at(vertices, x):
+        t = (x - vertices[i, 0]) / (following[i, 0] - vertices[i, 0])
+        heights.append(vertices[i, 1] + t * (following[i, 1] - vertices[i, 1]))
+    return heights
+
+
+def _shifted(polygon: Polygon, shift_mm: float) -> Polygon:
+    return Polygon(polygon.vertices_mm + np.array([0.0, polygon.side * shift_mm]), polygon.side)
+
+
+def _advance(whisker, polygon: Polygon, state, shift_from: float, shift_to: float,
+             halvings: int = 5):
+    """Move the polygon from one shift to the next, halving the move where no physical state
+    is found; the new state, or None when the contact is lost even over the smallest move."""
+    found = _solve_pose(whisker, _shifted(polygon, shift_to), state)
+    if found is not None or halvings == 0:
+        return found
+    middle = 0.5 * (shift_from + shift_to)
+    half = _advance(whisker, polygon, state, shift_from, middle, halvings - 1)
+    return None if half is None else _advance(whisker, polygon, half, middle, shift_to,
+                                              halvings - 1)
+
+
+def _path(whisker, polygon: Polygon):
+    touch = _first_touch(whisker, polygon)
+    if touch is None:
+        return None
+    shift, state = touch
+    n_steps = max(2, int(math.ceil(shift / whisker.length_mm / PATH_STEP)))
+    shifts = np.linspace(shift, 0.0, n_steps + 1)
+    for shift_from, shift_to in zip(shifts[:-1], shifts[1:]):
+        state = _advance(whisker, polygon, state, shift_from, shift_to)
+        if state is None:
+            return None
+    return state
+
+
+def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
+                  ) -> Equilibrium:
+    """Equilibrium against a frictionless convex polygon (see the module's docstring).
+
+    Without a usable `previous` the polygon is brought in along -side·y from where it first
+    touches the undeflected whisker. Returns kind "shaft", "tip" or "free".
+    """
+    check_whisker(whisker)
+    state = None
+    if previous is not None and previous.solution and len(previous.solution) > 3:
+        code, z, _, index = previous.solution
+        state = _solve_pose(whisker, polygon, (code, index, z))
+    if state is None:
+        state = _path(whisker, polygon)
+    if state is None:
+        return free(whisker)
+    code, index, z = state
+    p = _params(whisker, polygon, code, index)
+    eq = make_equilibrium(whisker, "shaft" if code == el.SHAFT_CIRCLE else "tip", code, z, p)
+    return Equilibrium(**{**eq.__dict__, "solution": eq.solution + (index,)})

@@ -1,0 +1,196 @@
+"""Obstacles the whisker meets, in the whisker frame (mm, rad): a sliding plane, circles, polygons.
+
+Obstacles are immutable; moving one means making a new one (``dataclasses.replace``). The side
+an obstacle comes from decides which way it wraps the whisker: ``side = +1`` is an obstacle on
+the whisker's +y side pushing it toward -y, as the calibration rod and the study plane do.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from whiskercal.errors import UsageError
+
+# PLA against a nitinol wire's end: dry polymer-on-metal friction is 0.2-0.4; the static and
+# kinetic values were then tuned with the study sweep in docs/twin.md ("Mechanics").
+DEFAULT_MU_STATIC = 0.30
+DEFAULT_MU_KINETIC = 0.22
+# The study's plane: its normal tilted about 20° from the whisker axis (reference/README.md).
+DEFAULT_PLANE_TILT_RAD = math.radians(20.0)
+# The study's stage moves the plane toward -tangent (the tip is dragged toward +y): with it the
+# defaults slip into tangential contact at 45 mm (docs/twin.md, "Mechanics").
+STUDY_MOTION_SIGN = -1
+
+
+def finite_point(name: str, value) -> np.ndarray:
+    """`value` as a float array of shape (2,), or a UsageError naming `name`."""
+    try:
+        point = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise UsageError(f"{name} must be two finite numbers (mm), got {value!r}.") from None
+    if point.shape != (2,) or not np.all(np.isfinite(point)):
+        raise UsageError(f"{name} must be two finite numbers (mm), got {value!r}.")
+    return point
+
+
+def finite_number(name: str, value, minimum: float = -math.inf) -> float:
+    """`value` as a finite float >= `minimum`, or a UsageError naming `name`."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise UsageError(f"{name} must be a number, got {value!r}.") from None
+    if not math.isfinite(number) or number < minimum:
+        raise UsageError(f"{name} must be a finite number >= {minimum:g}, got {value!r}.")
+    return number
+
+
+def _check_side(side) -> int:
+    if side not in (1, -1):
+        raise UsageError(f"side must be +1 or -1, got {side!r}.")
+    return int(side)
+
+
+@dataclass(frozen=True)
+class Plane:
+    """A flat surface that the stage slides along itself, with Coulomb friction.
+
+    Attributes
+    ----------
+    point_mm : ndarray, shape (2,)
+        A point of the surface when `slide_mm` is 0.
+    normal_rad : float
+        Direction of the outward normal (pointing from the surface toward the whisker).
+    slide_mm : float
+        How far the stage has moved the surface along its tangent, (-sin, cos) of `normal_rad`.
+    mu_static, mu_kinetic : float
+        Coulomb coefficients at the whisker's tip (static >= kinetic).
+    motion_sign : int
+        +1 when the stage moves the surface toward +tangent, -1 otherwise; a solve without
+        history assumes steady sliding in this direction.
+    """
+
+    point_mm: np.ndarray
+    normal_rad: float
+    slide_mm: float = 0.0
+    mu_static: float = DEFAULT_MU_STATIC
+    mu_kinetic: float = DEFAULT_MU_KINETIC
+    motion_sign: int = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "point_mm", finite_point("plane point_mm", self.point_mm))
+        finite_number("plane normal_rad", self.normal_rad)
+        finite_number("plane slide_mm", self.slide_mm)
+        finite_number("mu_kinetic", self.mu_kinetic, 0.0)
+        if finite_number("mu_static", self.mu_static, 0.0) < self.mu_kinetic:
+            raise UsageError("mu_static must be at least mu_kinetic.")
+        _check_side(self.motion_sign)
+
+    @cached_property
+    def normal(self) -> np.ndarray:
+        """Outward unit normal."""
+        return np.array([math.cos(self.normal_rad), math.sin(self.normal_rad)])
+
+    @cached_property
+    def tangent(self) -> np.ndarray:
+        """Unit tangent, the normal turned by +90°; `slide_mm` is measured along it."""
+        return np.array([-math.sin(self.normal_rad), math.cos(self.normal_rad)])
+
+    @cached_property
+    def offset_mm(self) -> float:
+        """n·p for every point p of the surface (sliding does not change it)."""
+        return float(self.normal @ self.point_mm)
+
+    def material_point_mm(self, anchor_mm: float) -> np.ndarray:
+        """Where the surface point with plane coordinate `anchor_mm` is now."""
+        return self.point_mm + (anchor_mm + self.slide_mm) * self.tangent
+
+    def anchor_of(self, point_mm: np.ndarray) -> float:
+        """The plane coordinate (in the moving surface's own frame) of a point on it."""
+        return float(self.tangent @ (np.asarray(point_mm) - self.point_mm) - self.slide_mm)
+
+
+@dataclass(frozen=True)
+class Circle:
+    """A circular obstacle (a rod seen from above), frictionless.
+
+    Attributes
+    ----------
+    center_mm : ndarray, shape (2,)
+    radius_mm : float
+    side : int
+        +1: it comes from the whisker's +y side and pushes toward -y; -1 the other way.
+    """
+
+    center_mm: np.ndarray
+    radius_mm: float
+    side: int = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "center_mm", finite_point("circle center_mm", self.center_mm))
+        finite_number("radius_mm", self.radius_mm, 0.0)
+        _check_side(self.side)
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """A convex polygon obstacle, frictionless; vertices in counter-clockwise order (mm)."""
+
+    vertices_mm: np.ndarray
+    side: int = 1
+
+    def __post_init__(self) -> None:
+        vertices = np.asarray(self.vertices_mm, dtype=float)
+        if vertices.ndim != 2 or vertices.shape[1] != 2 or len(vertices) < 3:
+            raise UsageError("a polygon needs at least three (x, y) vertices in mm.")
+        if not np.all(np.isfinite(vertices)):
+            raise UsageError("polygon vertices must be finite numbers (mm).")
+        edges = np.roll(vertices, -1, axis=0) - vertices
+        turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] \
+            - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+        if np.any(turns <= 0):
+            raise UsageError("polygon vertices must be convex and counter-clockwise.")
+        object.__setattr__(self, "vertices_mm", vertices)
+        _check_side(self.side)
+
+    @property
+    def outward_normals(self) -> np.ndarray:
+        """Unit outward normal of each edge i (from vertex i to i+1), shape (k, 2)."""
+        edges = np.roll(self.vertices_mm, -1, axis=0) - self.vertices_mm
+        normals = np.column_stack([edges[:, 1], -edges[:, 0]])
+        return normals / np.linalg.norm(normals, axis=1, keepdims=True)
+
+    def depth_mm(self, points_mm: np.ndarray) -> np.ndarray:
+        """How far each point lies inside the polygon (negative outside), shape (n,)."""
+        normals = self.outward_normals
+        offsets = np.einsum("ij,ij->i", normals, self.vertices_mm)
+        return np.min(offsets[None, :] - points_mm @ normals.T, axis=1)
+
+
+def regular_polygon(center_mm, circumradius_mm: float, n_sides: int,
+                    rotation_rad: float = 0.0, side: int = 1) -> Polygon:
+    """A regular polygon (an octagon for the contour scenes) around `center_mm`."""
+    angles = rotation_rad + 2 * np.pi * np.arange(n_sides) / n_sides
+    center = finite_point("center_mm", center_mm)
+    radius = finite_number("circumradius_mm", circumradius_mm, 0.0)
+    return Polygon(center + radius * np.column_stack([np.cos(angles), np.sin(angles)]), side)
+
+
+def plane_for_depth(whisker, depth_mm: float, slide_mm: float = 0.0,
+                    tilt_rad: float = DEFAULT_PLANE_TILT_RAD, **friction) -> Plane:
+    """The study's plane pushed `depth_mm` past the undeflected tip along its normal.
+
+    The outward normal points back toward the root, tilted `tilt_rad` toward -y from the
+    whisker's axis, so pressing on the tip pushes the whisker toward -y. At depth 0 the surface
+    touches the undeflected tip. `friction` passes mu_static, mu_kinetic, motion_sign to `Plane`
+    (motion_sign defaults to the study's, `STUDY_MOTION_SIGN`).
+    """
+    friction.setdefault("motion_sign", STUDY_MOTION_SIGN)
+    depth = finite_number("depth_mm", depth_mm)
+    normal_rad = math.pi + finite_number("tilt_rad", tilt_rad)
+    normal = np.array([math.cos(normal_rad), math.sin(normal_rad)])
+    tip = np.array([whisker.reach_mm, 0.0])
+    return Plane(tip + depth * normal, normal_rad, finite_number("slide_mm", slide_mm), **friction)

@@ -1,0 +1,290 @@
+"""pyserial's ``sim://`` handler: the twin's boards as serial ports, in-process.
+
+``serial.serial_for_url("sim://NAME/stage")`` and ``.../sensor`` open the two boards of the
+world NAME (made on first use from the URL's options, or beforehand with
+``twin.world.create_world``). Reading with a timeout advances the world's simulated clock to
+the moment the requested bytes exist, or by the timeout, so code that waits by reading runs
+as fast as the CPU allows. Each port exposes ``.world`` (ground truth) and ``now_s()``.
+
+Opening a port resets its board, as opening an Arduino's USB port does (the banner again; the
+stage forgets its homing). The host side has a 4 KiB receive buffer: bytes that arrive while it
+is full are lost, as with a real OS driver.
+
+URL options are documented in docs/twin.md ("Simulated rig and sim:// URLs").
+"""
+
+from __future__ import annotations
+
+import math
+import urllib.parse
+
+import serial
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+
+from whiskercal.twin.world import World, create_world, get_world
+
+RECEIVE_BUFFER_BYTES = 4096
+_MIN_STEP_S = 1e-7
+_WORLD_OPTIONS = ("scene", "rod_radius", "seed", "stock", "corrupt", "drop", "speed", "sensor",
+                  "backlash", "drift_ppm", "fault")
+_STAGE_FAULTS = {"missed_steps": "missed_steps_at_s", "stall": "stall_at_s",
+                 "encoder_magnet": "encoder_magnet_at_s", "encoder_bus": "encoder_bus_at_s"}
+
+if "whiskercal.rig" not in serial.protocol_handler_packages:
+    serial.protocol_handler_packages.append("whiskercal.rig")
+
+
+def parse_sim_url(url: str) -> tuple[str, str, dict[str, list[str]]]:
+    """``sim://NAME/BOARD?options`` -> (NAME, BOARD, options); raises ``SerialException``."""
+    parts = urllib.parse.urlsplit(url)
+    board = parts.path.strip("/")
+    if parts.scheme != "sim" or not parts.netloc or board not in ("stage", "sensor"):
+        raise SerialException(f"expected sim://NAME/stage or sim://NAME/sensor, got {url!r}")
+    options = urllib.parse.parse_qs(parts.query, keep_blank_values=True)
+    unknown = set(options) - set(_WORLD_OPTIONS)
+    if unknown:
+        raise SerialException(f"unknown sim:// option(s) {', '.join(sorted(unknown))}; "
+                              f"known: {', '.join(_WORLD_OPTIONS)}")
+    return parts.netloc, board, options
+
+
+def _faults(options: dict[str, list[str]]) -> list[tuple[str, float, str]]:
+    """``fault=name@time[:argument]`` entries (comma-separated or repeated)."""
+    faults = []
+    for entry in ",".join(options.get("fault", [])).split(","):
+        if not entry:
+            continue
+        name, _, rest = entry.partition("@")
+        when, _, argument = rest.partition(":")
+        if name not in (*_STAGE_FAULTS, "disconnect") or not when:
+            raise SerialException(f"bad fault {entry!r}; use NAME@SECONDS with NAME one of "
+                                  f"{', '.join((*_STAGE_FAULTS, 'disconnect'))}")
+        faults.append((name, float(when), argument))
+    return faults
+
+
+def world_from_options(name: str, board: str, options: dict[str, list[str]]) -> World:
+    """Create the world ``name`` from URL options (see docs/twin.md)."""
+    from whiskercal.twin.stage import StageFaults
+    from whiskercal.twin.virtual_sensor import SensorFaults
+
+    def value(key, default):
+        return options.get(key, [default])[-1]
+
+    stage_faults, sensor_faults = StageFaults(), SensorFaults(float(value("corrupt", 0)),
+                                                              float(value("drop", 0)))
+    for fault, when, argument in _faults(options):
+        if fault == "disconnect":
+            continue  # a property of the port that names it, see Serial.open
+        setattr(stage_faults, _STAGE_FAULTS[fault], when)
+        if fault == "missed_steps" and argument:
+            stage_faults.missed_steps_mm = float(argument)
+    sensor = None
+    if "sensor" in options:
+        from whiskercal.twin.params import sensor_by_id
+
+        sensor = sensor_by_id(value("sensor", ""))
+    world = create_world(name, scene=value("scene", "rod"), sensor=sensor, seed=int(value("seed", 0)),
+                         rod_radius_mm=float(value("rod_radius", 1.5)), stock=value("stock", "0") == "1",
+                         speed=float(value("speed", 0)), backlash_mm=float(value("backlash", 0.02)),
+                         clock_drift_ppm=float(value("drift_ppm", 0)), stage_faults=stage_faults,
+                         sensor_faults=sensor_faults)
+    world.url_options = _world_level(options)
+    return world
+
+
+def _world_level(options: dict[str, list[str]]) -> dict[str, list[str]]:
+    kept = {k: v for k, v in options.items() if k != "fault"}
+    world_faults = [f"{n}@{w}:{a}" for n, w, a in _faults(options) if n != "disconnect"]
+    if world_faults:
+        kept["fault"] = world_faults
+    return kept
+
+
+class Serial(SerialBase):
+    """A serial port onto one board of a simulated world."""
+
+    def open(self) -> None:
+        if self._port is None:
+            raise SerialException("port must be configured before it can be used")
+        if self.is_open:
+            raise SerialException("port is already open")
+        name, board, options = parse_sim_url(self.portstr)
+        world = get_world(name)
+        if world is None:
+            world = world_from_options(name, board, options)
+        elif _world_level(options) and _world_level(options) != getattr(world, "url_options", None):
+            raise SerialException(f"sim world {name!r} already exists with other options; "
+                                  "give the options on the first port only")
+        self.world = world
+        self.board_kind = board
+        self.board = world.stage_board if board == "stage" else world.sensor_board
+        self.disconnect_at_s = next((w for n, w, _ in _faults(options) if n == "disconnect"), math.inf)
+        if board == "sensor" and self.disconnect_at_s < math.inf:
+            world.sensor_board.faults.disconnect_at_s = self.disconnect_at_s
+        self._rx = bytearray()
+        self.overrun_bytes = 0
+        with world.lock:
+            if getattr(self.board, "opened_before", False):
+                self.board.power_up(world.now_s)  # opening the USB port resets an Arduino
+            self.board.opened_before = True
+        self.is_open = True
+
+    def from_url(self, url: str) -> str:
+        parse_sim_url(url)
+        return url
+
+    def close(self) -> None:
+        self.is_open = False
+
+    def _reconfigure_port(self) -> None:
+        """Baud rate and framing do not matter to a simulated line."""
+
+    # -- time and bytes ---------------------------------------------------------------------
+    def now_s(self) -> float:
+        """The world's simulated time, s (clients measure their timeouts on it)."""
+        return self.world.now_s
+
+    def _check(self) -> None:
+        if not self.is_open:
+            raise PortNotOpenError()
+        if self.world.now_s >= self.disconnect_at_s:
+            raise SerialException(f"device reports readiness to read but returned no data "
+                                  f"(device disconnected or multiple access on port?) "
+                                  f"[sim: {self.board_kind} unplugged at t={self.disconnect_at_s:g} s]")
+
+    def _deliver(self) -> None:
+        arrived = self.board.line.receive(self.world.now_s)
+        room = RECEIVE_BUFFER_BYTES - len(self._rx)
+        self._rx += arrived[:room]
+        self.overrun_bytes += max(len(arrived) - room, 0)
+
+    def _next_arrival_s(self) -> float | None:
+        times = [x for x in (self.board.line.next_arrival_s(), self.board.next_event_s()) if x is not None]
+        return min(times) if times else None
+
+    @property
+    def in_waiting(self) -> int:
+        with self.world.lock:
+            self._check()
+            self._deliver()
+            return len(self._rx)
+
+    def read(self, size: int = 1) -> bytes:
+        """Up to ``size`` bytes; waits (in simulated time) up to ``timeout`` s for all of them."""
+        with self.world.lock:
+            self._check()
+            deadline = math.inf if self.timeout is None else self.world.now_s + self.timeout
+            data = bytearray()
+            while True:
+                # a blocked read takes bytes as they come, so only an idle host overruns
+                self._deliver()
+                chunk = self._rx[:size - len(data)]
+                data += chunk
+                del self._rx[:len(chunk)]
+                if len(data) >= size:
+                    break
+                target = min(self._next_arrival_s() or math.inf, deadline, self.disconnect_at_s)
+                if target == math.inf:
+                    break  # nothing will ever arrive: do not hang a blocking read
+                if target <= self.world.now_s and target == deadline:
+                    break
+                self.world.advance_to(max(target, self.world.now_s + _MIN_STEP_S))
+                self._check()
+            return bytes(data)
+
+    def write(self, data: bytes) -> int:
+        """Hand bytes to the board at the current simulated time."""
+        with self.world.lock:
+            self._check()
+            self.board.receive(bytes(data), self.world.now_s)
+            return len(data)
+
+    def reset_input_buffer(self) -> None:
+        with self.world.lock:
+            self._check()
+            self._deliver()
+            self._rx.clear()
+
+    def reset_output_buffer(self) -> None:
+        """Writes reach the board at once: nothing to flush."""
+
+    def flush(self) -> None:
+        """Writes reach the board at once: nothing to wait for."""
+
+
+class PtyBridge:
+    """A world's two boards on pseudo-terminals, paced against real time (``sim serve``).
+
+    Any serial tool can open :attr:`paths` (``stage``, ``sensor``). The slave ends stay open
+    here so that the terminals survive clients coming and going; they are in raw mode so that
+    no byte is echoed or translated.
+    """
+
+    def __init__(self, world: World, speed: float = 1.0) -> None:
+        import os
+        import tty
+
+        if speed <= 0:
+            raise ValueError("a pty bridge runs against real time: speed must be > 0")
+        self.world = world
+        world.clock.speed = speed
+        self._ends: dict[str, tuple[int, int]] = {}
+        self.paths: dict[str, str] = {}
+        for kind in ("stage", "sensor"):
+            master, slave = os.openpty()
+            tty.setraw(slave)
+            os.set_blocking(master, False)
+            self._ends[kind] = (master, slave)
+            self.paths[kind] = os.ttyname(slave)
+        self.dropped_bytes = 0
+
+    def _boards(self):
+        return (("stage", self.world.stage_board), ("sensor", self.world.sensor_board))
+
+    def pump_once(self, wait_s: float = 0.001) -> None:
+        """Move simulated time to the wall clock's and carry bytes both ways."""
+        import os
+        import select
+
+        masters = [self._ends[kind][0] for kind, _ in self._boards()]
+        readable, _, _ = select.select(masters, [], [], wait_s)
+        with self.world.lock:
+            self.world.advance_to(self.world.clock.paced_now_s())
+            now = self.world.now_s
+            for kind, board in self._boards():
+                master = self._ends[kind][0]
+                if master in readable:
+                    try:
+                        board.receive(os.read(master, 4096), now)
+                    except OSError:
+                        pass  # no client on the other end right now
+                outgoing = board.line.receive(now)
+                if outgoing:
+                    self._write(master, outgoing)
+
+    def _write(self, master: int, data: bytes) -> None:
+        import os
+
+        try:
+            written = os.write(master, data)
+        except (BlockingIOError, OSError):
+            written = 0
+        self.dropped_bytes += len(data) - written  # a full pty buffer loses bytes, as a UART would
+
+    def serve(self, stop) -> None:
+        """Pump until ``stop()`` returns True."""
+        while not stop():
+            self.pump_once()
+
+    def close(self) -> None:
+        """Close both terminals."""
+        import os
+
+        for master, slave in self._ends.values():
+            for fd in (master, slave):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+        self._ends.clear()

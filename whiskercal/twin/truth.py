@@ -1,0 +1,240 @@
+"""Ground truth the real rig never has: noise-free z for any pose and the true tip for a given z.
+
+z is the sensor's Y reading minus its static (no-contact) Y reading, in µT, noise-free and not
+quantized. The tip curve is z against the true tip for a frictionless contact at the very tip:
+the touch rod (radius `TIP_ROD_RADIUS_MM`) is placed at each step so that it meets the wire
+exactly at its end, with its surface tangent to the wire there, so the contact force stands
+perpendicular to the wire at the tip. Each sample is one `mechanics.solve_rod` equilibrium; the
+rod's position for a wanted slope of the wire at its tip is found by a small Newton iteration.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from whiskercal.errors import UsageError
+from whiskercal.twin import mechanics
+from whiskercal.twin.magnet import field_uT
+from whiskercal.twin.params import SensorParams
+from whiskercal.twin.whisker import Equilibrium, WhiskerParams
+
+TIP_ROD_RADIUS_MM = 1.0
+# Far enough that the default sensor reads beyond -12000 µT; its root rotation saturates near here.
+MAX_TIP_SLOPE_RAD = 1.9
+_SLOPE_TOL_RAD = 1e-9
+_TIP_OFFSET_TOL_MM = 1e-6
+_MAX_NEWTON = 20
+_MAX_STEP_MM = 3.0
+
+
+def static_field_uT(sensor: SensorParams) -> np.ndarray:
+    """Noise-free field at the sensor with the whisker free, sensor axes (X, Y, Z), µT (3,)."""
+    free = mechanics.free(sensor.whisker)
+    return field_uT(sensor.magnet, free.root_rotation_rad, free.root_shift_mm)
+
+
+def z_of_pose(sensor: SensorParams, root_rotation_rad, root_shift_mm) -> np.ndarray:
+    """Noise-free deflection measurement z for suspension poses, µT.
+
+    Parameters
+    ----------
+    sensor : SensorParams
+    root_rotation_rad : array_like, shape (...)
+    root_shift_mm : array_like, shape (..., 2)
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Y field minus the static Y field.
+    """
+    field = field_uT(sensor.magnet, root_rotation_rad, root_shift_mm)
+    return field[..., 1] - static_field_uT(sensor)[1]
+
+
+def z_of_equilibrium(sensor: SensorParams, equilibrium: Equilibrium) -> float:
+    """Noise-free z (µT) of one mechanics equilibrium."""
+    return float(z_of_pose(sensor, equilibrium.root_rotation_rad, equilibrium.root_shift_mm))
+
+
+@dataclass(frozen=True)
+class TipSweep:
+    """Equilibria with a frictionless contact at the tip, by increasing tip slope magnitude.
+
+    Attributes
+    ----------
+    tip_slope_rad : ndarray, shape (n,)
+        Direction of the wire at its tip (0 undeflected, negative when pushed to -y).
+    root_rotation_rad : ndarray, shape (n,)
+    root_shift_mm : ndarray, shape (n, 2)
+    tip_mm : ndarray, shape (n, 2)
+    rod_center_mm : ndarray, shape (n, 2)
+        Where the rod stood for each sample (its surface touches the tip).
+    """
+
+    tip_slope_rad: np.ndarray
+    root_rotation_rad: np.ndarray
+    root_shift_mm: np.ndarray
+    tip_mm: np.ndarray
+    rod_center_mm: np.ndarray
+
+
+def _tip_tangent(equilibrium: Equilibrium) -> np.ndarray:
+    """Unit tangent of the wire at its tip (the moment, hence curvature, vanishes there)."""
+    points = equilibrium.shape_mm(400)
+    chord = points[-1] - points[-2]
+    return chord / np.linalg.norm(chord)
+
+
+def _tip_per_tip_angle_mm(whisker: WhiskerParams) -> float:
+    """Small-load tip deflection per radian of tip slope (beam theory, compliant root)."""
+    reach, length, stiffness = whisker.reach_mm, whisker.length_mm, whisker.bending_stiffness_n_mm2
+    root_turn_per_n = reach / whisker.root_rotational_stiffness_n_mm_per_rad
+    deflection_per_n = root_turn_per_n * reach + length**3 / (3.0 * stiffness)
+    slope_per_n = root_turn_per_n + length**2 / (2.0 * stiffness)
+    return deflection_per_n / slope_per_n
+
+
+def _rod_residual(whisker, center, previous, target_angle):
+    """(equilibrium, residual): tip slope error (rad) and rod position past the tip (mm)."""
+    equilibrium = mechanics.solve_rod(whisker, center, TIP_ROD_RADIUS_MM, previous=previous)
+    if equilibrium.kind not in ("shaft", "tip"):
+        return equilibrium, None
+    tangent = _tip_tangent(equilibrium)
+    # Along the tip tangent: negative while the rod touches the shaft before the tip.
+    past_tip = float(tangent @ (center - equilibrium.tip_mm))
+    return equilibrium, np.array([np.arctan2(tangent[1], tangent[0]) - target_angle, past_tip])
+
+
+def _jacobian(whisker, center, previous, target, residual, step_mm=1e-3):
+    """Finite-difference Jacobian of `_rod_residual` with respect to the rod centre."""
+    columns = []
+    for axis in range(2):
+        moved = center.copy()
+        moved[axis] += step_mm
+        _, shifted = _rod_residual(whisker, moved, previous, target)
+        if shifted is None:
+            raise UsageError("the tip-contact sweep lost the contact while probing the rod position.")
+        columns.append((shifted - residual) / step_mm)
+    return np.column_stack(columns)
+
+
+def _damped_step(whisker, center, step, previous, target):
+    """Take the Newton step, halving it while the rod would lose the contact."""
+    step = step * min(1.0, _MAX_STEP_MM / np.linalg.norm(step))
+    for _ in range(8):
+        equilibrium, residual = _rod_residual(whisker, center + step, previous, target)
+        if residual is not None:
+            return step, equilibrium, residual
+        step = step / 2.0
+    raise UsageError(f"tip contact is lost before a tip slope of {target:.3f} rad.")
+
+
+def _place_rod(whisker, start, guess, previous, target, jacobian):
+    """Newton (Broyden updates) for the rod centre giving tip slope `target` with tip contact.
+
+    `start` is the last rod centre that held the contact; the first move goes from there toward
+    `guess`, shortened while the contact would be lost.
+    """
+    step, equilibrium, residual = _damped_step(whisker, start, guess - start, previous, target)
+    center = start + step
+    for _ in range(_MAX_NEWTON):
+        if abs(residual[0]) < _SLOPE_TOL_RAD and abs(residual[1]) < _TIP_OFFSET_TOL_MM:
+            return center, equilibrium, jacobian
+        if jacobian is None:
+            jacobian = _jacobian(whisker, center, previous, target, residual)
+        step, equilibrium, new_residual = _damped_step(
+            whisker, center, -np.linalg.solve(jacobian, residual), previous, target)
+        center = center + step
+        # Broyden's rank-one update keeps one solve per iteration.
+        jacobian = jacobian + np.outer(new_residual - residual - jacobian @ step, step) / (step @ step)
+        residual = new_residual
+    raise UsageError(f"the tip-contact sweep did not converge at a tip slope of {target:.3f} rad.")
+
+
+@functools.lru_cache(maxsize=16)
+def tip_contact_sweep(whisker: WhiskerParams, n: int, max_tip_slope_rad: float = MAX_TIP_SLOPE_RAD) -> TipSweep:
+    """Frictionless tip-contact equilibria at n tip slopes evenly spaced in [-max, 0].
+
+    The first sample is the free whisker. Raises UsageError if tip contact cannot be held that
+    far (the rod would slip off).
+    """
+    if n < 4:
+        raise UsageError(f"a tip curve needs at least 4 samples, got {n}.")
+    targets = -np.linspace(0.0, max_tip_slope_rad, n)
+    free = mechanics.free(whisker)
+    states, centers = [free], [np.array([whisker.reach_mm, TIP_ROD_RADIUS_MM])]
+    previous, jacobian = None, None
+    for target in targets[1:]:
+        if previous is not None:
+            # Extrapolate the rod's path from the last two samples, then move it 0.5 mm back
+            # along the tip tangent: onto the shaft, where the warm start cannot slip off.
+            guess = 2.0 * centers[-1] - centers[-2] - 0.5 * _tip_tangent(previous)
+        else:  # small-deflection beam theory
+            guess = np.array([whisker.reach_mm - 0.5, TIP_ROD_RADIUS_MM + _tip_per_tip_angle_mm(whisker) * target])
+        center, previous, jacobian = _place_rod(whisker, centers[-1], guess, previous, target, jacobian)
+        states.append(previous)
+        centers.append(center)
+    return TipSweep(
+        tip_slope_rad=targets,
+        root_rotation_rad=np.array([state.root_rotation_rad for state in states]),
+        root_shift_mm=np.array([state.root_shift_mm for state in states]),
+        tip_mm=np.array([state.tip_mm for state in states]),
+        rod_center_mm=np.array(centers),
+    )
+
+
+def tip_curve(sensor: SensorParams, n: int = 161) -> tuple[np.ndarray, np.ndarray]:
+    """Dense noise-free ground truth of z against the true tip for tip contact.
+
+    Parameters
+    ----------
+    sensor : SensorParams
+    n : int
+        Number of samples, evenly spaced in the wire's slope at the tip from the free whisker
+        to `MAX_TIP_SLOPE_RAD`.
+
+    Returns
+    -------
+    z_uT : ndarray, shape (n,)
+        Deflection measurement, from 0 down (more negative with more deflection).
+    tip_mm : ndarray, shape (n, 2)
+        The wire's tip in the whisker frame.
+    """
+    sweep = tip_contact_sweep(sensor.whisker, int(n))
+    return z_of_pose(sensor, sweep.root_rotation_rad, sweep.root_shift_mm), sweep.tip_mm.copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _tip_interpolant(sensor: SensorParams, n: int) -> tuple[CubicSpline, float]:
+    z, tip = tip_curve(sensor, n)
+    if np.any(np.diff(z) >= 0):
+        raise UsageError(f"z of sensor {sensor.sensor_id!r} is not monotonic in the deflection; "
+                         "its tip curve cannot be inverted.")
+    return CubicSpline(z[::-1], tip[::-1], axis=0), float(z[-1])
+
+
+def true_tip(sensor: SensorParams, z_uT, n: int = 161) -> np.ndarray:
+    """True tip (mm) for tip contact at deflection measurement z, interpolating `tip_curve`.
+
+    Parameters
+    ----------
+    sensor : SensorParams
+    z_uT : array_like, shape (...)
+        Must lie within [z at `MAX_TIP_SLOPE_RAD`, 0].
+    n : int
+        Samples of the underlying tip curve.
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+    """
+    spline, z_min = _tip_interpolant(sensor, int(n))
+    z = np.asarray(z_uT, dtype=float)
+    if np.any(~np.isfinite(z)) or np.any(z > 0.0) or np.any(z < z_min):
+        raise UsageError(f"z must lie within the tip curve's range [{z_min:.0f}, 0] µT "
+                         f"for sensor {sensor.sensor_id!r}.")
+    return spline(z)

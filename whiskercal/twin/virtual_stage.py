@@ -1,0 +1,403 @@
+"""The stage firmware of the twin: docs/protocol.md's grbl-style protocol over a simulated line.
+
+It answers exactly what ``firmware/stage_stepper`` answers: the banner, ``ok``/``error:N``,
+pushed ``ALARM:N``, realtime ``?``, ``!``, ``~`` and 0x18, ``$H``, ``$X``, ``$I``, ``$$``,
+``$N=v`` and G0/G1/G4/G90/G91/G21. In ``stock`` mode it behaves like plain grbl 1.1: no
+``Enc:`` field, no ``[PROTO:...]``, no encoder settings or alarms.
+
+Time comes from outside: ``receive(data, t)`` and ``advance_to(t)`` are called with
+non-decreasing simulated times; replies go into ``self.line`` with their transmission delay.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections import deque
+
+import numpy as np
+
+from whiskercal.twin.clock import SerialLine
+from whiskercal.twin.stage import ENCODER_CHECK_PERIOD_S, WHISKERCAL_SETTINGS, StageMechanics
+
+BANNER = "Grbl 1.1h ['$' for help]"
+PROTO = "whiskercal-stage-1"
+FIRMWARE_VERSION = "0.1.0"
+MAX_LINE_CHARS = 80
+PLANNER_BLOCKS = 15
+_WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
+_TRAVEL_EPS_MM = 1e-6
+_INTEGER_SETTINGS = (20, 22, 200)
+
+
+class GcodeError(Exception):
+    """A line refused with ``error:code``."""
+
+    def __init__(self, code: int) -> None:
+        super().__init__(code)
+        self.code = code
+
+
+def parse_words(line: str) -> list[tuple[str, float]]:
+    """Split a G-code line into (letter, value) words; malformed input raises ``GcodeError``."""
+    text = re.sub(r"\([^)]*\)|;.*$", "", line).replace(" ", "").upper()
+    words, position = [], 0
+    for match in _WORD.finditer(text):
+        if match.start() != position:
+            raise GcodeError(1 if not text[position].isalpha() else 2)
+        words.append((match.group(1), float(match.group(2))))
+        position = match.end()
+    if position != len(text):
+        raise GcodeError(2 if text[position].isalpha() else 1)
+    return words
+
+
+class VirtualStage:
+    """The stage board: protocol state machine on top of :class:`StageMechanics`.
+
+    Parameters
+    ----------
+    mechanics
+        The stage's motion and faults.
+    stock
+        Behave like plain grbl 1.1 (no encoders).
+    """
+
+    def __init__(self, mechanics: StageMechanics, stock: bool = False) -> None:
+        self.mech = mechanics
+        self.stock = stock
+        if stock:
+            for number in WHISKERCAL_SETTINGS:
+                self.mech.settings.pop(number, None)
+        self.line = SerialLine()
+        self._input = bytearray()
+        self._overflow = False
+        self._pending: deque[str | None] = deque()
+        self.alarm: int | None = None
+        self.homing_until_s: float | None = None
+        self.hold_stop_s: float | None = None
+        self._resume_requested = False
+        self._absolute = True
+        self._motion = 0
+        self._feed_mm_min: float | None = None
+        self._last_check_s = 0.0
+        self._faults_done: set[str] = set()
+        self._slipping = False  # a slip or stall happened since the last homing
+        self.now_s = 0.0
+        self._boot(0.0, moving=False, power_up=True)
+
+    # -- host bytes -------------------------------------------------------------------------
+    def receive(self, data: bytes, t: float) -> None:
+        """Bytes from the host arriving at time ``t``."""
+        self.advance_to(t)
+        for byte in data:
+            if byte in b"?!~\x18":
+                self._realtime(byte, t)
+            elif byte == 0x0A:
+                line = self._input.decode("ascii", errors="replace").strip("\r")
+                self._pending.append(None if self._overflow else line)
+                self._input.clear()
+                self._overflow = False
+                self._run_pending(t)
+            elif len(self._input) < MAX_LINE_CHARS:
+                self._input.append(byte)
+            else:
+                self._overflow = True  # grbl drops the rest and refuses the line
+
+    def power_up(self, t: float) -> None:
+        """Reset as at power-up: motion stops, the step counters restart at zero (homing lost)."""
+        self.advance_to(t)
+        self.mech.stop_now(t)
+        self.mech.home_offset_mm = self.mech.commanded_mm(t)
+        self.line.clear()
+        self.alarm, self.homing_until_s = None, None
+        self._boot(t, moving=False, power_up=True)
+
+    def _realtime(self, byte: int, t: float) -> None:
+        if byte == ord("?"):
+            self._send(self.status_report(t), t)
+        elif byte == ord("!") and self.state(t) == "Run":
+            self.hold_stop_s = self.mech.hold(t)
+        elif byte == ord("~") and self.hold_stop_s is not None:
+            self._resume_requested = True
+            self._finish_hold(t)
+        elif byte == 0x18:
+            self._boot(t, moving=self.mech.busy(t) or self.homing_until_s is not None)
+
+    def _boot(self, t: float, moving: bool, power_up: bool = False) -> None:
+        self.mech.stop_now(t)
+        self._pending.clear()
+        self._input.clear()
+        self.hold_stop_s, self._resume_requested = None, False
+        self._absolute, self._motion, self._feed_mm_min = True, 0, None
+        if moving:
+            self.homing_until_s = None
+            self._raise_alarm(3, t)
+        self._send(f"\r\n{BANNER}", t)
+        if self.alarm is None and self.mech.settings[22] and power_up:
+            self.alarm = 0  # locked after power-up until $H or $X, as grbl with homing enabled
+        if self.alarm is not None:
+            self._send("[MSG:'$H'|'$X' to unlock]", t)
+
+    def _send(self, text: str, t: float) -> None:
+        self.line.send((text + "\r\n").encode("ascii"), t)
+
+    # -- time -------------------------------------------------------------------------------
+    def next_event_s(self) -> float | None:
+        """The next time the board will act on its own (finish homing, alarm, take a line)."""
+        times = [self._next_fault_s(), self._next_check_s()]
+        if self.homing_until_s is not None:
+            times.append(self.homing_until_s)
+        if self._resume_requested and self.hold_stop_s is not None:
+            times.append(self.hold_stop_s)
+        if self._pending and self.homing_until_s is None and self.mech.queue and not self.mech.paused:
+            times.append(self.mech.active_end_s())
+        times = [x for x in times if x is not None and x > self.now_s - 1e-12]
+        return min(times) if times else None
+
+    def advance_to(self, t: float) -> None:
+        """Run every internal event up to time ``t``."""
+        handled = None
+        while True:
+            event = self.next_event_s()
+            if event is None or event > t or event == handled:
+                break
+            handled = event
+            self._step(max(event, self.now_s))
+        self.mech.advance_to(t)
+        self.now_s = max(self.now_s, t)
+
+    def _step(self, t: float) -> None:
+        self.mech.advance_to(t)
+        self.now_s = t
+        if self.homing_until_s is not None and t >= self.homing_until_s:
+            self.homing_until_s = None
+            self.mech.finish_homing()
+            self.alarm = None
+            self._send("ok", t)
+        self._apply_faults(t)
+        self._check_encoders(t)
+        self._finish_hold(t)
+        self._run_pending(t)
+
+    def _finish_hold(self, t: float) -> None:
+        if self._resume_requested and self.hold_stop_s is not None and t >= self.hold_stop_s:
+            self.hold_stop_s, self._resume_requested = None, False
+            self.mech.resume(t)
+
+    # -- faults -----------------------------------------------------------------------------
+    def _fault_times(self) -> dict[str, float | None]:
+        faults = self.mech.faults
+        return {"missed_steps": faults.missed_steps_at_s, "stall": faults.stall_at_s,
+                "encoder_magnet": faults.encoder_magnet_at_s, "encoder_bus": faults.encoder_bus_at_s}
+
+    def _next_fault_s(self) -> float | None:
+        times = [when for name, when in self._fault_times().items()
+                 if when is not None and name not in self._faults_done]
+        return min(times) if times else None
+
+    def _apply_faults(self, t: float) -> None:
+        for name, when in self._fault_times().items():
+            if when is None or when > t or name in self._faults_done:
+                continue
+            self._faults_done.add(name)
+            if name in ("missed_steps", "stall"):
+                self._slipping = True
+                self._last_check_s = when
+            if name == "missed_steps":
+                self.mech.miss_steps(when, self.mech.faults.missed_steps_mm)
+            elif name == "stall":
+                self.mech.stall(when)
+        self._check_encoder_health(t)
+
+    def _encoders_on(self) -> bool:
+        return not self.stock and bool(self.mech.settings.get(200, 0))
+
+    def _check_encoder_health(self, t: float) -> None:
+        if not self._encoders_on() or self.alarm is not None:
+            return
+        if "encoder_bus" in self._faults_done:
+            self._raise_alarm(12, t)
+        elif "encoder_magnet" in self._faults_done:
+            self._raise_alarm(11, t)
+
+    def _next_check_s(self) -> float | None:
+        # encoder and step counters can only disagree after a slip or a stall
+        if not self._encoders_on() or self.alarm is not None or not self._slipping:
+            return None
+        return (math.floor(self._last_check_s / ENCODER_CHECK_PERIOD_S) + 1) * ENCODER_CHECK_PERIOD_S
+
+    def _check_encoders(self, t: float) -> None:
+        if self._next_check_s() is None or t < self._next_check_s():
+            return
+        self._last_check_s = t
+        if self.homing_until_s is not None:
+            return
+        disagreement = np.abs(self.mech.encoder_mm(t) - self.mech.machine_mm(t))
+        if np.max(disagreement) > self.mech.settings[202]:
+            self._raise_alarm(10, t)
+
+    def _raise_alarm(self, code: int, t: float) -> None:
+        self.mech.stop_now(t)
+        self.homing_until_s = None
+        self.hold_stop_s, self._resume_requested = None, False
+        self._pending.clear()
+        self.alarm = code
+        self._send(f"ALARM:{code}", t)
+
+    # -- state and status -------------------------------------------------------------------
+    def state(self, t: float) -> str:
+        """grbl state name at time ``t``."""
+        if self.alarm is not None:
+            return "Alarm"
+        if self.homing_until_s is not None:
+            return "Home"
+        if self.hold_stop_s is not None:
+            return "Hold:0" if t < self.hold_stop_s else "Hold:1"
+        return "Run" if self.mech.busy(t) else "Idle"
+
+    def status_report(self, t: float) -> str:
+        """The ``<...>`` status line at time ``t``."""
+        x, y = self.mech.machine_mm(t)
+        report = f"<{self.state(t)}|MPos:{x:.3f},{y:.3f},0.000|FS:{self.mech.speed_mm_min(t):.0f},0"
+        if self._encoders_on():
+            ex, ey = self.mech.encoder_mm(t)
+            report += f"|Enc:{ex:.3f},{ey:.3f}"
+        pins = self.mech.pins(t)
+        return report + (f"|Pn:{pins}" if pins else "") + ">"
+
+    # -- lines ------------------------------------------------------------------------------
+    def _run_pending(self, t: float) -> None:
+        while self._pending and self.homing_until_s is None:
+            if len(self.mech.queue) >= PLANNER_BLOCKS:
+                return  # grbl holds back the "ok" until the planner has room
+            line = self._pending.popleft()
+            try:
+                self._execute(line, t)
+            except GcodeError as error:
+                self._send(f"error:{error.code}", t)
+
+    def _execute(self, line: str | None, t: float) -> None:
+        if line is None:
+            raise GcodeError(11)
+        text = line.strip()
+        if text.startswith("$"):
+            self._system_command(text[1:].upper().replace(" ", ""), t)
+        elif text:
+            if self.alarm is not None:
+                raise GcodeError(9)
+            self._gcode(parse_words(text), t)
+            self._send("ok", t)
+        else:
+            self._send("ok", t)
+
+    def _system_command(self, command: str, t: float) -> None:
+        handlers = {"": self._help, "$": self._list_settings, "I": self._build_info,
+                    "X": self._unlock, "H": self._home}
+        if command in handlers:
+            handlers[command](t)
+        elif re.fullmatch(r"\d+=[-+]?[\d.]+", command):
+            self._set_setting(command, t)
+        else:
+            raise GcodeError(3)
+
+    def _help(self, t: float) -> None:
+        self._send("[HLP:$$ $I $N $x=val $X $H ~ ! ? ctrl-x]", t)
+        self._send("ok", t)
+
+    def _list_settings(self, t: float) -> None:
+        for number in sorted(self.mech.settings):
+            value = self.mech.settings[number]
+            text = f"{int(value)}" if number in _INTEGER_SETTINGS else f"{value:.3f}"
+            self._send(f"${number}={text}", t)
+        self._send("ok", t)
+
+    def _build_info(self, t: float) -> None:
+        if self.stock:
+            self._send("[VER:1.1h.20190825:]", t)
+            self._send("[OPT:V,15,128]", t)
+        else:
+            self._send(f"[VER:1.1h.{FIRMWARE_VERSION}:whiskercal-stage]", t)
+            self._send("[OPT:V,15,128]", t)
+            self._send(f"[PROTO:{PROTO}]", t)
+        self._send("ok", t)
+
+    def _unlock(self, t: float) -> None:
+        if self.alarm is not None:
+            self.alarm = None
+            self._send("[MSG:Caution: Unlocked]", t)
+        self._send("ok", t)
+        self._check_encoder_health(t)  # a fault that is still there locks again at once
+
+    def _home(self, t: float) -> None:
+        if not self.mech.settings[22]:
+            raise GcodeError(5)
+        self.alarm = None
+        self.hold_stop_s, self._resume_requested = None, False
+        self._slipping = False  # homing re-references steps and encoders
+        self.homing_until_s = self.mech.plan_homing(t)
+
+    def _set_setting(self, command: str, t: float) -> None:
+        number_text, value_text = command.split("=")
+        number, value = int(number_text), float(value_text)
+        if number not in self.mech.settings:
+            raise GcodeError(3)
+        if value < 0:
+            raise GcodeError(4)
+        if self.state(t) not in ("Idle", "Alarm"):
+            raise GcodeError(8)
+        self.mech.settings[number] = value
+        self._send("ok", t)
+
+    def _gcode(self, words: list[tuple[str, float]], t: float) -> None:
+        letters = [letter for letter, _ in words if letter != "G"]
+        if len(letters) != len(set(letters)):
+            raise GcodeError(25)
+        values = dict((letter, value) for letter, value in words if letter != "G")
+        if set(values) - set("XYZFPN"):
+            raise GcodeError(20)
+        motion, dwell = self._modal_words([value for letter, value in words if letter == "G"])
+        if "F" in values:
+            if values["F"] <= 0:
+                raise GcodeError(4)
+            self._feed_mm_min = values["F"]
+        if dwell:
+            self._dwell(values, t)
+        elif "X" in values or "Y" in values:
+            self._move(motion, values, t)
+
+    def _modal_words(self, codes: list[float]) -> tuple[int, bool]:
+        motions = [c for c in codes if c in (0, 1)]
+        if len(motions) > 1:
+            raise GcodeError(24)
+        dwell = False
+        for code in codes:
+            if code not in (0, 1, 4, 21, 90, 91):
+                raise GcodeError(20)
+            if code in (90, 91):
+                self._absolute = code == 90
+            dwell = dwell or code == 4
+        if motions:
+            self._motion = int(motions[0])
+        return self._motion, dwell
+
+    def _dwell(self, values: dict, t: float) -> None:
+        if "P" not in values:
+            raise GcodeError(28)
+        if values["P"] < 0:
+            raise GcodeError(4)
+        self.mech.queue_dwell(values["P"], t)
+
+    def _move(self, motion: int, values: dict, t: float) -> None:
+        if motion == 1 and self._feed_mm_min is None:
+            raise GcodeError(22)
+        start = self.mech.planned_end_mm() - self.mech.home_offset_mm
+        target = np.array([values.get("X", 0.0 if not self._absolute else start[0]),
+                           values.get("Y", 0.0 if not self._absolute else start[1])])
+        if not self._absolute:
+            target = start + target
+        travel = np.array([self.mech.settings[130], self.mech.settings[131]])
+        outside = np.any(target < -_TRAVEL_EPS_MM) or np.any(target > travel + _TRAVEL_EPS_MM)
+        if self.mech.settings[20] and outside:
+            raise GcodeError(15)
+        self.mech.queue_move(target, self._feed_mm_min if motion == 1 else None, t)
