@@ -28,3 +28,15 @@ bench: $(INSTALLED)
 
 clean:
 	rm -rf out build .pytest_cache
+
+# ---- firmware (firmware/Makefile has the details; docs/firmware.md the wiring and flashing) ----
+.PHONY: firmware-host-test
+
+firmware:
+	$(MAKE) -C firmware avr
+
+firmware-deps:
+	apt-get update && apt-get install -y gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev g++ make
+
+firmware-host-test:
+	$(MAKE) -C firmware host-test

@@ -26,8 +26,9 @@ enum : uint8_t {
 
 // Step timer: Timer1 at F_CPU / 8 = 2 MHz, so one tick is 0.5 µs.
 static const uint32_t STEP_TIMER_HZ = 2000000UL;
-// NOTE: the ISR takes ~15 µs with both axes stepping; keep its rate below 30 kHz.
-static const uint16_t STEP_PERIOD_MIN_TICKS = 67;
+// NOTE: the ISR takes up to 551 cycles (34 µs, simavr) plus the 3 µs pulse; at most 10 kHz keeps
+// it under 40% of the CPU, leaving the rest to the protocol, the planner and the encoders.
+static const uint16_t STEP_PERIOD_MIN_TICKS = 200;
 // Segments of 10 ms: velocity is updated 100 times a second (acceleration resolution).
 static const float SEGMENT_S = 0.010f;
 
@@ -42,6 +43,6 @@ static const float HOMING_SEARCH_FACTOR = 1.2f;
 static const uint32_t ENCODER_POLL_US = 5000UL;
 
 // Upper bound on the step rate that $100..$111 may ask for, steps/s.
-static const float STEP_RATE_MAX_HZ = 30000.0f;
+static const float STEP_RATE_MAX_HZ = 10000.0f;
 
 #endif

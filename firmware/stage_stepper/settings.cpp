@@ -84,7 +84,7 @@ bool settings_is_integer(uint16_t number) { return number == 20 || number == 22 
 
 // Address of the float behind $number, or 0 for flags and unknown numbers.
 static float* settings_float(settings_values& v, uint16_t number) {
-    uint8_t axis = number % 10;
+    uint8_t axis = (uint8_t)(number % 10);
     if (number >= 100 && number < 140 && axis < AXIS_COUNT) {
         switch (number / 10) {
             case 10: return &v.steps_per_mm[axis];

@@ -50,7 +50,7 @@ struct stepper_prep_state {
     bool hold;
     bool hold_reached;
 };
-static stepper_prep_state stepper_prep_state_;
+static stepper_prep_state stepper_prep_data;
 
 static uint8_t stepper_next_segment(uint8_t index) { return (uint8_t)((index + 1) % SEGMENT_BUFFER_SIZE); }
 
@@ -66,6 +66,19 @@ static float stepper_brake(float v0, float mm_remaining, float accel, stepper_se
     return v1;
 }
 
+// Accelerating or cruising, unless even cruising for a segment would leave too little room to
+// stop: then braking starts now.
+static float stepper_drive(float v0, float mm_remaining, float nominal, float accel, stepper_segment_plan& plan) {
+    // Fastest end speed v1 from which the stage can still stop in what is left after this
+    // segment: v1^2 <= 2 a (s - (v0 + v1) dt / 2), the positive root of that quadratic.
+    float a_dt = accel * SEGMENT_S;
+    float discriminant = a_dt * a_dt - 4.0f * (a_dt * v0 - 2.0f * accel * mm_remaining);
+    float cap = discriminant > 0.0f ? 0.5f * (-a_dt + sqrtf(discriminant)) : 0.0f;
+    if (v0 > 0.0f && cap < v0) return stepper_brake(v0, mm_remaining, accel, plan);
+    float target = nominal < cap ? nominal : cap;
+    return v0 < target ? fminf(v0 + a_dt, target) : fmaxf(v0 - a_dt, target);
+}
+
 stepper_segment_plan stepper_plan_segment(float v0, float mm_remaining, float nominal, float accel, bool hold) {
     stepper_segment_plan plan = {0.0f, 0.0f, SEGMENT_S, false, false};
     float v1;
@@ -77,17 +90,7 @@ stepper_segment_plan stepper_plan_segment(float v0, float mm_remaining, float no
             plan.stopped = true;
         }
     } else {
-        // Fastest end speed v1 from which the stage can still stop in what is left after this
-        // segment: v1^2 <= 2 a (s - (v0 + v1) dt / 2), the positive root of that quadratic.
-        float a_dt = accel * SEGMENT_S;
-        float discriminant = a_dt * a_dt - 4.0f * (a_dt * v0 - 2.0f * accel * mm_remaining);
-        float cap = discriminant > 0.0f ? 0.5f * (-a_dt + sqrtf(discriminant)) : 0.0f;
-        if (v0 > 0.0f && cap < v0) {
-            v1 = stepper_brake(v0, mm_remaining, accel, plan);
-        } else {
-            float target = nominal < cap ? nominal : cap;
-            v1 = v0 < target ? fminf(v0 + a_dt, target) : fmaxf(v0 - a_dt, target);
-        }
+        v1 = stepper_drive(v0, mm_remaining, nominal, accel, plan);
     }
     plan.mm = 0.5f * (v0 + v1) * plan.seconds;
     // NOTE: 1e-5 mm is far below a step (12.5 µm) and above float rounding of 200 mm.
@@ -113,8 +116,8 @@ void stepper_reset() {
     stepper_exec_active = false;
     stepper_speed = 0;
     stepper_limit_hits = 0;
-    stepper_prep_state_ = stepper_prep_state();
-    stepper_prep_state_.block_index = 0;
+    stepper_prep_data = stepper_prep_state();
+    stepper_prep_data.block_index = 0;
 }
 
 static bool stepper_load_block(stepper_prep_state& prep) {
@@ -189,7 +192,7 @@ static void stepper_prep_move(stepper_prep_state& prep) {
 }
 
 void stepper_prep() {
-    stepper_prep_state& prep = stepper_prep_state_;
+    stepper_prep_state& prep = stepper_prep_data;
     while (!prep.hold_reached && stepper_next_segment(stepper_segment_head) != stepper_segment_tail) {
         if (!prep.block && !stepper_load_block(prep)) break;
         if (prep.block->kind == BLOCK_DWELL) {
@@ -272,19 +275,19 @@ void stepper_isr() {
     }
 }
 
-void stepper_hold() { stepper_prep_state_.hold = true; }
+void stepper_hold() { stepper_prep_data.hold = true; }
 
 void stepper_resume() {
-    stepper_prep_state_.hold = false;
-    stepper_prep_state_.hold_reached = false;
+    stepper_prep_data.hold = false;
+    stepper_prep_data.hold_reached = false;
 }
 
-bool stepper_holding() { return stepper_prep_state_.hold; }
+bool stepper_holding() { return stepper_prep_data.hold; }
 
-bool stepper_hold_complete() { return stepper_prep_state_.hold_reached && !stepper_running; }
+bool stepper_hold_complete() { return stepper_prep_data.hold_reached && !stepper_running; }
 
 bool stepper_busy() {
-    return stepper_running || stepper_segment_head != stepper_segment_tail || stepper_prep_state_.block != 0 ||
+    return stepper_running || stepper_segment_head != stepper_segment_tail || stepper_prep_data.block != 0 ||
            !planner_empty();
 }
 

@@ -61,13 +61,23 @@ static bool command_parse_uint(const char* text, uint16_t low, uint16_t high, ui
 static bool command_is(const char* line, const char* name, const char** argument) {
     size_t n = strlen(name);
     if (strncmp(line, name, n) != 0) return false;
-    if (line[n] == '\0') {
-        *argument = line + n;
-        return true;
-    }
-    if (line[n] != ' ') return false;
-    *argument = line + n + 1;
+    if (line[n] != '\0' && line[n] != ' ') return false;
+    const char* p = line + n;
+    while (*p == ' ') ++p;  // "GAIN  3" is "GAIN 3"
+    *argument = p;
     return true;
+}
+
+// Upper case, without leading and trailing blanks: commands typed in a terminal work too.
+static void command_normalize(const char* line, char* out) {
+    while (*line == ' ' || *line == '\t') ++line;
+    size_t n = 0;
+    for (; line[n] && n < COMMAND_LINE_MAX; ++n) {
+        char c = line[n];
+        out[n] = (c >= 'a' && c <= 'z') ? (char)(c - 'a' + 'A') : c;
+    }
+    while (n > 0 && (out[n - 1] == ' ' || out[n - 1] == '\t')) --n;
+    out[n] = '\0';
 }
 
 // Settings commands: validate, refuse while streaming, check that the conversion still fits.
@@ -95,8 +105,10 @@ static uint8_t command_setting(const char* name, const char* argument, sampler_s
 
 static const char* const COMMAND_SETTINGS[] = {"RATE", "GAIN", "RES", "OSR", "FILT"};
 
-bool command_execute(const char* line, sampler_state& s, uint32_t now_us, char* answer) {
+bool command_execute(const char* raw_line, sampler_state& s, uint32_t now_us, char* answer) {
     const char* argument = 0;
+    char line[COMMAND_LINE_MAX + 1];
+    command_normalize(raw_line, line);
     if (line[0] == '\0') return false;
     strcpy(answer, "OK");
     if (strcmp(line, "ID") == 0) {

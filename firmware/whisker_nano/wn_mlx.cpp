@@ -14,8 +14,8 @@ uint32_t mlx_conversion_time_us(uint8_t osr, uint8_t filt) {
     if (filt <= 3) return MLX_CONVERSION_TABLE_US[filt][osr & 3];
     // Datasheet formula TCONVM = 67 + 64 * 2^OSR * (2 + 2^DIG_FILT) µs per axis, plus the
     // ~490 µs of start-up and end-of-conversion time that the table above implies.
-    uint32_t per_axis = 67UL + 64UL * (1UL << osr) * (2UL + (1UL << filt));
-    return 3UL * per_axis + 490UL;  // up to 200 ms at DIG_FILT 7, OSR 3
+    uint32_t per_axis = (uint32_t)67 + (uint32_t)64 * ((uint32_t)1 << osr) * ((uint32_t)2 + ((uint32_t)1 << filt));
+    return (uint32_t)3 * per_axis + (uint32_t)490;  // up to 200 ms at DIG_FILT 7, OSR 3
 }
 
 uint16_t mlx_register0(const mlx_settings& settings) {

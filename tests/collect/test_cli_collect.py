@@ -30,7 +30,8 @@ def test_dry_run_text_names_points_time_and_limits():
     assert result.exit_code == 0
     lines = result.output.splitlines()
     assert lines[0] == "points           180 in 17 columns"
-    assert any(line.startswith("stage time") and line.endswith("s (estimated)") for line in lines)
+    assert any(line.startswith("stage time") and line.endswith("s (estimated, without the homing cycle)")
+               for line in lines)
     assert "limits           ok (travel 200 x 200 mm)" in lines
 
 
@@ -64,3 +65,48 @@ def test_every_option_has_help_text():
     assert command.help
     for option in command.params:
         assert option.help, option.name
+
+
+def test_dry_run_reads_the_travel_from_a_connected_stage(tmp_path):
+    import uuid
+
+    config = tmp_path / "small_travel.toml"
+    config.write_text("[safety]\ntravel_mm = [150.0, 150.0]\n")
+    alone = json.loads(invoke("--dry-run", "--json", "--config", str(config)).output)
+    assert alone["travel_mm"] == [150.0, 150.0]
+    result = invoke("--dry-run", "--json", "--config", str(config),
+                    "--stage", f"sim://d{uuid.uuid4().hex[:8]}/stage")
+    assert result.exit_code == 0, result.output
+    # the twin's stage reports its own $130/$131 travel, which replaces the configured one
+    assert json.loads(result.output)["travel_mm"] == [200.0, 200.0]
+
+
+def test_progress_is_drawn_only_on_a_terminal(monkeypatch):
+    from whiskercal.cli.app import App
+    from whiskercal.cli.commands.collect import _progress_printer
+    from whiskercal.collect.loop import Progress
+
+    monkeypatch.setenv("CI", "1")
+    assert _progress_printer(App()) is None
+    monkeypatch.delenv("CI")
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True, raising=False)
+    show = _progress_printer(App())
+    assert show is not None
+    progress = Progress(done=60, total=180, taken_now=20, elapsed_s=10.0)
+    assert progress.rate_per_s == 2.0 and progress.remaining_s == 60.0
+
+
+def test_first_ctrl_c_asks_to_stop_and_second_interrupts():
+    import os
+    import signal
+
+    import pytest
+
+    from whiskercal.cli.commands.collect import _stop_on_ctrl_c
+
+    with _stop_on_ctrl_c() as stop_requested:
+        assert not stop_requested()
+        os.kill(os.getpid(), signal.SIGINT)
+        assert stop_requested()
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)

@@ -147,3 +147,18 @@ def test_resume_from_the_h5_alone_and_finish_removes_the_journal(tmp_path):
     assert grid.complete and grid.plan_index.tolist() == [0, 1, 2]
     # the resumed point had no truth: its row is NaN, never misaligned
     np.testing.assert_array_equal(grid.truth["z_uT"], [0.0, -1000.0, np.nan])
+
+
+def test_resume_recovers_from_an_h5_cut_anywhere_and_a_torn_journal_line(tmp_path):
+    rng = np.random.default_rng(11)
+    path = tmp_path / "raw.h5"
+    _checkpoint_with_points(path, [0, 1, 2, 3]).close()
+    intact = path.read_bytes()
+    with open(journal_path(path), "ab") as handle:
+        handle.write(b'1234abcd {"type":"point","plan_index":4')  # killed mid-line
+    for cut in rng.integers(0, len(intact), size=5):
+        path.write_bytes(intact[:cut])
+        resumed = Checkpoint.resume(path, make_header())
+        assert resumed.taken == {0, 1, 2, 3}
+        resumed.close()
+        assert read_raw_grid(path).plan_index.tolist() == [0, 1, 2, 3]

@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.collect.fakes import STATIC_Y_UT, FakeSensor, FakeStage, FakeWorld
+from collect_fakes import STATIC_Y_UT, FakeSensor, FakeStage, FakeWorld
 from whiskercal.collect.config import load_config
 from whiskercal.collect.dataset import read_raw_grid
 from whiskercal.collect.journal import journal_path
@@ -175,3 +175,8 @@ def test_static_reading_is_the_fake_offset(tmp_path):
     run(tmp_path)
     grid = read_raw_grid(tmp_path / "raw.h5")
     assert abs(grid.baseline_before_uT[1] - STATIC_Y_UT) < 2.0
+
+
+def test_an_output_in_a_missing_directory_is_one_clear_error(tmp_path):
+    with pytest.raises(UsageError, match="no such directory"):
+        run(tmp_path / "missing")

@@ -3,6 +3,8 @@
 - ``firmware``: the firmware cores built for the host (``build/firmware/host/*_sim``), driven
   over a pipe; their simulated clock runs ``SPEED`` times real time.
 - ``twin``: the digital twin's virtual boards, ``sim://NAME/stage`` and ``sim://NAME/sensor``.
+- ``hardware`` (opt-in): flashed boards on the serial ports named by the environment variables
+  ``WHISKERCAL_HW_STAGE`` and ``WHISKERCAL_HW_SENSOR``; skipped when they are not set.
 
 Both expose ``write``, ``read(size)`` (waiting up to ``timeout`` seconds of device time),
 ``in_waiting``, ``reset_input_buffer``, ``close`` and ``now_s()`` (the device clock, s), so a
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import serial as pyserial
 import subprocess
 import sys
 import threading
@@ -26,6 +29,8 @@ from firmware_build import host_program  # noqa: E402
 
 SPEED = 10.0  # firmware simulators: device seconds per real second
 BACKENDS = ("firmware", "twin")
+HARDWARE_PORTS = {"stage": "WHISKERCAL_HW_STAGE", "sensor": "WHISKERCAL_HW_SENSOR"}
+ARDUINO_BOOT_S = 2.5  # opening the port resets the board; its bootloader waits before the sketch
 _world_names = itertools.count()
 
 
@@ -109,8 +114,17 @@ class PipePort:
 
 
 def open_firmware(board: str, *options: str) -> PipePort:
-    """Start the host-built simulator of ``board`` (``stage_stepper`` or ``whisker_nano``)."""
-    return PipePort([str(host_program(board, "sim")), *options], SPEED)
+    """Start the host-built simulator of ``board`` (``stage_stepper`` or ``whisker_nano``).
+
+    The stage prints its banner at power-up: wait for it (up to 10 s real time, for a loaded
+    machine), so that the device clock has started when a script begins.
+    """
+    port = PipePort([str(host_program(board, "sim")), *options], SPEED)
+    if board == "stage_stepper":
+        deadline = time.monotonic() + 10.0
+        while port.in_waiting == 0 and time.monotonic() < deadline and port.is_open:
+            time.sleep(0.005)
+    return port
 
 
 def open_twin(board: str, query: str = ""):
@@ -123,3 +137,20 @@ def open_twin(board: str, query: str = ""):
     name = f"conformance{next(_world_names)}x{time.monotonic_ns()}"
     url = f"sim://{name}/{board}" + (f"?{query}" if query else "")
     return serial.serial_for_url(url, timeout=1.0)
+
+
+class HardwarePort(pyserial.Serial):
+    """A real board: a pyserial port whose device clock is the host's monotonic clock."""
+
+    def now_s(self) -> float:
+        return time.monotonic()
+
+
+def open_hardware(board: str) -> HardwarePort:
+    """Open the real ``stage`` or ``sensor`` board named by its environment variable, or skip."""
+    name = os.environ.get(HARDWARE_PORTS[board])
+    if not name:
+        pytest.skip(f"set {HARDWARE_PORTS[board]} to the {board} board's serial port to run this")
+    port = HardwarePort(name, 115200, timeout=1.0)
+    time.sleep(ARDUINO_BOOT_S)  # a real board: waiting is real time here
+    return port

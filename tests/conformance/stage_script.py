@@ -81,8 +81,18 @@ class StageLink:
             self.lines_for(poll_s)
         raise AssertionError(f"state {wanted} not reached within {timeout_s} s; saw {seen[-5:]}")
 
+    def settle(self, quiet_s: float = 0.1, longest_s: float = 3.0) -> None:
+        """Read until nothing arrives for ``quiet_s`` (the power-up banner, say); keep it in ``pushed``."""
+        deadline = self.port.now_s() + longest_s
+        while self.port.now_s() < deadline:
+            line = self.read_line(quiet_s)
+            if line is None:
+                return
+            self.pushed.append(line)
+
     def reset(self) -> list[str]:
         """Soft reset; return the lines up to and including the banner (later pushes: ``pushed``)."""
+        self.settle()  # so that an earlier banner is not taken for the answer to this reset
         self.port.write(b"\x18")
         lines = []
         while True:
@@ -94,11 +104,15 @@ class StageLink:
         self.pushed += self.lines_for(0.05)  # [MSG:...] after the banner
         return lines
 
-    def fresh(self) -> None:
-        """Soft reset and unlock: every check starts from the same modal state at rest."""
+    def fresh(self, go_to_start: bool = True) -> None:
+        """Soft reset, unlock, go to (10, 10) mm: every check starts from the same state at rest,
+        also on a board that kept its position from an earlier check."""
         self.reset()
         _, answer = self.command("$X")
         assert answer == "ok", f"$X answered {answer}"
+        if go_to_start:
+            assert self.command("G90G0X10Y10")[1] == "ok"
+            self.wait_state("Idle", timeout_s=10.0)
 
 
 def parse_status(line: str) -> tuple[str, dict[str, list[float]]]:
@@ -296,7 +310,7 @@ def check_dwell_runs_in_the_queue(port) -> None:
 def check_fault_alarm(port, code: int, move_mm: float = 80.0) -> None:
     """With a fault injected, a long move (or just waiting) ends in ALARM:code."""
     link = StageLink(port)
-    link.fresh()
+    link.fresh(go_to_start=False)  # the fault may lock the stage before any move
     x0 = link.status()[1]["MPos"][0]
     link.command(f"G1X{x0 + move_mm:.3f}F3000")
     lines = link.lines_for(3.0) + link.pushed

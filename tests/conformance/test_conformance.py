@@ -8,12 +8,14 @@ import pytest
 
 import sensor_script
 import stage_script
-from conformance_ports import BACKENDS, open_firmware, open_twin
+from conformance_ports import BACKENDS, open_firmware, open_hardware, open_twin
 
 
 def _open(backend: str, board: str):
     if backend == "firmware":
         return open_firmware("stage_stepper" if board == "stage" else "whisker_nano")
+    if backend == "hardware":
+        return open_hardware(board)
     return open_twin(board)
 
 
@@ -25,21 +27,12 @@ def port(request):
     opened.close()
 
 
-# Known differences of the twin's virtual stage, to be fixed there (whiskercal/twin/virtual_stage.py):
-# it answers "G4" without P with error:28, a code the shared table lacks, and accepts Z words on
-# this two-axis stage with "ok".
-TWIN_STAGE_DRIFT = "twin: G4 without P gives error:28 (not in the code table); G0Z1 is accepted"
-
-
 def _cases(board, checks):
-    cases = []
-    for backend in BACKENDS:
-        for check in checks:
-            marks = []
-            if backend == "twin" and check is stage_script.check_every_error_is_in_the_code_table:
-                marks = [pytest.mark.xfail(reason=TWIN_STAGE_DRIFT, strict=True)]
-            cases.append(pytest.param((backend, board), check, id=f"{backend}-{check.__name__[6:]}", marks=marks))
-    return cases
+    cases = [pytest.param((backend, board), check, id=f"{backend}-{check.__name__[6:]}")
+             for backend in BACKENDS for check in checks]
+    # The same scripts against flashed boards: opt-in, the stage moves (and homes) for real.
+    return cases + [pytest.param(("hardware", board), check, id=f"hardware-{check.__name__[6:]}",
+                                 marks=pytest.mark.hardware) for check in checks]
 
 
 @pytest.mark.parametrize("port,check", _cases("stage", stage_script.STAGE_CHECKS), indirect=["port"])
@@ -72,12 +65,20 @@ def test_sensor(port, check):
     check(port)
 
 
-# Lines whose answers must be identical on both boards, byte for byte.
-SAME_ANSWERS = ("G21", "G90", "G91", "G90", "G1X1", "G0X1Y1", "G0X250", "M3", "G0X1X2", "G0G1X1", "$Q",
-                "G38.2X1", "1X", "X", "G1X1F-1", "$100=-5", "$22=2", "G4P-1", "G4P0.1", "$X", "")
-# Known drift, see TWIN_STAGE_DRIFT, plus: "$100=x" (firmware error:2 like grbl, twin error:3) and
-# "G1X1F0" (firmware error:22, twin error:4).
-DRIFTING_ANSWERS = ("G4", "G0Z1", "$100=x", "G1X1F0")
+# Lines whose answers must be identical on both boards, byte for byte. The '$' lines come first,
+# while the stage is at rest (a moving stage answers them with error:8).
+STAGE_LINES = ("$100=-5", "$100=x", "$Q", "$X", "G21", "G90", "G91", "G90", "G1X1", "G1X1F0", "G0X1Y1",
+               "G0X250", "M3", "G0X1X2", "G0G1X1", "G38.2X1", "1X", "X", "G0Z1", "G1X1F-1", "G4", "G4P-1",
+               "G4P0.1", "")
+
+
+def test_stage_firmware_and_twin_answer_alike():
+    firmware, twin = open_firmware("stage_stepper"), open_twin("stage")
+    try:
+        assert _answers(firmware, STAGE_LINES) == _answers(twin, STAGE_LINES)
+    finally:
+        firmware.close()
+        twin.close()
 
 
 def _answers(port, lines):
@@ -86,15 +87,17 @@ def _answers(port, lines):
     return [(line, link.command(line)[1]) for line in lines]
 
 
-@pytest.mark.parametrize("lines", [
-    pytest.param(SAME_ANSWERS, id="same"),
-    pytest.param(DRIFTING_ANSWERS, id="drifting",
-                 marks=pytest.mark.xfail(reason=TWIN_STAGE_DRIFT, strict=True)),
-])
-def test_stage_firmware_and_twin_answer_alike(lines):
-    firmware, twin = open_firmware("stage_stepper"), open_twin("stage")
-    try:
-        assert _answers(firmware, lines) == _answers(twin, lines)
-    finally:
-        firmware.close()
-        twin.close()
+SENSOR_LINES = ("ID", "id", " ID ", "CFG?", "cfg?", "GAIN 3", "GAIN  3", "GAIN 3 4", "GAIN 03", "RATE 0300",
+                "GAIN", "GAIN ", "START", "START", "GAIN 1", "STOP", "STOP", "RES 3", "CFG?", "FILT 8", "OSR -1",
+                "RATE 1", "RATE 500", "RATE 300", "X" * 32, "X" * 33, "GAIN\t3", "RES 2", "GAIN 7", "CFG?")
+
+
+def test_sensor_firmware_and_twin_answer_alike():
+    answers = []
+    for port in (open_firmware("whisker_nano"), open_twin("sensor")):
+        try:
+            link = sensor_script.SensorLink(port)
+            answers.append([(line, link.command(line)) for line in SENSOR_LINES])
+        finally:
+            port.close()
+    assert answers[0] == answers[1]

@@ -13,13 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from whiskercal.collect.config import GridConfig
-from whiskercal.collect.plan import lattice_points, visiting_order
 from whiskercal.twin import mechanics, truth
 from whiskercal.twin.params import DEFAULT_SENSOR, SensorParams
 
-PAPER_GRID = GridConfig(step_mm=3.0, reach_min_mm=12.5, reach_max_mm=65.0, angle_min_deg=-44.5,
-                        angle_max_deg=0.0, expected_points=180)
+from analytic import paper_grid_mm
+from rawfile import write_raw_grid
+
 ROD_RADIUS_MM = 1.5
 
 
@@ -39,9 +38,9 @@ class TwinGrid:
 
 
 @functools.lru_cache(maxsize=4)
-def _noise_free(sensor: SensorParams, rod_radius_mm: float, grid: GridConfig = PAPER_GRID):
-    points = lattice_points(grid)
-    points = points[visiting_order(points)]
+def _noise_free(sensor: SensorParams, rod_radius_mm: float):
+    points = paper_grid_mm()
+    points = points[np.lexsort((-points[:, 1], points[:, 0]))]  # columns in x, each from +y down
     rows, previous, last_x = [], None, None
     for center in points:
         if center[0] != last_x:
@@ -62,26 +61,12 @@ def twin_grid(sensor: SensorParams = DEFAULT_SENSOR, rod_radius_mm: float = ROD_
     return TwinGrid(points, noisy, z, contact, tip, shift, kind, float(rod_radius_mm), sensor)
 
 
-def write_raw_grid(path, grid: TwinGrid, n_samples: int = 30, field_std_uT: float = 5.6,
-                   with_truth: bool = True, static_y_uT: float = 1160.0):
-    """Write ``grid`` as a raw dataset with ``RawGridWriter`` (the twin's truth under /truth)."""
-    from whiskercal.collect.dataset import Baseline, PointRecord, RawGridWriter, RawHeader
-
-    header = RawHeader(plan_stage_mm=grid.rod_center_mm + 100.0,
-                       plan_rod_center_mm=grid.rod_center_mm,
-                       config={"rig": {"rod_radius_mm": grid.rod_radius_mm}},
-                       sensor_id=grid.sensor.sensor_id, rod_radius_mm=grid.rod_radius_mm)
-    writer = RawGridWriter.create(path, header)
-    baseline = Baseline(np.array([0.0, static_y_uT, 0.0]), np.full(3, field_std_uT), 0.0)
-    writer.set_baseline("before", baseline)
-    for k, center in enumerate(grid.rod_center_mm):
-        field = np.array([0.0, static_y_uT + grid.z_uT[k], 0.0])
-        point = PointRecord(k, center + 100.0, center + 100.0, center, field,
-                            np.full(3, field_std_uT), n_samples, 1.0 + k, 1.1 + k)
-        truth = {"contact_mm": grid.contact_mm[k], "tip_mm": grid.tip_mm[k],
-                 "kind": str(grid.kind[k]), "z_uT": grid.z_true_uT[k]} if with_truth else None
-        writer.append_point(point, truth=truth)
-    writer.set_baseline("after", Baseline(baseline.field_uT, baseline.std_uT, 1.0 + len(grid.z_uT)))
-    writer.mark_complete()
-    writer.close()
-    return path
+def write_twin_raw(path, grid: TwinGrid, with_truth: bool = True):
+    """Write ``grid`` as a raw dataset, the twin's truth per point under /truth."""
+    truth = None
+    if with_truth:
+        truth = [{"contact_mm": grid.contact_mm[k], "tip_mm": grid.tip_mm[k],
+                  "kind": str(grid.kind[k]), "z_uT": grid.z_true_uT[k]}
+                 for k in range(len(grid.z_uT))]
+    return write_raw_grid(path, grid.rod_center_mm, grid.z_uT, grid.rod_radius_mm,
+                          grid.sensor.sensor_id, truth)

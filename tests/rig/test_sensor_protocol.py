@@ -82,7 +82,13 @@ def test_too_few_samples_time_out_clearly():
             sensor.read(10, timeout_s=0.5)
 
 
-def test_silent_board_times_out():
-    with expected_protocol(SensorClient, [(b"ID\n", None)]) as sensor:
+def test_silent_board_times_out_after_three_tries():
+    with expected_protocol(SensorClient, [(b"ID\n", None)] * 3) as sensor:
         with pytest.raises(DeviceError, match="did not answer 'ID'"):
             sensor.identify()
+
+
+def test_identify_repeats_id_while_the_board_boots():
+    pairs = [(b"ID\n", None), (b"ID\n", encode_text("OK whisker_nano fw=0.1.0 proto=1"))]
+    with expected_protocol(SensorClient, pairs) as sensor:
+        assert sensor.identify().startswith("whisker_nano")

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from whiskercal.study.analysis import (
-    Criteria, TrialSeries, analyse_study, analyse_trial, detect_slips, distance_to_line_mm,
-    monotone_breaks)
+    Criteria, TrialSeries, analyse_study, analyse_trial, distance_to_line_mm)
+from whiskercal.study.detect import detect_kink, detect_slips, monotone_breaks
 
 NORMAL = np.array([np.cos(np.radians(20)), np.sin(np.radians(20))])
 DIRECTION = np.array([NORMAL[1], -NORMAL[0]])
@@ -90,3 +90,31 @@ def test_a_slide_cut_short_fails_with_a_clear_reason():
     series.slid_mm, series.planned_travel_mm = 31.0, 80.0
     metrics = analyse_trial(series)
     assert metrics.failing and metrics.reasons[0] == "cut short: slid 31.0 of 80 mm"
+
+
+def _push_in(kink_at_mm=None, slope_after=-380.0, seed=3):
+    """A concave z(depth) like a tip contact's (slope -330 µT/mm falling to -170), 300 Hz noise."""
+    rng = np.random.default_rng(seed)
+    depth = np.linspace(0, 45, 45 * 60)
+    z = -330 * depth + 1.8 * depth ** 2
+    if kink_at_mm is not None:
+        past = depth > kink_at_mm
+        z[past] = z[past][0] + slope_after * (depth[past] - kink_at_mm)
+    return depth, z + rng.normal(0, 5.6, depth.size)
+
+
+def test_a_smooth_push_in_has_no_kink():
+    assert np.isnan(detect_kink(*_push_in()))
+
+
+@pytest.mark.parametrize("slope_after", [-380.0, -20.0, 150.0])  # stiffer, stalled, falling back
+def test_a_kink_in_the_push_in_is_found_where_it_is(slope_after):
+    depth = detect_kink(*_push_in(kink_at_mm=41.0, slope_after=slope_after))
+    assert 41.0 <= depth <= 41.0 + 2 * 1.25
+
+
+def test_sparse_noisy_push_in_is_not_a_kink():
+    rng = np.random.default_rng(5)
+    depth = np.linspace(0, 45, 200)  # 0.2 mm a sample
+    z = -330 * depth + 1.8 * depth ** 2 + rng.normal(0, 40.0, depth.size)
+    assert np.isnan(detect_kink(depth, z))

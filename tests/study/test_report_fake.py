@@ -9,7 +9,7 @@ import pytest
 from whiskercal.artifacts import h5io
 from whiskercal.study.artifact_target import read_target, write_target
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.study.dataset import PHASE_SLIDE, StudyWriter, read_study
+from whiskercal.study.dataset import StudyWriter, read_study
 from whiskercal.study.figures import write_figures
 from whiskercal.study.report import IncompleteStudyError, build_report
 from whiskercal.study.run import StudyRun
@@ -100,3 +100,18 @@ def test_figures_are_written(tmp_path, fake_study):
     figures = write_figures(report.series, report.rows, tmp_path)
     assert [f.name for f in figures] == ["errors.png", "estimates.png", "z_over_time.png"]
     assert all(f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for f in figures)
+
+
+def test_a_trial_without_contact_is_flagged_not_a_traceback(tmp_path, fake_study):
+    path, geometry = fake_study
+    lost = tmp_path / "lost.h5"
+    lost.write_bytes(path.read_bytes())
+    with h5py.File(lost, "r+") as handle:
+        static = handle["header/baseline_field_uT"][()]
+        field = handle["trials/depth_15.00mm/stream/field_uT"]
+        field[...] = np.tile(static, (field.shape[0], 1))  # the plane never touched the whisker
+    report = build_report(lost, FakeCalibration(geometry))
+    row = next(row for row in report.rows if row.depth_mm == 15.0)
+    assert row.failing and row.reasons[0].startswith("no contact (0 samples")
+    assert row.contact_fraction == 0.0 and np.isnan(row.median_z_uT)
+    assert report.choice is None and "no trial qualifies" in report.no_target

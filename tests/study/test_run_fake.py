@@ -90,3 +90,31 @@ def test_waypoints_outside_the_travel_are_refused_before_any_trial(tmp_path):
     with pytest.raises(UsageError, match="outside its travel"):
         _run(tmp_path, config)
     assert read_study(tmp_path / "study.h5").trials == []
+
+
+def test_ctrl_c_stops_the_stage_and_keeps_finished_trials(tmp_path):
+    config = _config(tmp_path)
+    rig, stage, sensor = fake_rig(config)
+    resets = []
+    stage.reset = lambda: resets.append(rig.time_s)
+    real_read = sensor.read
+    writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor")
+    real_add, added, reads_since = writer.add_trial, [], []
+
+    def add_trial(record):
+        real_add(record)
+        added.append(record.depth_mm)
+        reads_since.clear()
+
+    def interrupted_read(n, timeout_s=1.0):
+        reads_since.append(n)
+        if len(added) == 1 and len(reads_since) > 50:
+            raise KeyboardInterrupt  # in the middle of the second trial
+        return real_read(n, timeout_s)
+
+    writer.add_trial, sensor.read = add_trial, interrupted_read
+    with pytest.raises(KeyboardInterrupt):
+        StudyRun(stage, sensor, config, writer).run()
+    assert resets  # the move in progress was stopped
+    study = read_study(tmp_path / "study.h5")
+    assert [t.depth_mm for t in study.trials] == [5.0] and study.missing_depths() == [10.0, 15.0]

@@ -58,8 +58,15 @@ def test_rod_that_does_not_reach_leaves_it_free(center):
 
 def test_whisker_slips_past_a_rod_pushed_beyond_its_reach():
     # At 20 mm down the rotated tip cannot reach x = 77 any more: the wire springs back.
-    assert solve_rod(WHISKER, (77.0, -20.0), 1.0).kind == "free"
-    assert solve_rod(WHISKER, (77.0, -2.0), 1.0).kind != "free"
+    slipped = solve_rod(WHISKER, (77.0, -20.0), 1.0)
+    assert slipped.kind == "free" and slipped.slipped_past
+    assert not solve_rod(WHISKER, (90.0, -20.0), 1.0).slipped_past  # never touched at all
+    # it stays past the rod while the rod stands where the wire would be ...
+    assert solve_rod(WHISKER, (77.0, -2.0), 1.0, slipped).slipped_past
+    # ... and meets it again once the rod has cleared the wire and comes back from above
+    cleared = solve_rod(WHISKER, (77.0, 5.0), 1.0, slipped)
+    assert cleared.kind == "free" and not cleared.slipped_past
+    assert solve_rod(WHISKER, (77.0, -2.0), 1.0, cleared).kind == "shaft"
 
 
 def test_moment_and_force_balance_at_the_root():
@@ -150,7 +157,7 @@ def test_polygon_along_a_path_stays_outside():
     assert "shaft" in kinds
 
 
-@pytest.mark.parametrize("radius", [-1.0, math.nan, math.inf])
+@pytest.mark.parametrize("radius", [-1.0, math.nan, math.inf, "thick", None])
 def test_bad_rod_radius_is_refused(radius):
     with pytest.raises(UsageError, match="radius"):
         solve_rod(WHISKER, (50.0, -5.0), radius)

@@ -91,3 +91,23 @@ def test_sim_serve_ptys_work_with_pyserial():
     finally:
         process.terminate()
         process.wait(5)
+
+
+def test_speed_option_paces_the_clock_against_real_time():
+    name = f"simport-test-{next(_names)}"
+    sensor = SensorClient(f"sim://{name}/sensor?speed=2")
+    sensor.start()
+    started_wall, started_sim = time.monotonic(), sensor.transport.now_s()
+    sensor.read(60, timeout_s=1)  # 0.2 simulated seconds
+    simulated = sensor.transport.now_s() - started_sim
+    assert time.monotonic() - started_wall >= 0.9 * simulated / 2
+
+
+def test_sim_serve_refuses_a_bad_fault():
+    from click.testing import CliRunner
+
+    from whiskercal.cli import cli
+
+    result = CliRunner().invoke(cli, ["sim", "serve", "--fault", "melt@3", "--duration", "0"])
+    assert result.exit_code == 2
+    assert "bad fault 'melt@3'" in result.output

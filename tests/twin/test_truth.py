@@ -100,3 +100,15 @@ def test_default_tip_curve_is_within_3_mm_of_the_authors_model():
     # can close that gap. Those two points are held to that offset's size instead.
     assert distance[~deflected].max() < 3.5
     assert np.sqrt(np.mean(distance**2)) < 2.5
+
+
+def test_a_coarse_sweep_lands_on_the_same_equilibria_as_a_dense_one():
+    coarse = tip_contact_sweep(DEFAULT_SENSOR.whisker, 11)
+    dense = tip_contact_sweep(DEFAULT_SENSOR.whisker, 81)
+    np.testing.assert_allclose(coarse.tip_mm, dense.tip_mm[::8], atol=1e-5)
+    np.testing.assert_allclose(coarse.root_rotation_rad, dense.root_rotation_rad[::8], atol=1e-8)
+
+
+def test_tip_curve_needs_a_few_samples():
+    with pytest.raises(UsageError, match="at least 4"):
+        tip_curve(DEFAULT_SENSOR, 3)

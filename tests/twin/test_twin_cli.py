@@ -64,3 +64,30 @@ def test_validate_fails_when_a_check_fails(monkeypatch):
 def test_twin_group_lists_its_commands():
     result = run("twin", "--help")
     assert "cantilever" in result.output and "validate" in result.output
+
+
+def test_plane_study_json_finds_the_switch_to_tangential():
+    result = run("twin", "plane-study", "--depths", "30,40,50", "--json")
+    assert result.exit_code == 0
+    payload = json.loads(result.output)
+    kinds = [row["kind"] for row in payload["depths"]]
+    assert kinds == ["tip", "tip", "tangential"]
+    assert payload["tangential_onset_mm"] == 50.0
+    # deeper pushes turn the root further
+    rotations = [row["root_rotation_deg"] for row in payload["depths"]]
+    assert rotations[0] > rotations[1] > rotations[2]
+
+
+def test_plane_study_softer_root_slips_later():
+    stiff = json.loads(run("twin", "plane-study", "--depths", "46", "--json").output)
+    soft = json.loads(run("twin", "plane-study", "--depths", "46", "--k-rot", "0.5",
+                          "--json").output)
+    assert stiff["depths"][0]["kind"] == "tangential"
+    assert soft["depths"][0]["kind"] == "tip"
+
+
+def test_plane_study_bad_depths_are_one_line():
+    result = CliRunner().invoke(cli, ["twin", "plane-study", "--depths", "a,b"])
+    assert result.exit_code == 2
+    expected = "error: --depths must be numbers separated by commas, got 'a,b'."
+    assert result.output.strip() == expected

@@ -76,7 +76,7 @@ def test_build_info_and_settings():
 
 @pytest.mark.parametrize("line, code", [
     ("G1 X10 Y10", 22), ("G1 X10 F-5", 4), ("G0 X500", 15), ("G0 Y-1", 15), ("G2 X1", 20),
-    ("G0 G1 X1", 24), ("G0 X1 X2", 25), ("G4", 28), ("M3", 20), ("G0 X1" + " " * 90, 11),
+    ("G0 G1 X1", 24), ("G0 X1 X2", 25), ("G4", 2), ("G0 Z1", 20), ("G1 X1 F0", 22), ("G1 X1 F100 G0 X2", 24), ("M3", 20), ("G0 X1" + " " * 90, 11),
     ("G0 X", 2), ("12", 1),
 ])
 def test_gcode_errors(line, code):
@@ -249,3 +249,20 @@ def test_encoder_reads_the_pulley_to_a_twelve_bit_step():
     assert np.max(np.abs(status.enc_mm - status.mpos_mm)) <= 40 / 4096 / 2 + 1e-9
     # targets are whole steps (80 per mm); the report shows 3 decimals
     assert status.mpos_mm[0] == pytest.approx(round(33.3333 * 80) / 80, abs=5e-4)
+
+
+def test_a_refused_block_changes_no_modal_state():
+    port = _port(_world())
+    _send(port, "$X")
+    assert _send(port, "G91 G0 X1 M3") == ["error:20"]  # refused: G91 must not stick
+    assert _send(port, "G0 X5") == ["ok"]
+    assert _send(port, "G0 X5") == ["ok"]
+    while not _status(port).startswith("<Idle"):
+        pass
+    assert "MPos:5.000,0.000" in _status(port)
+
+
+def test_bad_setting_value_is_a_number_format_error():
+    port = _port(_world())
+    _lines_until(port, "[MSG:")
+    assert _send(port, "$100=x") == ["error:2"]

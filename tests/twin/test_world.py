@@ -112,6 +112,7 @@ def test_equilibrium_follows_the_path_in_small_steps():
     assert contact_steps >= 16.5 / world.config.max_step_mm
 
 
+@pytest.mark.slow  # the first use of the real physics builds its field table
 def test_real_physics_rod_contact_matches_a_direct_solve():
     from whiskercal.twin import mechanics
 
@@ -141,3 +142,43 @@ def test_plane_scene_contacts_at_the_tip():
     truth = world.truth.arrays()
     assert truth["kind"][-1] in ("tip", "tangential")
     assert truth["z_true_uT"][-1] < -100
+
+
+def test_a_rod_arriving_from_below_pushes_the_whisker_up():
+    world, stage, sensor = _rig(physics=None)
+    sensor.start()
+    _move(world, stage, sensor, [-30.0, -30.0], feed=3000)  # round the root to the -y side
+    _move(world, stage, sensor, [50.0, -15.0], feed=3000)
+    _move(world, stage, sensor, [50.0, 10.0], feed=600)
+    sensor.read(10, timeout_s=1)
+    truth = world.truth.arrays()
+    assert truth["kind"][-1] == "shaft" and truth["tip_mm"][-1][1] > 5
+    assert truth["z_true_uT"][-1] > 100 and world.solver_failures == 0
+
+
+def test_a_shape_rides_on_the_end_effector():
+    from whiskercal.twin.scenes import Circle
+    from whiskercal.twin.world import ShapeFixture
+
+    # a 6 mm disc centred 10 mm to the +y side of the end effector
+    world, stage, sensor = _rig(fixture=ShapeFixture(Circle(np.array([0.0, 10.0]), 6.0)))
+    sensor.start()
+    _move(world, stage, sensor, [40.0, 30.0], feed=3000)
+    _move(world, stage, sensor, [40.0, -8.0], feed=600)
+    sensor.read(10, timeout_s=1)
+    truth = world.truth.arrays()
+    assert truth["kind"][-1] == "shaft"
+    # the stand-in turns the whisker tangent to the disc at (40, 2), radius 6
+    expected = np.arctan2(2.0, 40.0) - np.arcsin(6.0 / np.hypot(40.0, 2.0))
+    assert truth["root_rotation_rad"][-1] == pytest.approx(expected, abs=5e-4)
+
+
+def test_sensor_settings_are_reported_back():
+    world, stage, sensor = _rig()
+    config = sensor.configure(rate_hz=200, gain=5, res=1, osr=1, filt=1)
+    assert (config.rate_hz, config.gain, config.res, config.osr, config.filt) == (200, 5, 1, 1, 1)
+    sensor.start()
+    block = sensor.read(20, timeout_s=1)
+    # counts convert with the new sensitivity (GAIN_SEL 5, RES 1: 0.501 µT/LSB on Y)
+    np.testing.assert_allclose(block.field_uT[:, 1], block.counts[:, 1] * 0.250 * 2)
+    np.testing.assert_allclose(np.diff(block.t_s), 1 / 200, atol=1.01e-6)

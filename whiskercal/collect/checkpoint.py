@@ -15,11 +15,13 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Mapping
 
+import h5py
 import numpy as np
 
 from whiskercal.collect.dataset import (POINT_FIELDS, STREAM_FIELDS, Baseline, PointRecord,
-                                        RawGridWriter, RawHeader, StreamChunk, read_raw_grid)
-from whiskercal.collect.journal import Journal, journal_path, replay
+                                        RawGridWriter, RawHeader, StreamChunk, read_raw_grid,
+                                        read_truth)
+from whiskercal.collect.journal import Journal, decode_line, journal_path, replay
 from whiskercal.errors import ArtifactError, UsageError
 
 
@@ -142,6 +144,30 @@ class Checkpoint:
         self._journal.close()
 
 
+def recorded_fingerprint(path: str | Path) -> str:
+    """The plan fingerprint a partial run was started with (journal header, else the file).
+
+    Raises
+    ------
+    UsageError
+        When there is no run at ``path`` to resume.
+    """
+    path = Path(path)
+    journal_file = journal_path(path)
+    if journal_file.exists():
+        with open(journal_file, "rb") as handle:
+            header = decode_line(handle.readline())
+        if header is not None and header.get("type") == "header":
+            return str(header["fingerprint"])
+    if path.exists():
+        try:
+            with h5py.File(path, "r") as handle:
+                return str(handle.attrs.get("plan_fingerprint", ""))
+        except OSError:
+            pass
+    raise UsageError(f"{path}: nothing to resume (no readable file or journal)")
+
+
 def _records_to_resume(path: Path) -> list[dict[str, Any]]:
     journal_file = journal_path(path)
     if journal_file.exists():
@@ -153,10 +179,6 @@ def _records_to_resume(path: Path) -> list[dict[str, Any]]:
 
 def _records_from_h5(path: Path) -> list[dict[str, Any]]:
     """Records equivalent to a valid raw dataset, for resuming a file whose journal is gone."""
-    import h5py
-
-    from whiskercal.collect.dataset import _read_truth
-
     try:
         grid = read_raw_grid(path)
     except ArtifactError as error:
@@ -167,7 +189,7 @@ def _records_from_h5(path: Path) -> list[dict[str, Any]]:
         fingerprint = str(handle.attrs["plan_fingerprint"])
         points = {name: handle["points"][name][()] for name in POINT_FIELDS}
         stream = {name: handle["stream"][name][()] for name in STREAM_FIELDS}
-        truth = _read_truth(handle)
+        truth = read_truth(handle)
         group = handle["baseline"]
         before = Baseline(group["before_field_uT"][()], group["before_std_uT"][()],
                           float(group["t_before_s"][()]))

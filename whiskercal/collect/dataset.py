@@ -128,10 +128,12 @@ class Baseline:
     t_s: float
 
 
-def _create_growing(group: h5py.Group, name: str, spec: tuple) -> None:
+def _create_growing(group: h5py.Group, name: str, spec: tuple, compress: bool = False) -> None:
     shape, dtype, units = spec
+    # the raw stream is most of a file: compressed (lossless) it takes about a third the space
+    packing = {"compression": "gzip", "compression_opts": 4, "shuffle": True} if compress else {}
     dataset = group.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape),
-                                   dtype=dtype, chunks=(256, *shape))
+                                   dtype=dtype, chunks=(1024 if compress else 64, *shape), **packing)
     dataset.attrs["units"] = units
 
 
@@ -173,7 +175,7 @@ class RawGridWriter:
         for group_name, fields in (("points", POINT_FIELDS), ("stream", STREAM_FIELDS)):
             group = handle.create_group(group_name)
             for name, spec in fields.items():
-                _create_growing(group, name, spec)
+                _create_growing(group, name, spec, compress=group_name == "stream")
         handle.create_group("baseline")
         handle.flush()
         return cls(handle)
@@ -308,7 +310,8 @@ def baseline_y_at(t_s: np.ndarray, before: tuple[float, float],
     return y0 + (y1 - y0) * (t_s - t0) / (t1 - t0)
 
 
-def _read_truth(handle: h5py.File) -> dict[str, np.ndarray] | None:
+def read_truth(handle: h5py.File) -> dict[str, np.ndarray] | None:
+    """The /truth group of an open raw dataset as arrays (text as str), or None."""
     if "truth" not in handle:
         return None
     truth = {}
@@ -344,33 +347,36 @@ def read_raw_grid(path: str | Path) -> RawGrid:
     path = Path(path)
     with open_h5(path) as handle:
         check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
-        points = handle["points"]
-        columns = {name: read_array(points, name, path) for name in POINT_FIELDS}
-        before, after = _read_baselines(handle, path)
-        t_mid = 0.5 * (columns["t_start_s"] + columns["t_end_s"])
-        static_y = baseline_y_at(t_mid, (before[0], before[1][1]),
-                                 None if after is None else (after[0], after[1][1]))
-        grid = RawGrid(
-            rod_center_mm=columns["rod_center_mm"],
-            z_uT=columns["field_mean_uT"][:, 1] - static_y,
-            z_std_uT=columns["field_std_uT"][:, 1],
-            n_samples=columns["n_samples"],
-            rod_radius_mm=float(handle.attrs["rod_radius_mm"]),
-            sensor_id=str(handle.attrs["sensor_id"]),
-            config=read_json_attr(handle, "config", {}),
-            sha256="",
-            complete=bool(handle.attrs.get("complete", False)),
-            truth=_read_truth(handle),
-            plan_index=columns["plan_index"],
-            field_mean_uT=columns["field_mean_uT"],
-            commanded_mm=columns["commanded_mm"],
-            encoder_mm=columns["encoder_mm"],
-            t_mid_s=t_mid,
-            plan_stage_mm=read_array(handle["plan"], "stage_mm", path),
-            plan_rod_center_mm=read_array(handle["plan"], "rod_center_mm", path),
-            baseline_before_uT=before[1],
-            baseline_after_uT=None if after is None else after[1],
-            path=str(path),
-        )
+        grid = _grid_from(handle, path)
     grid.sha256 = sha256_file(path)
     return grid
+
+
+def _grid_from(handle: h5py.File, path: Path) -> RawGrid:
+    columns = {name: read_array(handle["points"], name, path) for name in POINT_FIELDS}
+    before, after = _read_baselines(handle, path)
+    t_mid = 0.5 * (columns["t_start_s"] + columns["t_end_s"])
+    static_y = baseline_y_at(t_mid, (before[0], before[1][1]),
+                             None if after is None else (after[0], after[1][1]))
+    return RawGrid(
+        rod_center_mm=columns["rod_center_mm"],
+        z_uT=columns["field_mean_uT"][:, 1] - static_y,
+        z_std_uT=columns["field_std_uT"][:, 1],
+        n_samples=columns["n_samples"],
+        rod_radius_mm=float(handle.attrs["rod_radius_mm"]),
+        sensor_id=str(handle.attrs["sensor_id"]),
+        config=read_json_attr(handle, "config", {}),
+        sha256="",
+        complete=bool(handle.attrs.get("complete", False)),
+        truth=read_truth(handle),
+        plan_index=columns["plan_index"],
+        field_mean_uT=columns["field_mean_uT"],
+        commanded_mm=columns["commanded_mm"],
+        encoder_mm=columns["encoder_mm"],
+        t_mid_s=t_mid,
+        plan_stage_mm=read_array(handle["plan"], "stage_mm", path),
+        plan_rod_center_mm=read_array(handle["plan"], "rod_center_mm", path),
+        baseline_before_uT=before[1],
+        baseline_after_uT=None if after is None else after[1],
+        path=str(path),
+    )

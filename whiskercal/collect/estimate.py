@@ -64,7 +64,8 @@ def plan_summary(plan: GridPlan, travel_mm=None, accel_mm_s2: float | None = Non
                  max_rate_mm_min: float | None = None, start_index: int = 0) -> dict[str, Any]:
     """Points, ranges, path length, estimated stage time and limit checks of a plan.
 
-    Travel (mm), acceleration (mm/s²) and maximum rate (mm/min) default to the config; pass
+    The time counts every move (from machine zero when the run homes) and every dwell, but not
+    the homing cycle itself, whose speed only the stage knows. Travel (mm), acceleration (mm/s²) and maximum rate (mm/min) default to the config; pass
     the stage's own settings when it is connected. ``start_index`` skips points already taken.
     """
     config = plan.config
@@ -72,6 +73,8 @@ def plan_summary(plan: GridPlan, travel_mm=None, accel_mm_s2: float | None = Non
     accel = config.motion.accel_mm_s2 if accel_mm_s2 is None else accel_mm_s2
     rate = config.motion.max_rate_mm_min if max_rate_mm_min is None else max_rate_mm_min
     moves = plan.path(start_index)
+    if config.motion.home:  # homing leaves the stage at machine zero, far from the park position
+        moves = plan.moves_to(plan.to_whisker(np.zeros(2)), plan.park_mm, to_park=True) + moves
     move_s = moves_time_s(moves, accel, rate)
     problems = limit_problems(plan, travel_mm, config.safety.margin_mm) + band_problems(plan)
     return {

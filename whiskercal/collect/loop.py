@@ -19,6 +19,7 @@ from whiskercal.collect.dataset import Baseline, PointRecord
 from whiskercal.collect.plan import GridPlan, Move
 from whiskercal.collect.recorder import OverloadError, StreamRecorder, field_stats
 from whiskercal.errors import DeviceError
+from whiskercal.rig.stage import StageAlarmError
 
 # grbl's alarm for an encoder/step disagreement (docs/protocol.md).
 ALARM_ENCODER_MISMATCH = 10
@@ -127,6 +128,7 @@ class Collector:
                 if self.stop_requested():
                     self.stopped = True
                     self._retract()
+                    self.checkpoint.add_stream(self.recorder.take_chunk())
                     return False
             self._baseline_after()
             return True
@@ -146,8 +148,7 @@ class Collector:
 
     def _start_sensor(self) -> None:
         settings = self.config.sensor
-        if getattr(self.sensor, "streaming", False):
-            self.sensor.stop()
+        self.sensor.stop()  # a board left streaming refuses settings (ERR:3)
         self.sensor.configure(rate_hz=settings.rate_hz, gain=settings.gain, res=settings.res,
                               osr=settings.osr, filt=settings.filt)
         self.sensor.start()
@@ -287,7 +288,7 @@ class Collector:
 
 def _explain_alarm(error: DeviceError, point: int) -> DeviceError:
     """Give the encoder alarm the same clear message as the host's own comparison."""
-    if getattr(error, "code", None) == ALARM_ENCODER_MISMATCH and "ALARM" in str(error):
+    if isinstance(error, StageAlarmError) and error.code == ALARM_ENCODER_MISMATCH:
         where = f" at point {point}" if point >= 0 else ""
         return EncoderMismatchError(
             f"stage encoder and step positions disagree{where} (ALARM:10): missed steps or a "

@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from whiskercal.collect.checkpoint import Checkpoint
+from whiskercal.collect.checkpoint import Checkpoint, recorded_fingerprint
 from whiskercal.collect.config import CollectConfig
 from whiskercal.collect.dataset import RawHeader
 from whiskercal.collect.estimate import limit_problems
@@ -89,8 +89,24 @@ def _sensor_id(config: CollectConfig, devices: Devices, port) -> str:
     return str(twin_id or devices.sensor)
 
 
+def check_resumable(out: Path, plan: GridPlan) -> None:
+    """Refuse ``--resume`` before any port opens when the recorded plan or config differs.
+
+    Raises
+    ------
+    UsageError
+        When there is nothing to resume or the fingerprints differ.
+    """
+    expected = make_header(plan, Devices({}, "", False), "").fingerprint  # devices excluded
+    if recorded_fingerprint(out) != expected:
+        raise UsageError(f"{out}: cannot resume: it was recorded with a different plan or "
+                         "configuration (start a new file or use the original config)")
+
+
 def open_checkpoint(out: Path, header: RawHeader, resume: bool) -> Checkpoint:
     """A new checkpoint, or the resumed one; refuses to overwrite an existing run."""
+    if not out.parent.is_dir():
+        raise UsageError(f"{out.parent}: no such directory for the output file")
     if resume:
         return Checkpoint.resume(out, header)
     if out.exists() or journal_path(out).exists():
@@ -105,7 +121,7 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
     """Collect the plan's grid into ``out`` (or continue it with ``resume``).
 
     ``stage_port``/``sensor_port`` are URLs, device names or open pyserial objects; tests may
-    pass ready clients instead (``stage_client``/``sensor_client``).
+    pass ready clients instead (``stage_client``/``sensor_client``), which are left open.
 
     Raises
     ------
@@ -118,14 +134,37 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
 
     out = Path(out)
     wall_start = time.monotonic()
+    if resume:
+        check_resumable(out, plan)
     stage = stage_client or StageClient(stage_port)
-    sensor = sensor_client or SensorClient(sensor_port)
+    try:
+        sensor = sensor_client or SensorClient(sensor_port)
+        try:
+            return _session(stage, sensor, out, plan, resume, on_progress, stop_requested, wall_start)
+        finally:
+            if sensor_client is None:
+                _close_port(sensor)
+    finally:
+        if stage_client is None:
+            _close_port(stage)
+
+
+def _close_port(client) -> None:
+    close = getattr(client.transport.port, "close", None)
+    if close is not None:
+        close()
+
+
+def _session(stage, sensor, out: Path, plan: GridPlan, resume: bool, on_progress, stop_requested,
+             wall_start: float) -> RunSummary:
+    """Identify, check, open the checkpoint and run the collector on open clients."""
     devices = identify(stage, sensor)
     check_limits(plan, devices)
     header = make_header(plan, devices, _sensor_id(plan.config, devices, sensor.transport.port))
     checkpoint = open_checkpoint(out, header, resume)
-    if checkpoint.complete:
+    if checkpoint.complete:  # killed after completing, before the journal was removed
         checkpoint.close()
+        journal_path(out).unlink(missing_ok=True)
         raise UsageError(f"{out}: the run is already complete; nothing to resume")
     stage_start_s = stage.transport.now_s()
     collector = Collector(stage, sensor, plan, checkpoint, devices,
@@ -136,6 +175,9 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
     except WhiskercalError as error:
         checkpoint.close()
         raise _with_saved_points(error, len(checkpoint.taken), len(plan), out) from error
+    except BaseException:
+        checkpoint.close()  # a second Ctrl-C: the journal already holds every point
+        raise
     if complete:
         checkpoint.finish()
     else:
@@ -150,10 +192,11 @@ def _averaging_s(plan: GridPlan) -> float:
 
 
 def _with_saved_points(error: WhiskercalError, taken: int, planned: int, out: Path) -> WhiskercalError:
+    """The same error (same class, code and exit code) with what was saved and how to go on."""
     wrapped = type(error).__new__(type(error))
+    wrapped.__dict__.update(vars(error))
     Exception.__init__(wrapped, f"{error} [{taken} of {planned} points saved in {out}; "
                                 "continue with --resume]")
-    wrapped.exit_code = error.exit_code
     return wrapped
 
 

@@ -28,6 +28,9 @@ from whiskercal.model.trace import Domain, LevelSetProblem, far_edge_radius
 # translation (the rod pushes hard that close), not by the bending that the tip sees; measured
 # on the twin (docs/model.md): mean tip error 2.5 mm entering at 20 mm, 1.2 mm at 26 mm.
 ENTRY_FRACTION_OF_TRACE = 1.0 / 3.0
+# The fit keeps points from this far inside the entry circle (about one grid step), so the
+# surface is interpolated, not extrapolated, on the entry circle.
+FIT_MARGIN_INSIDE_ENTRY_MM = 3.0
 # How far past the grid's far edge the trace may be extended straight (mm, beyond the gap
 # between the farthest grid point and the trace length).
 EXTENSION_ALLOWANCE_MM = 8.0
@@ -47,6 +50,7 @@ class CalibrationOptions:
     entry_radius_mm: float | None = None
     domain_margin_mm: float = 1.0
     correct_rod_radius: bool = True
+    fit_traced_region_only: bool = True
     min_standard_errors: float = 5.0
     folds: int = 5
     seed: int = 0
@@ -120,6 +124,7 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     say = progress or (lambda _message: None)
     rod_center_mm, z_uT = np.asarray(rod_center_mm, float), np.asarray(z_uT, float)
     used = contact_mask(z_uT, z_sem_uT, options.min_standard_errors)
+    used &= _traced_region(rod_center_mm, options)
     if used.sum() < 10:
         raise FitError(f"only {int(used.sum())} grid points with contact: too few to calibrate")
     points, z = rod_center_mm[used], z_uT[used]
@@ -138,16 +143,36 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
                        points - rod_center_mm[used])
 
 
+def entry_radius(points_mm: np.ndarray, options: CalibrationOptions) -> float:
+    """Where the trace enters the data (mm from the root): the option, else a third of the trace
+    length, but never inside the grid's nearest point plus the domain margin."""
+    if options.entry_radius_mm is not None:
+        return float(options.entry_radius_mm)
+    radius = np.linalg.norm(points_mm - np.asarray(options.root_mm, float), axis=1)
+    return max(float(radius.min()) + options.domain_margin_mm,
+               ENTRY_FRACTION_OF_TRACE * options.trace_length_mm)
+
+
+def _traced_region(points_mm: np.ndarray, options: CalibrationOptions) -> np.ndarray:
+    """Points no nearer the root than one grid step inside the entry circle.
+
+    The trace never evaluates f nearer the root than the entry circle, and rod contacts there
+    (the suspension pushed hard, mostly translated) give the largest |z| and the roughest part of
+    the surface; left in, they dominate the least squares and spoil the fit where the level sets
+    are traced (measured on the twin: docs/model.md).
+    """
+    if not options.fit_traced_region_only:
+        return np.ones(len(points_mm), bool)
+    radius = np.linalg.norm(points_mm - np.asarray(options.root_mm, float), axis=1)
+    return radius >= entry_radius(points_mm, options) - FIT_MARGIN_INSIDE_ENTRY_MM
+
+
 def build_problem(surface: Surface, points_mm: np.ndarray, z_uT: np.ndarray,
                   options: CalibrationOptions) -> LevelSetProblem:
     """The level-set problem over the corrected grid (domain, entry, extension, z range)."""
     root = np.asarray(options.root_mm, float)
     reach = float(np.max(np.linalg.norm(points_mm - root, axis=1)))
-    entry = options.entry_radius_mm
-    if entry is None:
-        nearest = float(np.min(np.linalg.norm(points_mm - root, axis=1)))
-        entry = max(nearest + options.domain_margin_mm,
-                    ENTRY_FRACTION_OF_TRACE * options.trace_length_mm)
+    entry = entry_radius(points_mm, options)
     z_span = float(np.ptp(z_uT))
     domain = Domain.from_points(points_mm, options.domain_margin_mm)
     return LevelSetProblem(

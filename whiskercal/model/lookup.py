@@ -1,10 +1,12 @@
 """The tip lookup: tips traced at a few z values, and a fast interpolant z -> (x_tip, y_tip).
 
-Tracing is far too slow for 300 Hz, so tips are traced once at ``n`` z values spread evenly over
-the calibrated range and an interpolant is built. The interpolant's kind is chosen by hold-out
-error against dense traces (z values between the samples). Every kind is stored as a table of
-polynomial pieces on the uniform z grid (a single piece for the global polynomial), so evaluation
-is one index computation and a Horner loop: plain floats for one sample, numpy for a batch.
+Tracing is far too slow for 300 Hz, so tips are traced once at ``n`` z values over the calibrated
+range, evenly spaced in z, and an interpolant is built. (Samples spread evenly along the tip's
+path instead were tried and measured worse on the twin, and they cost the O(1) piece index.)
+The interpolant's kind is chosen by hold-out error against dense traces. Every kind is stored
+as a table of polynomial pieces on the uniform z grid (a single piece for the global
+polynomial), so evaluation is one index computation and a Horner loop: plain floats for one
+sample, numpy for a batch.
 """
 
 from __future__ import annotations
@@ -65,13 +67,19 @@ class TipLookup:
         self.z_knots_uT = np.asarray(z_knots_uT, float)
         self.tips_mm = np.asarray(tips_mm, float)
         self.kind = kind
-        if len(self.z_knots_uT) < 2 or np.any(np.diff(self.z_knots_uT) <= 0):
+        steps = np.diff(self.z_knots_uT)
+        if len(self.z_knots_uT) < 2 or np.any(steps <= 0):
             raise ModelError("lookup knots must be at least two increasing z values")
+        if np.ptp(steps) > 1e-9 * np.ptp(self.z_knots_uT):
+            raise ModelError("lookup knots must be evenly spaced in z")
         breaks, self._table = piece_table(self.z_knots_uT, self.tips_mm, kind)
         self.z_min_uT, self.z_max_uT = float(breaks[0]), float(breaks[-1])
         self._n_pieces = len(breaks) - 1
         self._inv_width = self._n_pieces / (self.z_max_uT - self.z_min_uT)
-        self._breaks = breaks
+        self._breaks = np.asarray(breaks, float)
+        self._break_list = self._breaks.tolist()
+        self._flat_table = np.ascontiguousarray(
+            np.concatenate([self._table[:, :, 0], self._table[:, :, 1]], axis=1))
         self._rows = [[tuple(c) for c in piece] for piece in self._table.tolist()]
 
     def _out_of_range(self, z: float) -> ZOutOfRangeError:
@@ -88,7 +96,7 @@ class TipLookup:
             else:
                 return float("nan"), float("nan")
         piece = min(int((z_uT - self.z_min_uT) * self._inv_width), self._n_pieces - 1)
-        t = z_uT - self._breaks[piece]
+        t = z_uT - self._break_list[piece]
         x = y = 0.0
         for cx, cy in self._rows[piece]:
             x, y = x * t + cx, y * t + cy
@@ -105,24 +113,30 @@ class TipLookup:
         return self._batch(z, out_of_range)
 
     def _batch(self, z: np.ndarray, out_of_range: str) -> np.ndarray:
-        outside = ~((z >= self.z_min_uT) & (z <= self.z_max_uT))
-        if out_of_range == "raise" and outside.any():
-            raise self._out_of_range(float(z[outside].flat[0]))
-        zc = np.clip(z, self.z_min_uT, self.z_max_uT)
-        zc[np.isnan(zc)] = self.z_min_uT  # its row becomes NaN below ("clip" cannot place it)
-        piece = np.minimum(((zc - self.z_min_uT) * self._inv_width).astype(np.intp),
-                           self._n_pieces - 1)
-        t = (zc - self._breaks[piece])[..., None]
-        rows = self._table[piece]  # (..., order, 2)
-        tips = rows[..., 0, :].copy()
-        for k in range(1, rows.shape[-2]):
-            tips *= t
-            tips += rows[..., k, :]
-        if out_of_range == "nan":
-            tips[outside] = np.nan
-        else:
-            tips[np.isnan(z)] = np.nan
-        return tips
+        flat = z.reshape(-1)
+        outside = ~((flat >= self.z_min_uT) & (flat <= self.z_max_uT))  # NaN counts as outside
+        any_outside = bool(outside.any())
+        if any_outside:
+            if out_of_range == "raise":
+                raise self._out_of_range(float(flat[outside][0]))
+            flat = np.clip(flat, self.z_min_uT, self.z_max_uT)
+            flat[np.isnan(flat)] = self.z_min_uT  # a placeholder: its row is set to NaN below
+        cells = (flat - self.z_min_uT) * self._inv_width
+        piece = cells.astype(np.intp)
+        np.minimum(piece, self._n_pieces - 1, out=piece)
+        t = (cells - piece) / self._inv_width  # z - the piece's breakpoint, without a gather
+        rows = self._flat_table.take(piece, axis=0)  # (n, 2 * order): x then y coefficients
+        order = self._table.shape[1]
+        x, y = rows[:, 0].copy(), rows[:, order].copy()
+        for k in range(1, order):
+            x *= t
+            x += rows[:, k]
+            y *= t
+            y += rows[:, order + k]
+        tips = np.stack([x, y], axis=-1)
+        if any_outside:
+            tips[outside if out_of_range == "nan" else np.isnan(z.reshape(-1))] = np.nan
+        return tips.reshape(z.shape + (2,))
 
 
 @dataclass(frozen=True)
@@ -183,18 +197,20 @@ def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "f
     """Trace ``n_samples`` tips over the supported range and pick the interpolant by hold-out.
 
     The hold-out set is ``holdout_per_interval`` z values strictly inside every sample interval,
-    traced densely with the same tracer; the chosen kind has the smallest Euclidean RMSE there
+    traced with the same tracer; the chosen kind has the smallest Euclidean hold-out RMSE there
     (or ``kind`` is forced).
     """
     if n_samples < 2:
         raise ModelError("the lookup needs at least 2 samples")
     low, high = supported_z_range(problem, tracer)
     problem = _with_range(problem, (low, high))
-    z_knots = np.linspace(low, high, n_samples)
-    tips = trace_many(problem, z_knots, tracer)
-    fine = np.linspace(low, high, (n_samples - 1) * (holdout_per_interval + 1) + 1)
-    holdout_z = np.delete(fine, np.arange(0, len(fine), holdout_per_interval + 1))
-    holdout_tips = trace_many(problem, holdout_z, tracer)
+    dense_z = np.linspace(low, high, (n_samples - 1) * (holdout_per_interval + 1) + 1)
+    dense_tips = trace_many(problem, dense_z, tracer)
+    every = holdout_per_interval + 1
+    z_knots, tips = dense_z[::every], dense_tips[::every]
+    holdout = np.ones(len(dense_z), bool)
+    holdout[::every] = False
+    holdout_z, holdout_tips = dense_z[holdout], dense_tips[holdout]
     errors = {k: _holdout_error(TipLookup(z_knots, tips, k), holdout_z, holdout_tips)
               for k in KINDS if k != "akima" or n_samples >= 3}
     chosen = min(errors, key=lambda k: errors[k][0]) if kind == "auto" else kind

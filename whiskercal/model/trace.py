@@ -2,21 +2,25 @@
 
 The root is singular: every level set meets there, and the grid starts well away from it (the
 rod cannot touch the shaft next to the suspension), so the polynomial near the root is pure
-extrapolation. Both tracers therefore start the same way:
+extrapolation. Both tracers therefore share their two ends:
 
-1. the **entry point**: on the circle of radius ``entry_radius_mm`` about the root (chosen inside
-   the data, see :func:`default_entry_radius`), the point where f = z (a bracketed root search
-   over the circle's arc that lies in the calibrated domain);
-2. the **root segment**: a straight line from the root to the entry point. Near the root the
-   whisker is a rigid stub on a rotating suspension, so the level set there is a ray; its arc
-   length is counted in full;
-3. the **traced part**: from the entry point along f = z, outward, for the remaining arc length.
+1. the **entry point**: on the circle of radius ``entry_radius_mm`` about the root, the point
+   where f = z (a bracketed root search over the circle's arc inside the calibrated domain; the
+   circle grows in 1 mm steps when that arc misses the level set);
+2. the **root segment**: a straight line from the root to the entry point, its length counted in
+   full. Near the root the whisker is a rigid stub on a rotating suspension, and rod contacts
+   there mostly translate the suspension, so the level sets say little about the shaft;
+3. the **traced part**: from the entry point along f = z, outward;
+4. the **extension**: where the grid stops short of the tip (it must, or the rod slips off the
+   tip), the trace stops on the circle ``extension_radius_mm`` (or a far-facing hull edge) and
+   continues straight along the level set's chord for the rest of the arc, at most
+   ``tip_extension_mm``.
 
-The trace must stay inside the calibrated domain (the grid's convex hull grown by a margin), |grad
-f| must not vanish, and z must lie in the calibrated range; otherwise a :class:`TraceError`
-subclass says which. Two tracers share this: :func:`trace_paper` (the paper's fixed step, tangent
-plus Gauss-Newton pull-back) and :func:`trace_fast` (adaptive DOP853 on the unit tangent field with
-a stabilizing pull-back and a final Newton projection).
+The trace must otherwise stay inside the calibrated domain (the grid's convex hull grown by a
+margin), |grad f| must not vanish, and z must lie in the calibrated range; each failure raises
+its own :class:`TraceError` subclass. :func:`trace_paper` is the paper's fixed step (tangent plus
+Gauss-Newton pull-back); :func:`trace_fast` integrates the unit tangent field with an adaptive
+Dormand-Prince 5(4) and projects the end onto f = z by Newton steps.
 """
 
 from __future__ import annotations
@@ -137,15 +141,6 @@ class TraceResult:
     path_mm: np.ndarray | None = None
 
 
-def default_entry_radius(points_mm: np.ndarray, root_mm=(0.0, 0.0)) -> float:
-    """Entry radius (mm): nearest grid radius plus one median grid spacing, so f is interpolated."""
-    points_mm = np.asarray(points_mm, float)
-    radius = np.linalg.norm(points_mm - np.asarray(root_mm, float), axis=1)
-    gaps = np.linalg.norm(points_mm[:, None, :] - points_mm[None, :, :], axis=-1)
-    np.fill_diagonal(gaps, np.inf)
-    return float(radius.min() + np.median(gaps.min(axis=1)))
-
-
 def _check_z(problem: LevelSetProblem, z_uT: float) -> None:
     low, high = problem.z_range_uT
     if not (np.isfinite(z_uT) and low <= z_uT <= high):
@@ -157,19 +152,31 @@ def find_entry(problem: LevelSetProblem, z_uT: float, n_angles: int = 121,
                radius_step_mm: float = 1.0) -> np.ndarray:
     """The point where the trace enters the data: f = z on a circle about the root (mm).
 
-    The smallest circle of radius ``entry_radius_mm + k * radius_step_mm`` (up to half the trace
-    length) whose arc inside the domain crosses f = z is used (steep deflections on a rectangular
-    grid enter further out); the crossing is refined by a bracketed root search on that circle.
+    The circle of radius ``entry_radius_mm`` is tried first. When its arc inside the domain
+    misses f = z (steep deflections on a rectangular grid), the first circle, in
+    ``radius_step_mm`` steps up to half the trace length, that crosses it is found, and the
+    radius between the two is bisected to where the level set enters the domain: the entry then
+    moves continuously with z, and so does the tip. The crossing is refined by a bracketed root
+    search on the circle.
     """
     root = problem.root_at(z_uT)
     radii = np.arange(problem.entry_radius_mm, problem.trace_length_mm / 2, radius_step_mm)
     entry = _first_entry(problem, z_uT, root, radii[:1], n_angles)  # the usual case, cheaply
-    if entry is None:
-        entry = _first_entry(problem, z_uT, root, radii[1:], n_angles)
+    if entry is not None:
+        return entry
+    entry = _first_entry(problem, z_uT, root, radii[1:], n_angles)
     if entry is None:
         raise ZOutOfRangeError(f"z = {z_uT:.1f} µT has no level set entering the calibrated domain "
                                f"within {problem.trace_length_mm / 2:.1f} mm of the root")
-    return entry
+    outside, inside = float(np.hypot(*(entry - root))) - radius_step_mm, entry
+    for _ in range(30):  # 1 mm / 2^30: far below the tracers' accuracy
+        middle = (outside + float(np.hypot(*(inside - root)))) / 2
+        found = _first_entry(problem, z_uT, root, np.array([middle]), n_angles)
+        if found is None:
+            outside = middle
+        else:
+            inside = found
+    return inside
 
 
 def _first_entry(problem: LevelSetProblem, z_uT: float, root: np.ndarray, radii: np.ndarray,
@@ -217,7 +224,7 @@ def _start(problem: LevelSetProblem, z_uT: float) -> tuple[np.ndarray, np.ndarra
     return root, entry, remaining, _orientation(problem, entry, root)
 
 
-FAR_SIDE_FRACTION = 0.8  # of the grid's reach: exits beyond it are on the far side
+FAR_FACING_COSINE = 0.7  # an edge whose normal is within ~45° of radial faces away from the root
 
 
 def far_edge_radius(points_mm: np.ndarray, root_mm=(0.0, 0.0), quantile: float = 0.95) -> float:
@@ -225,7 +232,7 @@ def far_edge_radius(points_mm: np.ndarray, root_mm=(0.0, 0.0), quantile: float =
 
     The 95th percentile of the grid's radii: inside the grid's far side for a grid laid out in
     reach and angle bands (the trace then stops on a circle, and the tip moves smoothly with z);
-    on other grids the hull's far side may come first, which :func:`_check_stop` also accepts.
+    on other grids a far-facing hull edge may come first, which :func:`_check_stop` also accepts.
     """
     radius = np.linalg.norm(np.asarray(points_mm, float) - np.asarray(root_mm, float), axis=1)
     return float(np.quantile(radius, quantile))
@@ -242,13 +249,19 @@ def _region(problem: LevelSetProblem, root: np.ndarray):
 
 def _check_stop(problem: LevelSetProblem, root: np.ndarray, x: float, y: float,
                 remaining_mm: float) -> None:
-    """A trace that stopped short must have reached the grid's far side (the extension circle, or
-    the hull beyond ``FAR_SIDE_FRACTION`` of the reach), not a side or the root's end."""
+    """A trace that stopped short must have reached the grid's far side: the extension circle,
+    or a hull edge that faces away from the root (not a side edge along which level sets run,
+    where the exit point would jump from edge to edge as z changes)."""
     if remaining_mm <= 1e-12:
         return
     radius = problem.extension_radius_mm
-    reach = float(np.max(np.linalg.norm(problem.domain.vertices_mm - root, axis=1)))
-    if radius is None or math.hypot(x - root[0], y - root[1]) < FAR_SIDE_FRACTION * reach:
+    offset = np.array([x, y]) - root
+    distance = float(np.hypot(*offset))
+    if radius is not None and distance >= radius - 1e-6:
+        return
+    equations = problem.domain.equations
+    facet = equations[int(np.argmax(equations[:, :2] @ [x, y] + equations[:, 2]))]
+    if radius is None or facet[:2] @ offset < FAR_FACING_COSINE * distance:
         raise DomainExitError(f"the trace left the calibrated domain at ({x:.2f}, {y:.2f}) mm "
                               f"with {remaining_mm:.1f} mm of arc to go: z needs a larger grid")
 
@@ -343,7 +356,7 @@ def _project(problem: LevelSetProblem, point: np.ndarray, z_uT: float,
     raise NonConvergenceError(f"projection onto f = {z_uT:.1f} µT did not converge")
 
 
-def trace_fast(problem: LevelSetProblem, z_uT: float, rtol: float = 1e-7, atol_mm: float = 1e-7,
+def trace_fast(problem: LevelSetProblem, z_uT: float, rtol: float = 1e-10, atol_mm: float = 1e-10,
                pull_per_mm: float = 0.0) -> TraceResult:
     """Adaptive tracer: Dormand-Prince 5(4) on the unit tangent field of f, then a Newton projection.
 

@@ -17,7 +17,7 @@ from whiskercal.errors import DeviceError
 from whiskercal.rig.codes import describe
 from whiskercal.rig.frames import SAMPLE_FRAME_BYTES, FrameDecoder, Sample
 from whiskercal.rig.mlx90393 import lsb_uT
-from whiskercal.rig.transport import Transport, open_port
+from whiskercal.rig.transport import DeviceTimeout, Transport, open_port
 
 _CONFIG_FIELD = re.compile(r"(\w+)=(-?\d+)")
 _READ_CHUNK_BYTES = 4096
@@ -82,6 +82,7 @@ class _Unwrapper:
     rows: list = field(default_factory=list)
 
     def add(self, sample: Sample) -> None:
+        """Append one sample; a gap in ``seq`` counts the missing samples as dropped."""
         if self.last_seq is None:
             self.seq, self.t_us = sample.seq, sample.t_us
         else:
@@ -144,8 +145,17 @@ class SensorClient:
             raise self.transport.timed_out(what, self.timeout_s)
         self._frames += self._decoder.feed(data)
 
-    def identify(self) -> str:
-        """The board's identity, e.g. ``whisker_nano fw=0.1.0 proto=1``."""
+    def identify(self, attempts: int = 3) -> str:
+        """The board's identity, e.g. ``whisker_nano fw=0.1.0 proto=1``.
+
+        Opening an Arduino's port resets it; its bootloader swallows the first command, so
+        ``ID`` is repeated up to ``attempts`` times before giving up.
+        """
+        for _ in range(attempts - 1):
+            try:
+                return self.command("ID")
+            except DeviceTimeout:
+                continue
         return self.command("ID")
 
     def config(self) -> SensorConfig:

@@ -167,9 +167,16 @@ class StageClient:
             if line.startswith("<"):
                 return parse_status(line)
 
-    def identify(self) -> StageIdentity:
-        """Read the banner if one is waiting, ask ``$I``, and check for the encoder field."""
+    def identify(self, boot_wait_s: float = 2.5) -> StageIdentity:
+        """Wait for the banner, ask ``$I``, and check for the encoder field.
+
+        Opening an Arduino's port resets it and its bootloader swallows what arrives in the
+        first second or two, so until a banner has been seen this waits up to ``boot_wait_s``
+        (s) for one; a board that did not reset is asked anyway.
+        """
         self._drain_pushes()
+        if self.banner is None:
+            self._wait_for_banner(boot_wait_s)
         version, name, options, proto = "", "", "", None
         for line in self.command("$I"):
             if line.startswith("[VER:"):
@@ -255,6 +262,11 @@ class StageClient:
             if line.startswith("Grbl "):
                 self.banner = line
                 return line
+
+    def _wait_for_banner(self, wait_s: float) -> None:
+        deadline = self.transport.now_s() + wait_s
+        while self.banner is None and self.transport.now_s() < deadline:
+            self._drain_pushes(deadline - self.transport.now_s())
 
     def _drain_pushes(self, wait_s: float = 0.0) -> None:
         """Consume pushed lines (banner, messages, alarms) that arrive within ``wait_s`` s."""

@@ -19,6 +19,10 @@ from whiskercal.errors import DeviceError
 BAUD = 115200
 
 
+class DeviceTimeout(DeviceError):
+    """A device did not answer in time (it may still be booting)."""
+
+
 def open_port(port, baud: int = BAUD) -> serial.SerialBase:
     """Return an open pyserial object for a name/URL, or the object itself when already open."""
     if not isinstance(port, (str, bytes)):
@@ -91,7 +95,7 @@ class Transport:
         return DeviceError(f"{self.device} on {self.name} is disconnected or not responding "
                            f"({error}); check the USB cable and power")
 
-    def timed_out(self, what: str, timeout_s: float) -> DeviceError:
+    def timed_out(self, what: str, timeout_s: float) -> DeviceTimeout:
         """The error for a device that did not answer in time."""
-        return DeviceError(f"{self.device} on {self.name} did not answer {what} within "
+        return DeviceTimeout(f"{self.device} on {self.name} did not answer {what} within "
                            f"{timeout_s:g} s; is it the right port and powered?")

@@ -1,18 +1,15 @@
 """Per-trial analysis of the flat-plane study: errors against the plane, contact, slips, failure.
 
 Pure numpy: arrays in, arrays out. The inputs of one trial are the slide's samples (deflection z,
-the tip estimates before and after the filter, the plane's line in the whisker frame per sample)
-and, on the twin, the true tip and equilibrium kind per sample. The error of an estimate is its
-distance to the plane's line, as in the paper; on the twin it is also measured against the true tip.
+the tip estimates before and after the filter, the plane's line in the whisker frame per sample),
+the push-in's depth and z, and, on the twin, the true tip and equilibrium kind per sample. The
+error of an estimate is its distance to the plane's line, as in the paper; on the twin it is also
+measured against the true tip.
 
-Slips and tangential contact are detected from the data alone (never from the twin's truth):
-
-- a *slip* is a jump of z between consecutive samples far above the stream's own sample-to-sample
-  fluctuation (the tip breaking loose from the plane and snapping to a new equilibrium);
-- *tangential contact* shows as tip estimates that leave the plane's line: the lookup assumes a
-  contact at the tip, so when the shaft lies on the plane the estimate lands off the line;
-- across trials, z must grow in magnitude with depth: a trial whose median |z| is not larger than
-  the shallower one's has stopped bending the way a tip contact does (see :func:`monotone_breaks`).
+Slips and tangential contact are detected from the data alone, never from the twin's truth
+(whiskercal.study.detect): slips are jumps of z; tangential contact shows as the whisker
+a kink of z(depth) during the push-in, as tip estimates that leave the plane's line (the lookup assumes
+a contact at the tip), or, across trials, as a median |z| that stops growing with depth.
 """
 
 from __future__ import annotations
@@ -21,8 +18,7 @@ from dataclasses import dataclass, field, asdict
 
 import numpy as np
 
-MAD_TO_SIGMA = 1.4826
-"""Scale from the median absolute deviation to the standard deviation of a normal distribution."""
+from whiskercal.study.detect import detect_kink, detect_slips, monotone_breaks
 
 
 @dataclass(frozen=True)
@@ -47,6 +43,14 @@ class Criteria:
     """More contact samples than this without a tip estimate (z outside the calibration) fails."""
     min_travel_fraction: float = 0.9
     """A slide shorter than this fraction of the planned travel was cut short."""
+    settle_mm: float = 2.0
+    """The first part of each slide (mm) is left out of the error statistics: the tip still
+    carries the push-in's friction state until it breaks loose into steady sliding."""
+    kink_tolerance: float = 0.3
+    """During the push-in, a slope dz/d depth that leaves its trend by this fraction (and by
+    more than 4 standard errors) means the contact changed kind (tangential contact)."""
+    kink_window_mm: float = 1.25
+    """Depth window of each slope estimate in the kink test (mm)."""
 
 
 @dataclass
@@ -73,6 +77,12 @@ class TrialSeries:
     """How far the stage actually slid the plane (mm); NaN when unknown."""
     planned_travel_mm: float = float("nan")
     """How far it was meant to slide (mm)."""
+    steady: np.ndarray | None = None
+    """Samples past the settling distance (bool per sample); None: all of them."""
+    approach_depth_mm: np.ndarray | None = None
+    """The push-in's samples: depth past first contact (mm) ..."""
+    approach_z_uT: np.ndarray | None = None
+    """... and z (µT)."""
 
 
 @dataclass
@@ -91,6 +101,7 @@ class TrialMetrics:
     n_slips: int
     unlocalized_fraction: float = float("nan")
     slid_mm: float = float("nan")
+    kink_depth_mm: float = float("nan")
     slip_indices: list[int] = field(default_factory=list)
     tangential: bool = False
     true_raw_mean_mm: float = float("nan")
@@ -129,7 +140,7 @@ def analyse_trial(series: TrialSeries, criteria: Criteria = Criteria()) -> Trial
     Parameters
     ----------
     series
-        The slide's samples of one trial.
+        The slide's samples of one trial (and its push-in).
     criteria
         Thresholds for slips, tangential contact and failure.
 
@@ -139,35 +150,51 @@ def analyse_trial(series: TrialSeries, criteria: Criteria = Criteria()) -> Trial
         The trial's row; failing trials carry one short reason each in ``reasons``.
     """
     contact = np.asarray(series.contact, bool)
-    n = int(contact.size)
-    raw_error = distance_to_line_mm(series.raw_tip_mm, series.plane_point_mm, series.plane_normal)
-    filtered_error = distance_to_line_mm(series.filtered_tip_mm, series.plane_point_mm,
-                                         series.plane_normal)
-    raw_error = np.where(contact, raw_error, np.nan)
-    filtered_error = np.where(contact, filtered_error, np.nan)
+    steady = np.ones(contact.size, bool) if series.steady is None else np.asarray(series.steady, bool)
+    judged = contact & steady
+    raw_error = np.where(judged, distance_to_line_mm(series.raw_tip_mm, series.plane_point_mm,
+                                                     series.plane_normal), np.nan)
+    filtered_error = np.where(judged, distance_to_line_mm(
+        series.filtered_tip_mm, series.plane_point_mm, series.plane_normal), np.nan)
     raw_mean, raw_std = _mean_std(raw_error)
     filtered_mean, filtered_std = _mean_std(filtered_error)
     measured = np.isfinite(raw_error)
-    off_plane = float(np.mean(raw_error[measured] > criteria.off_plane_mm)) if measured.any() \
-        else float("nan")
-    slips = detect_slips(series.z_uT, contact, criteria)
+    slips = detect_slips(series.z_uT, contact, criteria.jump_sigma, criteria.jump_floor_uT)
     metrics = TrialMetrics(
-        depth_mm=float(series.depth_mm), n_samples=n,
-        contact_fraction=float(contact.mean()) if n else 0.0,
-        median_z_uT=float(np.median(series.z_uT[contact])) if contact.any() else float("nan"),
+        depth_mm=float(series.depth_mm), n_samples=int(contact.size),
+        contact_fraction=float(contact.mean()) if contact.size else 0.0,
+        median_z_uT=float(np.median(series.z_uT[judged])) if judged.any() else float("nan"),
         raw_mean_mm=raw_mean, raw_std_mm=raw_std,
         filtered_mean_mm=filtered_mean, filtered_std_mm=filtered_std,
-        off_plane_fraction=off_plane, n_slips=int(slips.size), slip_indices=slips.tolist(),
-        slid_mm=float(series.slid_mm),
-        unlocalized_fraction=float(1.0 - measured.sum() / contact.sum()) if contact.any() else float("nan"),
-        tangential=bool(np.isfinite(off_plane) and off_plane > criteria.max_off_plane_fraction))
-    _add_truth(metrics, series, contact)
-    _judge(metrics, int(contact.sum()), criteria)
+        off_plane_fraction=float(np.mean(raw_error[measured] > criteria.off_plane_mm))
+        if measured.any() else float("nan"),
+        n_slips=int(slips.size), slip_indices=slips.tolist(), slid_mm=float(series.slid_mm),
+        unlocalized_fraction=_unlocalized(series.raw_tip_mm, contact))
+    metrics.kink_depth_mm = _kink(series, criteria)
+    metrics.tangential = bool(metrics.off_plane_fraction > criteria.max_off_plane_fraction
+                              or np.isfinite(metrics.kink_depth_mm))
+    _add_truth(metrics, series, judged)
+    _judge(metrics, int(judged.sum()), criteria)
     if series.slid_mm < criteria.min_travel_fraction * series.planned_travel_mm:
         metrics.reasons.insert(0, f"cut short: slid {series.slid_mm:.1f} of "
                                   f"{series.planned_travel_mm:g} mm")
         metrics.failing = True
     return metrics
+
+
+def _unlocalized(raw_tip_mm: np.ndarray, contact: np.ndarray) -> float:
+    """Share of the contact samples without a raw tip estimate."""
+    if not contact.any():
+        return float("nan")
+    return float(np.mean(~np.isfinite(np.asarray(raw_tip_mm, float)[contact, 0])))
+
+
+def _kink(series: TrialSeries, criteria: Criteria) -> float:
+    """Depth where the push-in kinked (tangential contact), NaN if it did not or is unknown."""
+    if series.approach_depth_mm is None or series.approach_z_uT is None:
+        return float("nan")
+    return detect_kink(series.approach_depth_mm, series.approach_z_uT,
+                       criteria.kink_window_mm, criteria.kink_tolerance)
 
 
 def _add_truth(metrics: TrialMetrics, series: TrialSeries, contact: np.ndarray) -> None:
@@ -194,7 +221,10 @@ def _judge(metrics: TrialMetrics, n_contact: int, criteria: Criteria) -> None:
     if metrics.unlocalized_fraction > criteria.max_unlocalized_fraction:
         reasons.append(f"{metrics.unlocalized_fraction:.0%} of the contact samples have no tip "
                        "estimate (z outside the calibrated range)")
-    if metrics.tangential:
+    if np.isfinite(metrics.kink_depth_mm):
+        reasons.append(f"tangential contact: z(depth) kinked at {metrics.kink_depth_mm:.1f} mm "
+                       "during the push-in (the contact changed kind)")
+    if metrics.off_plane_fraction > criteria.max_off_plane_fraction:
         reasons.append(f"tangential contact: {metrics.off_plane_fraction:.0%} of the estimates "
                        f"more than {criteria.off_plane_mm:g} mm off the plane")
     if np.isfinite(metrics.filtered_mean_mm) and metrics.filtered_mean_mm >= criteria.max_mean_error_mm:

@@ -14,9 +14,10 @@ import numpy as np
 
 from whiskercal.errors import ArtifactError
 from whiskercal.study.analysis import Criteria, TrialMetrics, TrialSeries, analyse_study
-from whiskercal.study.dataset import PHASE_SLIDE, Study, TrialRecord, read_study
+from whiskercal.study.config import PlaneGeometry
+from whiskercal.study.dataset import PHASE_APPROACH, PHASE_SLIDE, Study, TrialRecord, read_study
 from whiskercal.study.localize import track
-from whiskercal.study.recorder import SENSOR_AXIS_Y
+from whiskercal.study.recorder import SENSOR_AXIS_Y, stage_position_per_sample
 from whiskercal.study.target import NoTargetError, TargetChoice, choose_target
 
 
@@ -45,8 +46,11 @@ class StudyReport:
             entry.pop("slip_indices")
             entry["unmapped_samples"] = self.unmapped.get(row.depth_mm, 0)
             rows.append(entry)
+        passing = [r for r in self.rows if not r.failing]
         return {"study": str(self.study.path), "study_sha256": self.study.sha256,
                 "trials": rows, "failing_depths_mm": [r.depth_mm for r in self.rows if r.failing],
+                "passing_mean_filtered_mm": (float(np.mean([r.filtered_mean_mm for r in passing]))
+                                             if passing else None),
                 "choice": self.choice.as_dict() if self.choice else None,
                 "no_target": self.no_target,
                 "artifact": str(self.artifact_out) if self.artifact_out else None,
@@ -76,23 +80,35 @@ def slid_mm(trial: TrialRecord) -> float:
     return float(np.max(np.linalg.norm(sliding - sliding[0], axis=1)))
 
 
-def trial_series(study: Study, trial: TrialRecord, calibration, threshold_uT: float
-                 ) -> tuple[TrialSeries, int]:
-    """The slide of one trial, localized through ``calibration``; and its unmapped sample count."""
-    slide = trial.stream["phase"] == PHASE_SLIDE
+def trial_series(study: Study, trial: TrialRecord, calibration, threshold_uT: float,
+                 settle_mm: float = Criteria.settle_mm) -> tuple[TrialSeries, int]:
+    """The slide of one trial, localized through ``calibration``; and its unmapped sample count.
+
+    The push-in's depth and z go along for the kink test; samples within ``settle_mm`` of
+    the slide's start are marked unsteady.
+    """
+    phase = trial.stream["phase"]
+    slide = phase == PHASE_SLIDE
     static_y = float(np.asarray(trial.attrs.get("static_field_uT",
                                                  study.header["baseline_field_uT"]))[SENSOR_AXIS_Y])
-    z_uT = trial.stream["field_uT"][slide, SENSOR_AXIS_Y] - static_y
-    estimates = track(calibration, z_uT)
+    z_all = trial.stream["field_uT"][:, SENSOR_AXIS_Y] - static_y
+    stage_mm = stage_position_per_sample(trial.stage, phase.size)
+    geometry = PlaneGeometry.from_config(study.config)
+    approach = phase == PHASE_APPROACH
+    approach_depth = geometry.depth_of_stage_mm(stage_mm[approach],
+                                                study.header["first_contact_stage_mm"])
+    estimates = track(calibration, z_all[slide])
+    along = np.linalg.norm(stage_mm[slide] - stage_mm[slide][:1], axis=1) if slide.any() else np.zeros(0)
     truth = trial.truth
     series = TrialSeries(
-        depth_mm=trial.depth_mm, t_s=trial.stream["t_s"][slide], z_uT=z_uT,
-        contact=np.abs(z_uT) > threshold_uT,
+        depth_mm=trial.depth_mm, t_s=trial.stream["t_s"][slide], z_uT=z_all[slide],
+        contact=np.abs(z_all[slide]) > threshold_uT,
         raw_tip_mm=estimates.raw_tip_mm, filtered_tip_mm=estimates.filtered_tip_mm,
         plane_point_mm=trial.plane["point_mm"][slide], plane_normal=trial.plane["normal"][slide],
         true_tip_mm=truth["tip_mm"][slide] if truth is not None else None,
         true_kind=truth["kind"][slide] if truth is not None else None,
-        slid_mm=slid_mm(trial), planned_travel_mm=float(trial.attrs.get("travel_mm", np.nan)))
+        slid_mm=slid_mm(trial), planned_travel_mm=float(trial.attrs.get("travel_mm", np.nan)),
+        steady=along >= settle_mm, approach_depth_mm=approach_depth, approach_z_uT=z_all[approach])
     return series, estimates.unmapped
 
 
@@ -131,7 +147,7 @@ def build_report(study_path: str | Path, calibration, criteria: Criteria = Crite
     threshold = float(study.config.get("contact", {}).get("threshold_uT", 300.0))
     series, unmapped = [], {}
     for trial in study.trials:
-        one, count = trial_series(study, trial, calibration, threshold)
+        one, count = trial_series(study, trial, calibration, threshold, criteria.settle_mm)
         series.append(one)
         unmapped[trial.depth_mm] = count
     rows = analyse_study(series, criteria)

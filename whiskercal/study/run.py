@@ -18,11 +18,13 @@ the loop runs unchanged on a real rig, on the twin and against test fakes.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
+from whiskercal.collect.loop import Progress
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.study import truth as truth_module
 from whiskercal.study.config import PlaneGeometry
@@ -31,7 +33,7 @@ from whiskercal.study.dataset import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE
 from whiskercal.study.recorder import SENSOR_AXIS_Y, OverloadError, StreamRecorder, \
     stage_position_per_sample
 
-ProgressCallback = Callable[[dict], None]
+ProgressCallback = Callable[[Progress], None]
 
 
 class NoContactError(DeviceError):
@@ -66,7 +68,8 @@ class StudyRun:
     world
         The twin's world when the sensor port is simulated (for /truth), else None.
     progress
-        Called with a dict (trial, trials, depth_mm, fraction) as trials advance.
+        Called with a ``whiskercal.collect.loop.Progress`` (trials done of the total, rate, time
+        left) before each trial and at the end.
     """
 
     def __init__(self, stage, sensor, config: dict, writer: StudyWriter, world=None,
@@ -74,6 +77,8 @@ class StudyRun:
         self.stage, self.sensor, self.config, self.writer = stage, sensor, config, writer
         self.world = world
         self.geometry = PlaneGeometry.from_config(config)
+        if world is not None:
+            truth_module.check_world(world, self.geometry)
         self.progress = progress or (lambda info: None)
         self.clock = getattr(getattr(stage, "transport", None), "now_s", None) or (lambda: 0.0)
         self.static_field_uT = np.full(3, np.nan)
@@ -84,40 +89,64 @@ class StudyRun:
         """Do every trial that the file does not hold yet; return what was done."""
         summary = RunSummary(out=str(self.writer.path))
         started = self.clock()
+        # the plan with first contact where the geometry expects it, before anything moves
+        self._check_travel(self.geometry.contact_guess_stage_mm())
         self._prepare()
-        header = self.writer.header()
         try:
-            contact = self._baseline_and_contact(header)
+            contact = self._baseline_and_contact(self.writer.header())
             summary.first_contact_stage_mm = contact.tolist()
             self._check_travel(contact)
-            done = set(self.writer.done_depths())
-            depths = [float(d) for d in self.config["trials"]["depths_mm"]]
-            for index, depth in enumerate(depths):
-                if depth in done:
-                    summary.trials_skipped.append(depth)
-                    continue
-                self.progress({"trial": index, "trials": len(depths), "depth_mm": depth, "fraction": 0.0})
-                record = self._trial(contact, depth)
-                self.writer.add_trial(record)
-                summary.trials_done.append(depth)
-                summary.dropped += int(record.attrs["dropped"])
-                summary.corrupt += int(record.attrs["corrupt"])
+            self._trials(contact, summary)
             self.writer.mark_complete()
             summary.complete = True
+        except KeyboardInterrupt:
+            self._stop_stage()  # the trial in progress is dropped; --resume redoes it
+            raise
         finally:
             self._stop_sensor()
         summary.stage_time_s = float(self.clock() - started)
         return summary
+
+    def _trials(self, contact: np.ndarray, summary: RunSummary) -> None:
+        """Run and store every planned depth that the file does not hold yet."""
+        done = set(self.writer.done_depths())
+        depths = [float(d) for d in self.config["trials"]["depths_mm"]]
+        summary.trials_skipped = [d for d in depths if d in done]
+        wall_start = time.monotonic()
+        for depth in (d for d in depths if d not in done):
+            self._report_progress(summary, depths, wall_start)
+            record = self._trial(contact, depth)
+            self.writer.add_trial(record)
+            summary.trials_done.append(depth)
+            summary.dropped += int(record.attrs["dropped"])
+            summary.corrupt += int(record.attrs["corrupt"])
+        self._report_progress(summary, depths, wall_start)
+
+    def _report_progress(self, summary: RunSummary, depths: list[float], wall_start: float) -> None:
+        """Tell the progress callback how many trials are done (collect's Progress record)."""
+        done = len(summary.trials_skipped) + len(summary.trials_done)
+        self.progress(Progress(done=done, total=len(depths), taken_now=len(summary.trials_done),
+                               elapsed_s=time.monotonic() - wall_start))
 
     def _prepare(self) -> None:
         self.stage.identify()
         self.sensor.identify()
         if self.config["safety"]["home"]:
             self.stage.home()
+        elif self.stage.status().alarm:
+            raise DeviceError("the stage is locked in alarm (not homed); home it or set "
+                              "safety.home = true in the configuration")
         sensor = self.config["sensor"]
         self.sensor.configure(rate_hz=sensor["rate_hz"], gain=sensor["gain"], res=sensor["res"],
                               osr=sensor["osr"], filt=sensor["filt"])
         self.sensor.start()
+
+    def _stop_stage(self) -> None:
+        """Stop any move at once (soft reset)."""
+        try:
+            self.stage.reset()
+        except DeviceError:
+            pass  # the port is gone: the stage has stopped with it
 
     def _stop_sensor(self) -> None:
         try:

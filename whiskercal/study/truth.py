@@ -60,3 +60,28 @@ def per_sample(world, sample_t_s: np.ndarray, rate_hz: float = 300.0) -> dict[st
     return {"tip_mm": pick("tip_mm"), "contact_mm": pick("contact_mm"),
             "z_uT": pick("z_true_uT"),
             "kind": np.where(found, kinds, UNKNOWN_KIND).astype("U10")}
+
+
+def check_world(world, geometry) -> None:
+    """Refuse a simulated rig whose stage does not carry the plane the configuration describes.
+
+    Raises
+    ------
+    UsageError
+        When the world has no plane fixture, or its rig geometry or plane tilt differ from the
+        configuration's (the errors would be measured against the wrong line).
+    """
+    from whiskercal.errors import UsageError
+    from whiskercal.twin.world import PlaneFixture
+
+    fixture = world.config.fixture
+    if not isinstance(fixture, PlaneFixture):
+        raise UsageError(f"the simulated rig carries a {type(fixture).__name__}, not the plane: "
+                         "open the stage as sim://NAME/stage?scene=plane")
+    rig = world.config.geometry
+    pushed = np.array([np.cos(fixture.normal_rad), np.sin(fixture.normal_rad)])
+    if (np.max(np.abs(np.asarray(rig.origin_stage_mm) - geometry.origin_stage_mm)) > 1e-6
+            or abs(rig.angle_rad - geometry.angle_rad) > 1e-9
+            or np.max(np.abs(pushed - geometry.push_whisker)) > 1e-9):
+        raise UsageError("the configuration's geometry (whisker origin, angle, plane tilt) differs "
+                         "from the simulated rig's; set [geometry] to match docs/twin.md")

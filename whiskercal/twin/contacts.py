@@ -1,5 +1,5 @@
-"""Frictionless point contacts: a rod or circle anywhere along the shaft or at the tip, and convex
-polygons (a corner on the shaft, the tip on an edge, the tip on a corner).
+"""Frictionless contact with a rod or circle, anywhere along the shaft or at the tip, and the
+shared machinery of every contact solve (parameters, Newton, conversion to `Equilibrium`).
 
 A solve without a usable `previous` follows the obstacle in from where it first touches the
 undeflected whisker (moving it toward -side·y), warm-starting each small step: the elastica has
@@ -20,7 +20,6 @@ from whiskercal.twin.whisker import Equilibrium, WhiskerParams
 TOLERANCE = 1e-10          # nondimensional residual (L, EI/L², EI/L units)
 MAX_ITER = 30
 PATH_STEP = 0.08           # largest obstacle move (in L) between warm-started path solves
-ARC_KINDS = (el.SHAFT_CIRCLE, el.TANGENT_LINE)
 
 
 def check_whisker(whisker) -> WhiskerParams:
@@ -47,12 +46,12 @@ def solve_kind(code: int, z0: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, bo
     return z, bool(converged and np.all(np.isfinite(z)))
 
 
-def free(whisker: WhiskerParams) -> Equilibrium:
-    """The undeflected whisker: no contact, no force."""
+def free(whisker: WhiskerParams, slipped_past: bool = False) -> Equilibrium:
+    """The undeflected whisker: no contact, no force (see `Equilibrium.slipped_past`)."""
     check_whisker(whisker)
     nan2 = np.full(2, np.nan)
     return Equilibrium("free", 0.0, np.zeros(2), nan2, math.nan, np.zeros(2),
-                       np.array([whisker.reach_mm, 0.0]), whisker)
+                       np.array([whisker.reach_mm, 0.0]), whisker, slipped_past=slipped_past)
 
 
 def make_equilibrium(whisker, kind: str, code: int, z, p, sliding=False,
@@ -119,6 +118,16 @@ def _touch_y(whisker, center_x: float, radius: float, side: int) -> float | None
     return side * math.sqrt(radius ** 2 - (center_x - reach) ** 2)
 
 
+def _swept_into_wire(whisker, circle: Circle) -> bool:
+    """Has the circle, coming from its side, passed the height where it first touches the
+    undeflected wire?"""
+    x, y = circle.center_mm
+    if circle.side * y >= circle.radius_mm:
+        return False
+    touch = _touch_y(whisker, x, circle.radius_mm, circle.side)
+    return touch is not None and circle.side * (y - touch) < 0.0
+
+
 def _circle_path(whisker, circle: Circle) -> tuple[int, np.ndarray, np.ndarray] | None:
     """Bring the circle in along -side·y from first touch; the final (code, z, p) or None."""
     center, radius, side = circle.center_mm, circle.radius_mm, circle.side
@@ -182,6 +191,10 @@ def solve_circle(whisker: WhiskerParams, circle: Circle, previous: Equilibrium |
     if not isinstance(circle, Circle):
         raise UsageError(f"expected a Circle, got {type(circle).__name__}.")
     p = circle_params(whisker, circle.center_mm, circle.radius_mm, circle.side)
+    if not _swept_into_wire(whisker, circle):
+        return free(whisker)  # frictionless: with nothing in the way the wire springs back
+    if previous is not None and previous.slipped_past:
+        return previous
     if previous is not None and previous.solution and previous.solution[0] in (
             el.SHAFT_CIRCLE, el.TIP_CIRCLE):
         code, z = _circle_step(previous.solution[0], previous.solution[1], p)
@@ -189,7 +202,7 @@ def solve_circle(whisker: WhiskerParams, circle: Circle, previous: Equilibrium |
             return make_equilibrium(whisker, _kind_name(code), code, z, p)
     found = _circle_path(whisker, circle)
     if found is None:
-        return free(whisker)
+        return free(whisker, slipped_past=True)
     code, z, p = found
     return make_equilibrium(whisker, _kind_name(code), code, z, p)
 
@@ -205,7 +218,10 @@ def solve_rod(whisker: WhiskerParams, rod_center_mm, rod_radius_mm: float,
     The rod comes from the whisker's +y side (``side=+1``) and pushes toward -y; see
     `solve_circle` for the rest.
     """
-    radius = float(rod_radius_mm) if np.isscalar(rod_radius_mm) else math.nan
+    try:
+        radius = float(rod_radius_mm)
+    except (TypeError, ValueError):
+        radius = math.nan
     if not math.isfinite(radius) or radius < 0:
         raise UsageError(f"rod radius must be a finite number >= 0 mm, got {rod_radius_mm!r}.")
     return solve_circle(whisker, Circle(rod_center_mm, radius, side), previous)

@@ -247,6 +247,38 @@ def residual_and_jacobian(kind, z, p, steps, r, jac):
 
 
 @njit(cache=True)
+def solve_small(a, b):
+    """x with a·x = b for a tiny dense system (Gaussian elimination, partial pivoting).
+
+    Returns (x, ok); ok is False for a (numerically) singular matrix. Hand-written because
+    numba's LAPACK binding raises on singular matrices and is slow to compile.
+    """
+    n = b.shape[0]
+    m = a.copy()
+    x = b.copy()
+    scale = max(np.max(np.abs(a)), 1e-300)
+    for col in range(n):
+        pivot = col + np.argmax(np.abs(m[col:, col]))
+        if abs(m[pivot, col]) <= 1e-14 * scale:
+            return x, False
+        if pivot != col:
+            for j in range(n):
+                m[col, j], m[pivot, j] = m[pivot, j], m[col, j]
+            x[col], x[pivot] = x[pivot], x[col]
+        for row in range(col + 1, n):
+            factor = m[row, col] / m[col, col]
+            for j in range(col, n):
+                m[row, j] -= factor * m[col, j]
+            x[row] -= factor * x[col]
+    for row in range(n - 1, -1, -1):
+        total = x[row]
+        for j in range(row + 1, n):
+            total -= m[row, j] * x[j]
+        x[row] = total / m[row, row]
+    return x, True
+
+
+@njit(cache=True)
 def newton(kind, z0, p, steps, tol, max_iter):
     """Damped Newton with the exact (variational) Jacobian.
 
@@ -262,8 +294,8 @@ def newton(kind, z0, p, steps, tol, max_iter):
         norm = np.max(np.abs(r))
         if norm < tol:
             return z, True, it
-        step = np.linalg.solve(jac, -r)
-        if not np.all(np.isfinite(step)):
+        step, solvable = solve_small(jac, -r)
+        if not solvable or not np.all(np.isfinite(step)):
             return z, False, it
         scale = 1.0
         accepted = False
@@ -346,7 +378,7 @@ def new_params() -> np.ndarray:
 def shape_of(eq, n: int) -> np.ndarray:
     """`Equilibrium.shape_mm` (see there)."""
     whisker = eq.whisker
-    if not eq.solution:
+    if eq.kind == "free":
         x = np.concatenate([[0.0], whisker.root_offset_mm + whisker.length_mm
                             * np.linspace(0.0, 1.0, n)])
         return np.column_stack([x, np.zeros_like(x)])

@@ -204,7 +204,7 @@ def solve_plane(whisker, plane: Plane, previous: Equilibrium | None = None) -> E
             z, ok = solve_kind(el.TANGENT_LINE, previous.solution[1], p)
             state, sliding = (_settle(whisker, plane, el.TANGENT_LINE, z, p, True)
                               if ok else _approach(whisker, plane)), True
-        if state is not None or _reaches(whisker, plane) is False:
+        if state is not None or not _reaches(whisker, plane):
             return _report(whisker, plane, state, sliding)
     return _report(whisker, plane, _approach(whisker, plane), True)
 

@@ -20,7 +20,7 @@ from whiskercal.twin.scenes import Polygon
 from whiskercal.twin.whisker import Equilibrium
 
 SHAPE_NODES = 64
-DEPTH_TOL_MM = 1e-6
+DEPTH_TOL_L = 1e-6      # how far (in L) the wire may cut into the polygon: round-off
 # A candidate is (code, index): a corner on the shaft, the tip on an edge, the tip on a corner.
 
 
@@ -38,12 +38,14 @@ def _params(whisker, polygon: Polygon, code: int, index: int) -> np.ndarray:
     return p
 
 
-def _candidates(polygon: Polygon):
+def _candidates(polygon: Polygon, near: int):
+    """Every candidate contact, those at and around corner/edge `near` first."""
     k = len(polygon.vertices_mm)
-    for index in range(k):
-        yield el.SHAFT_CIRCLE, index
-        yield el.TIP_LINE, index
-        yield el.TIP_POINT, index
+    for distance in range(k // 2 + 1):
+        for index in sorted({(near + distance) % k, (near - distance) % k}):
+            yield el.SHAFT_CIRCLE, index
+            yield el.TIP_LINE, index
+            yield el.TIP_POINT, index
 
 
 def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
@@ -68,13 +70,13 @@ def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
         if np.any(weights < 0.0) or not np.any(weights > 0.0):
             return False
     points = el.shape(code, z, p, el.DEFAULT_STEPS, SHAPE_NODES)[1:] * whisker.length_mm
-    return bool(np.all(polygon.depth_mm(points) <= DEPTH_TOL_MM * whisker.length_mm))
+    return not polygon.crosses_polyline(points, DEPTH_TOL_L * whisker.length_mm)
 
 
 def _solve_pose(whisker, polygon: Polygon, state):
     """From state (code, index, z): the physical state at this pose, or None."""
     code, index, z = state
-    order = [(code, index)] + [c for c in _candidates(polygon) if c != (code, index)]
+    order = [(code, index)] + [c for c in _candidates(polygon, index) if c != (code, index)]
     for cand_code, cand_index in order:
         p = _params(whisker, polygon, cand_code, cand_index)
         start = np.append(z[:3], z[3] if len(z) > 3 else 0.999) \
@@ -165,6 +167,11 @@ def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
     touches the undeflected whisker. Returns kind "shaft", "tip" or "free".
     """
     check_whisker(whisker)
+    undeflected = free(whisker).shape_mm(2)[1:]
+    if not polygon.crosses_polyline(undeflected, 0.0):
+        return free(whisker)  # frictionless: with nothing in the way the wire springs back
+    if previous is not None and previous.slipped_past:
+        return previous
     state = None
     if previous is not None and previous.solution and len(previous.solution) > 3:
         code, z, _, index = previous.solution
@@ -172,7 +179,7 @@ def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
     if state is None:
         state = _path(whisker, polygon)
     if state is None:
-        return free(whisker)
+        return free(whisker, slipped_past=True)
     code, index, z = state
     p = _params(whisker, polygon, code, index)
     eq = make_equilibrium(whisker, "shaft" if code == el.SHAFT_CIRCLE else "tip", code, z, p)

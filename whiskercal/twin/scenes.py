@@ -170,6 +170,23 @@ class Polygon:
         return np.min(offsets[None, :] - points_mm @ normals.T, axis=1)
 
 
+    def crosses_polyline(self, points_mm: np.ndarray, tol_mm: float = 1e-6) -> bool:
+        """Does any segment of the polyline through `points_mm` (n, 2) cut into the polygon
+        deeper than `tol_mm`? (Separating axes: the edge normals and each segment's normal.)"""
+        points = np.asarray(points_mm, dtype=float)
+        starts, ends = points[:-1], points[1:]
+        normals = self.outward_normals
+        offsets = np.einsum("ij,ij->i", normals, self.vertices_mm)
+        outside = np.minimum(starts @ normals.T, ends @ normals.T) - offsets >= -tol_mm
+        separated = np.any(outside, axis=1)
+        direction = ends - starts
+        across = np.column_stack([-direction[:, 1], direction[:, 0]])
+        across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
+        signed = across @ self.vertices_mm.T - np.einsum("ij,ij->i", across, starts)[:, None]
+        separated |= np.all(signed >= -tol_mm, axis=1) | np.all(signed <= tol_mm, axis=1)
+        return bool(not np.all(separated))
+
+
 def regular_polygon(center_mm, circumradius_mm: float, n_sides: int,
                     rotation_rad: float = 0.0, side: int = 1) -> Polygon:
     """A regular polygon (an octagon for the contour scenes) around `center_mm`."""

@@ -16,6 +16,8 @@ URL options are documented in docs/twin.md ("Simulated rig and sim:// URLs").
 from __future__ import annotations
 
 import math
+import os
+import select
 import urllib.parse
 
 import serial
@@ -63,12 +65,13 @@ def _faults(options: dict[str, list[str]]) -> list[tuple[str, float, str]]:
     return faults
 
 
-def world_from_options(name: str, board: str, options: dict[str, list[str]]) -> World:
+def world_from_options(name: str, options: dict[str, list[str]]) -> World:
     """Create the world ``name`` from URL options (see docs/twin.md)."""
     from whiskercal.twin.stage import StageFaults
     from whiskercal.twin.virtual_sensor import SensorFaults
 
     def value(key, default):
+        """The last value given for ``key``."""
         return options.get(key, [default])[-1]
 
     stage_faults, sensor_faults = StageFaults(), SensorFaults(float(value("corrupt", 0)),
@@ -105,6 +108,7 @@ class Serial(SerialBase):
     """A serial port onto one board of a simulated world."""
 
     def open(self) -> None:
+        """Join (or create) the URL's world and reset the board, as opening a USB port does."""
         if self._port is None:
             raise SerialException("port must be configured before it can be used")
         if self.is_open:
@@ -112,7 +116,7 @@ class Serial(SerialBase):
         name, board, options = parse_sim_url(self.portstr)
         world = get_world(name)
         if world is None:
-            world = world_from_options(name, board, options)
+            world = world_from_options(name, options)
         elif _world_level(options) and _world_level(options) != getattr(world, "url_options", None):
             raise SerialException(f"sim world {name!r} already exists with other options; "
                                   "give the options on the first port only")
@@ -128,13 +132,18 @@ class Serial(SerialBase):
             if getattr(self.board, "opened_before", False):
                 self.board.power_up(world.now_s)  # opening the USB port resets an Arduino
             self.board.opened_before = True
+            world.attach(self.board, self._deliver)
         self.is_open = True
 
     def from_url(self, url: str) -> str:
+        """Check the URL (pyserial's hook)."""
         parse_sim_url(url)
         return url
 
     def close(self) -> None:
+        """Close the port; the world and its board keep running."""
+        if self.is_open:
+            self.world.detach(self.board)
         self.is_open = False
 
     def _reconfigure_port(self) -> None:
@@ -165,13 +174,18 @@ class Serial(SerialBase):
 
     @property
     def in_waiting(self) -> int:
+        """Bytes that have arrived by now and wait to be read."""
         with self.world.lock:
             self._check()
             self._deliver()
             return len(self._rx)
 
     def read(self, size: int = 1) -> bytes:
-        """Up to ``size`` bytes; waits (in simulated time) up to ``timeout`` s for all of them."""
+        """Up to ``size`` bytes; waits (in simulated time) up to ``timeout`` s for all of them.
+
+        With ``timeout=None`` a read that nothing could ever satisfy returns what there is
+        rather than hang.
+        """
         with self.world.lock:
             self._check()
             deadline = math.inf if self.timeout is None else self.world.now_s + self.timeout
@@ -201,6 +215,7 @@ class Serial(SerialBase):
             return len(data)
 
     def reset_input_buffer(self) -> None:
+        """Discard what has arrived."""
         with self.world.lock:
             self._check()
             self._deliver()
@@ -222,8 +237,7 @@ class PtyBridge:
     """
 
     def __init__(self, world: World, speed: float = 1.0) -> None:
-        import os
-        import tty
+        import tty  # POSIX only, like the terminals themselves
 
         if speed <= 0:
             raise ValueError("a pty bridge runs against real time: speed must be > 0")
@@ -238,15 +252,14 @@ class PtyBridge:
             self._ends[kind] = (master, slave)
             self.paths[kind] = os.ttyname(slave)
         self.dropped_bytes = 0
+        for kind, board in self._boards():
+            world.attach(board, lambda kind=kind, board=board: self._forward(kind, board))
 
     def _boards(self):
         return (("stage", self.world.stage_board), ("sensor", self.world.sensor_board))
 
     def pump_once(self, wait_s: float = 0.001) -> None:
         """Move simulated time to the wall clock's and carry bytes both ways."""
-        import os
-        import select
-
         masters = [self._ends[kind][0] for kind, _ in self._boards()]
         readable, _, _ = select.select(masters, [], [], wait_s)
         with self.world.lock:
@@ -259,15 +272,15 @@ class PtyBridge:
                         board.receive(os.read(master, 4096), now)
                     except OSError:
                         pass  # no client on the other end right now
-                outgoing = board.line.receive(now)
-                if outgoing:
-                    self._write(master, outgoing)
+                self._forward(kind, board)
 
-    def _write(self, master: int, data: bytes) -> None:
-        import os
-
+    def _forward(self, kind: str, board) -> None:
+        """Write what the board has sent by now to its terminal."""
+        data = board.line.receive(self.world.now_s)
+        if not data or kind not in self._ends:
+            return
         try:
-            written = os.write(master, data)
+            written = os.write(self._ends[kind][0], data)
         except (BlockingIOError, OSError):
             written = 0
         self.dropped_bytes += len(data) - written  # a full pty buffer loses bytes, as a UART would
@@ -279,8 +292,8 @@ class PtyBridge:
 
     def close(self) -> None:
         """Close both terminals."""
-        import os
-
+        for _, board in self._boards():
+            self.world.detach(board)
         for master, slave in self._ends.values():
             for fd in (master, slave):
                 try:

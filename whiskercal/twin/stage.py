@@ -71,10 +71,12 @@ class Segment:
 
     @property
     def duration_s(self) -> float:
+        """How long the segment runs (s), up to a hold or alarm that cut it."""
         return min(sum(p[0] for p in self.phases) + self.dwell_s, self.cut_s - (self.t0 or 0.0))
 
     @property
     def t_end(self) -> float:
+        """When the segment ends (s)."""
         return self.t0 + self.duration_s
 
     def progress(self, t: float) -> tuple[float, float]:
@@ -89,6 +91,7 @@ class Segment:
         return min(done, self.length_mm), 0.0
 
     def position(self, t: float) -> np.ndarray:
+        """Commanded position at time ``t`` (mm)."""
         return self.start_mm + self.direction * self.progress(t)[0]
 
 
@@ -271,6 +274,16 @@ class StageMechanics:
         if index < 0:
             return self._timeline[0].start_mm.copy() if self._timeline else self._rest_mm.copy()
         return self._timeline[index].position(t)
+
+    def path_length_mm(self, t0: float, t1: float) -> float:
+        """Distance the commanded position travels between times ``t0`` and ``t1`` (mm)."""
+        total = 0.0
+        for segment in reversed(self._timeline):
+            if segment.t_end <= t0:
+                break
+            if segment.t0 < t1 and segment.length_mm > 0:
+                total += segment.progress(min(t1, segment.t_end))[0] - segment.progress(max(t0, segment.t0))[0]
+        return total
 
     def slip_mm(self, t: float) -> np.ndarray:
         """Missed steps accumulated by time ``t`` (pulley minus commanded), mm."""

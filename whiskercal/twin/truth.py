@@ -29,6 +29,7 @@ _SLOPE_TOL_RAD = 1e-9
 _TIP_OFFSET_TOL_MM = 1e-6
 _MAX_NEWTON = 20
 _MAX_STEP_MM = 3.0
+_MAX_SLOPE_STEP_RAD = 0.025
 
 
 def static_field_uT(sensor: SensorParams) -> np.ndarray:
@@ -155,6 +156,30 @@ def _place_rod(whisker, start, guess, previous, target, jacobian):
     raise UsageError(f"the tip-contact sweep did not converge at a tip slope of {target:.3f} rad.")
 
 
+class _March:
+    """The rod's path along the sweep: last states, for extrapolation and warm starts."""
+
+    def __init__(self, whisker: WhiskerParams):
+        self.whisker = whisker
+        self.centers = [np.array([whisker.reach_mm, TIP_ROD_RADIUS_MM])]
+        self.previous: Equilibrium | None = None
+        self.jacobian: np.ndarray | None = None
+
+    def advance(self, target: float) -> None:
+        """Place the rod for tip slope `target` (rad), just past the last one."""
+        whisker, centers = self.whisker, self.centers
+        if self.previous is not None:
+            # Extrapolate the rod's path from the last two positions, then move it 0.5 mm back
+            # along the tip tangent: onto the shaft, where the warm start cannot slip off.
+            guess = 2.0 * centers[-1] - centers[-2] - 0.5 * _tip_tangent(self.previous)
+        else:  # small-deflection beam theory
+            guess = np.array([whisker.reach_mm - 0.5,
+                              TIP_ROD_RADIUS_MM + _tip_per_tip_angle_mm(whisker) * target])
+        center, self.previous, self.jacobian = _place_rod(
+            whisker, centers[-1], guess, self.previous, target, self.jacobian)
+        centers.append(center)
+
+
 @functools.lru_cache(maxsize=16)
 def tip_contact_sweep(whisker: WhiskerParams, n: int, max_tip_slope_rad: float = MAX_TIP_SLOPE_RAD) -> TipSweep:
     """Frictionless tip-contact equilibria at n tip slopes evenly spaced in [-max, 0].
@@ -167,17 +192,14 @@ def tip_contact_sweep(whisker: WhiskerParams, n: int, max_tip_slope_rad: float =
     targets = -np.linspace(0.0, max_tip_slope_rad, n)
     free = mechanics.free(whisker)
     states, centers = [free], [np.array([whisker.reach_mm, TIP_ROD_RADIUS_MM])]
-    previous, jacobian = None, None
-    for target in targets[1:]:
-        if previous is not None:
-            # Extrapolate the rod's path from the last two samples, then move it 0.5 mm back
-            # along the tip tangent: onto the shaft, where the warm start cannot slip off.
-            guess = 2.0 * centers[-1] - centers[-2] - 0.5 * _tip_tangent(previous)
-        else:  # small-deflection beam theory
-            guess = np.array([whisker.reach_mm - 0.5, TIP_ROD_RADIUS_MM + _tip_per_tip_angle_mm(whisker) * target])
-        center, previous, jacobian = _place_rod(whisker, centers[-1], guess, previous, target, jacobian)
-        states.append(previous)
-        centers.append(center)
+    march = _March(whisker)
+    for low, high in zip(targets[:-1], targets[1:]):
+        # Warm starts only hold over small moves of the rod: step through in-between slopes.
+        n_steps = int(np.ceil(abs(high - low) / _MAX_SLOPE_STEP_RAD))
+        for target in np.linspace(low, high, n_steps + 1)[1:]:
+            march.advance(target)
+        states.append(march.previous)
+        centers.append(march.centers[-1])
     return TipSweep(
         tip_slope_rad=targets,
         root_rotation_rad=np.array([state.root_rotation_rad for state in states]),

@@ -30,8 +30,8 @@ MAX_COMMAND_CHARS = 32
 _SETTING_RANGES = {"RATE": (1, 500), "GAIN": (0, 7), "RES": (0, 3), "OSR": (0, 3), "FILT": (0, 7)}
 _SETTING_FIELDS = {"RATE": "rate_hz", "GAIN": "gain", "RES": "res", "OSR": "osr", "FILT": "filt"}
 
-# (time s, board settings) -> (raw counts (3,), saturated)
-Reading = Callable[[float, SensorConfig], tuple[np.ndarray, bool]]
+# (conversion times s (n,), board settings) -> (raw counts (n, 3), saturated (n,))
+Reading = Callable[[np.ndarray, SensorConfig], tuple[np.ndarray, np.ndarray]]
 
 
 @dataclass
@@ -49,7 +49,8 @@ class VirtualSensor:
     Parameters
     ----------
     reading
-        ``reading(t_s, config) -> (counts, saturated)``: what the MLX90393 converts at time t.
+        ``reading(times_s, config) -> (counts, saturated)``: what the MLX90393 converts at
+        those times (in order; the world steps its physics through them).
     faults
         Link faults to inject.
     rng
@@ -89,17 +90,27 @@ class VirtualSensor:
 
     def advance_to(self, t: float) -> None:
         """Convert and send every sample that is ready by time ``t``."""
-        disconnect = self.faults.disconnect_at_s
-        while self.streaming:
-            ready = self._next_trigger_s + self._conversion_s()
-            if ready > t or (disconnect is not None and ready >= disconnect):
-                break
-            self._emit_sample(self._next_trigger_s, ready)
-            self._next_trigger_s += 1.0 / self.config.rate_hz
+        if self.streaming:
+            triggers = self._due_triggers(t)
+            if triggers:
+                counts, saturated = self.reading(np.array(triggers), self.config)
+                conversion = self._conversion_s()
+                for trigger, row, flag in zip(triggers, counts, saturated):
+                    self._emit_sample(trigger, trigger + conversion, row, flag)
         self.now_s = max(self.now_s, t)
 
-    def _emit_sample(self, trigger_s: float, ready_s: float) -> None:
-        counts, saturated = self.reading(trigger_s, self.config)
+    def _due_triggers(self, t: float) -> list[float]:
+        """Trigger times of the samples that are ready by ``t`` (and before a disconnect)."""
+        disconnect = self.faults.disconnect_at_s
+        limit = t if disconnect is None else min(t, np.nextafter(disconnect, -np.inf))
+        conversion, period = self._conversion_s(), 1.0 / self.config.rate_hz
+        triggers = []
+        while self._next_trigger_s + conversion <= limit:
+            triggers.append(self._next_trigger_s)
+            self._next_trigger_s += period
+        return triggers
+
+    def _emit_sample(self, trigger_s: float, ready_s: float, counts: np.ndarray, saturated: bool) -> None:
         status = SensorStatus.SATURATED if saturated else 0
         if self._overflowed:
             status |= SensorStatus.TX_OVERFLOW

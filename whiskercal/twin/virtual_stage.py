@@ -294,9 +294,11 @@ class VirtualStage:
     def _system_command(self, command: str, t: float) -> None:
         handlers = {"": self._help, "$": self._list_settings, "I": self._build_info,
                     "X": self._unlock, "H": self._home}
+        if command not in ("", "X") and self.state(t) not in ("Idle", "Alarm"):
+            raise GcodeError(8)  # as grbl: settings, info and homing wait for the stage to rest
         if command in handlers:
             handlers[command](t)
-        elif re.fullmatch(r"\d+=[-+]?[\d.]+", command):
+        elif re.fullmatch(r"\d+=.*", command):
             self._set_setting(command, t)
         else:
             raise GcodeError(3)
@@ -338,8 +340,12 @@ class VirtualStage:
         self.homing_until_s = self.mech.plan_homing(t)
 
     def _set_setting(self, command: str, t: float) -> None:
-        number_text, value_text = command.split("=")
-        number, value = int(number_text), float(value_text)
+        number_text, value_text = command.split("=", 1)
+        number = int(number_text)
+        try:
+            value = float(value_text)
+        except ValueError:
+            raise GcodeError(2) from None
         if number not in self.mech.settings:
             raise GcodeError(3)
         if value < 0:
@@ -350,54 +356,53 @@ class VirtualStage:
         self._send("ok", t)
 
     def _gcode(self, words: list[tuple[str, float]], t: float) -> None:
+        """Check a whole block first; modal state changes only when it is accepted."""
+        modal = self._modal_words([value for letter, value in words if letter == "G"])
         letters = [letter for letter, _ in words if letter != "G"]
         if len(letters) != len(set(letters)):
             raise GcodeError(25)
         values = dict((letter, value) for letter, value in words if letter != "G")
-        if set(values) - set("XYZFPN"):
-            raise GcodeError(20)
-        motion, dwell = self._modal_words([value for letter, value in words if letter == "G"])
-        if "F" in values:
-            if values["F"] <= 0:
-                raise GcodeError(4)
-            self._feed_mm_min = values["F"]
-        if dwell:
+        if set(values) - set("XYFPN"):
+            raise GcodeError(20)  # M, S, T... and Z: this stage has two axes
+        if values.get("F", 0) < 0:
+            raise GcodeError(4)
+        feed = (values["F"] or None) if "F" in values else self._feed_mm_min  # F0: undefined
+        motion = modal["motion"] if modal["motion"] is not None else self._motion
+        absolute = modal["absolute"] if modal["absolute"] is not None else self._absolute
+        if modal["dwell"]:
             self._dwell(values, t)
         elif "X" in values or "Y" in values:
-            self._move(motion, values, t)
+            self._move(motion, absolute, feed, values, t)
+        self._motion, self._absolute, self._feed_mm_min = motion, absolute, feed
 
-    def _modal_words(self, codes: list[float]) -> tuple[int, bool]:
-        motions = [c for c in codes if c in (0, 1)]
+    @staticmethod
+    def _modal_words(codes: list[float]) -> dict:
+        """The block's motion mode, distance mode and dwell (None: unchanged)."""
+        if any(code not in (0, 1, 4, 21, 90, 91) for code in codes):
+            raise GcodeError(20)
+        motions = [int(c) for c in codes if c in (0, 1)]
         if len(motions) > 1:
             raise GcodeError(24)
-        dwell = False
-        for code in codes:
-            if code not in (0, 1, 4, 21, 90, 91):
-                raise GcodeError(20)
-            if code in (90, 91):
-                self._absolute = code == 90
-            dwell = dwell or code == 4
-        if motions:
-            self._motion = int(motions[0])
-        return self._motion, dwell
+        distances = [c == 90 for c in codes if c in (90, 91)]
+        return {"motion": motions[0] if motions else None, "dwell": 4 in codes,
+                "absolute": distances[-1] if distances else None}
 
     def _dwell(self, values: dict, t: float) -> None:
         if "P" not in values:
-            raise GcodeError(28)
+            raise GcodeError(2)  # the dwell's value word is missing
         if values["P"] < 0:
             raise GcodeError(4)
         self.mech.queue_dwell(values["P"], t)
 
-    def _move(self, motion: int, values: dict, t: float) -> None:
-        if motion == 1 and self._feed_mm_min is None:
+    def _move(self, motion: int, absolute: bool, feed: float | None, values: dict, t: float) -> None:
+        if motion == 1 and feed is None:
             raise GcodeError(22)
         start = self.mech.planned_end_mm() - self.mech.home_offset_mm
-        target = np.array([values.get("X", 0.0 if not self._absolute else start[0]),
-                           values.get("Y", 0.0 if not self._absolute else start[1])])
-        if not self._absolute:
-            target = start + target
+        offset = np.array([values.get("X", 0.0), values.get("Y", 0.0)])
+        target = start + offset if not absolute else np.array(
+            [values.get("X", start[0]), values.get("Y", start[1])])
         travel = np.array([self.mech.settings[130], self.mech.settings[131]])
         outside = np.any(target < -_TRAVEL_EPS_MM) or np.any(target > travel + _TRAVEL_EPS_MM)
         if self.mech.settings[20] and outside:
             raise GcodeError(15)
-        self.mech.queue_move(target, self._feed_mm_min if motion == 1 else None, t)
+        self.mech.queue_move(target, feed if motion == 1 else None, t)

@@ -15,8 +15,8 @@ import numpy as np
 from whiskercal.errors import UsageError
 
 # Superelastic nitinol in its austenite phase: 70-83 GPa in suppliers' data sheets. The wire's
-# peak bending strain in every scene here stays below ~0.5 %, under the ~1 % transformation
-# plateau, so the linear austenite modulus applies.
+# peak bending strain stays near 0.3-0.5 % in the study and the calibration, under the ~1 % where
+# the stress-induced transformation starts, so the linear austenite modulus applies.
 NITINOL_AUSTENITE_N_PER_MM2 = 75_000.0
 
 EQUILIBRIUM_KINDS = ("free", "shaft", "tip", "tangential")
@@ -114,6 +114,10 @@ class Equilibrium:
     anchor_mm : float
         Plane contacts only: where the tip sticks, as a coordinate along the plane's surface in
         the plane's own (moving) frame; carries stick-slip from one solve to the next.
+    slipped_past : bool
+        Free because the wire slipped past an obstacle that still stands where the undeflected
+        wire would be (it would now touch it from the other side, which a one-sided contact
+        does not model). Solves from such a state stay free until the obstacle clears the wire.
     """
 
     kind: str
@@ -126,6 +130,7 @@ class Equilibrium:
     whisker: WhiskerParams = field(repr=False)
     sliding: bool = False
     anchor_mm: float = math.nan
+    slipped_past: bool = False
     # Nondimensional unknowns of the solve and its contact-kind code, for warm starts.
     solution: tuple = field(default=(), repr=False, compare=False)
 

@@ -69,6 +69,7 @@ class RodFixture:
     radius_mm: float = DEFAULT_ROD_RADIUS_MM
 
     def obstacle(self, tool_mm: np.ndarray, motion_sign: int, side: int = 1):
+        """The rod as a ``Circle`` in the whisker frame, on ``side`` of the whisker."""
         from whiskercal.twin.scenes import Circle
 
         return Circle(tool_mm, self.radius_mm, side=side)
@@ -103,6 +104,7 @@ class PlaneFixture:
         return bool(np.any(inside))
 
     def obstacle(self, tool_mm: np.ndarray, motion_sign: int, side: int = 1):
+        """The plate as a ``Plane`` (slid by the tool's position along it) moving ``motion_sign``."""
         from whiskercal.twin.scenes import Plane
 
         normal = np.array([math.cos(self.normal_rad), math.sin(self.normal_rad)])
@@ -132,6 +134,7 @@ class ShapeFixture:
         return bool(np.max(shape.depth_mm(points_mm)) >= 0)
 
     def obstacle(self, tool_mm: np.ndarray, motion_sign: int, side: int = 1):
+        """The shape moved to the tool's position."""
         from dataclasses import replace
 
         from whiskercal.twin.scenes import Circle
@@ -146,20 +149,25 @@ class NoFixture:
     """Nothing on the stage: the whisker stays free."""
 
     def touches(self, points_mm: np.ndarray, tool_mm: np.ndarray) -> bool:
+        """Nothing touches."""
         return False
 
     def obstacle(self, tool_mm: np.ndarray, motion_sign: int, side: int = 1):
+        """No obstacle."""
         return None
 
 
 class Physics(Protocol):
     """What the world needs from the sensor's physics (injectable for tests)."""
 
-    def free(self): ...
+    def free(self):
+        """The undeflected whisker's equilibrium."""
 
-    def solve(self, obstacle, previous): ...
+    def solve(self, obstacle, previous):
+        """The equilibrium against ``obstacle``, warm-started from ``previous``."""
 
-    def field_uT(self, equilibrium) -> np.ndarray: ...
+    def field_uT(self, equilibrium) -> np.ndarray:
+        """Field at the magnetometer for an equilibrium, sensor axes, µT (3,)."""
 
 
 class TwinPhysics:
@@ -172,6 +180,7 @@ class TwinPhysics:
         self._mechanics = mechanics
 
     def free(self):
+        """The undeflected whisker."""
         return self._mechanics.free(self.sensor.whisker)
 
     def solve(self, obstacle, previous):
@@ -186,6 +195,7 @@ class TwinPhysics:
         return m.solve_shape(self.sensor.whisker, obstacle, previous)
 
     def field_uT(self, equilibrium) -> np.ndarray:
+        """Field of the magnet at the suspension's pose, sensor axes, µT (3,)."""
         from whiskercal.twin.magnet import field_uT
 
         return np.asarray(field_uT(self.sensor.magnet, equilibrium.root_rotation_rad,
@@ -216,15 +226,25 @@ class TruthRecord:
     def __len__(self) -> int:
         return max(len(self._blocks) - 1, 0) * self._block_rows + (self._rows_in_last if self._blocks else 0)
 
-    def append(self, values: np.ndarray, kind: str) -> None:
-        """One row of ``_WIDTH`` floats in column order, and its equilibrium kind."""
-        if self._rows_in_last == self._block_rows:
-            self._blocks.append(np.empty((self._block_rows, self._WIDTH)))
-            self._kinds.append(np.empty(self._block_rows, dtype=np.int8))
-            self._rows_in_last = 0
-        self._blocks[-1][self._rows_in_last] = values
-        self._kinds[-1][self._rows_in_last] = _KINDS.index(kind) if kind in _KINDS else len(_KINDS) - 1
-        self._rows_in_last += 1
+    @classmethod
+    def width(cls) -> int:
+        """Floats in one row."""
+        return cls._WIDTH
+
+    def extend(self, rows: np.ndarray, kinds: list[str]) -> None:
+        """Rows of ``width()`` floats in column order, and their equilibrium kinds."""
+        codes = np.array([_KINDS.index(k) if k in _KINDS else len(_KINDS) - 1 for k in kinds], dtype=np.int8)
+        done = 0
+        while done < len(rows):
+            if self._rows_in_last == self._block_rows:
+                self._blocks.append(np.empty((self._block_rows, self._WIDTH)))
+                self._kinds.append(np.empty(self._block_rows, dtype=np.int8))
+                self._rows_in_last = 0
+            take = min(len(rows) - done, self._block_rows - self._rows_in_last)
+            self._blocks[-1][self._rows_in_last:self._rows_in_last + take] = rows[done:done + take]
+            self._kinds[-1][self._rows_in_last:self._rows_in_last + take] = codes[done:done + take]
+            self._rows_in_last += take
+            done += take
 
     def arrays(self) -> dict[str, np.ndarray]:
         """All records as named arrays (a copy)."""
@@ -287,9 +307,11 @@ class World:
         self.sensor_board = VirtualSensor(self.reading, self.config.sensor_faults,
                                           np.random.default_rng(seeds[1]), self.config.clock_drift_ppm)
         self.truth = TruthRecord()
+        self._receivers: dict[int, object] = {}
         self._equilibrium = self.physics.free()
         self._free_shape_mm = self._free_shape(self._equilibrium)
         self._static_uT = self.physics.field_uT(self._equilibrium)
+        self._field_of = (self._equilibrium, self._static_uT)
         self._eq_time_s = 0.0
         self._eq_tool_mm = self.tool_mm(0.0)
         self._motion_sign = 1
@@ -317,6 +339,27 @@ class World:
             self.stage_board.advance_to(t)
             self.sensor_board.advance_to(t)
             self.clock.advance_to(t)
+            self._hand_over_bytes()
+
+    def attach(self, board, receiver) -> None:
+        """Let ``receiver()`` take what ``board`` sends (an open port; one per board)."""
+        with self.lock:
+            self._receivers[id(board)] = receiver
+
+    def detach(self, board) -> None:
+        """The board's port was closed: what it sends from now on goes nowhere."""
+        with self.lock:
+            self._receivers.pop(id(board), None)
+
+    def _hand_over_bytes(self) -> None:
+        # bytes reach the host's receive buffer as they arrive (where a full buffer drops
+        # them), so a host that does not read cannot pile up memory here
+        for board in (self.stage_board, self.sensor_board):
+            receiver = self._receivers.get(id(board))
+            if receiver is not None:
+                receiver()
+            else:
+                board.line.receive(self.clock.now_s)
 
     # -- geometry ---------------------------------------------------------------------------
     def stage_true_mm(self, t: float) -> np.ndarray:
@@ -339,7 +382,9 @@ class World:
         each solve warm-started from the previous one, so friction sees the path.
         """
         tool = self.tool_mm(t)
-        travel = float(np.hypot(*(tool - self._eq_tool_mm)))
+        # the stage may have gone somewhere and back since the last call: step along its path
+        travel = max(float(np.hypot(*(tool - self._eq_tool_mm))),
+                     self.stage.path_length_mm(self._eq_time_s, t))
         if travel < 1e-9 and t >= self._eq_time_s:
             self._eq_time_s = t
             return self._equilibrium
@@ -381,23 +426,32 @@ class World:
             self._magnetometers[config] = params
         return params
 
-    def reading(self, t: float, config: SensorConfig) -> tuple[np.ndarray, bool]:
-        """Raw counts the sensor converts at time ``t`` with the board's settings; records truth."""
+    def reading(self, times_s: np.ndarray, config: SensorConfig) -> tuple[np.ndarray, np.ndarray]:
+        """Raw counts (n, 3) and saturation flags (n,) the sensor converts at ``times_s``
+        (in order) with the board's settings; records the ground truth of each."""
         from whiskercal.twin.magnetometer import is_saturated, to_counts
 
-        self._failed = False
-        equilibrium = self.equilibrium_at(t)
-        field_uT = self.physics.field_uT(equilibrium)
+        fields = np.empty((len(times_s), 3))
+        rows = np.empty((len(times_s), TruthRecord.width()))
+        kinds = []
+        for index, t in enumerate(times_s):
+            self._failed = False
+            equilibrium = self.equilibrium_at(t)
+            if self._field_of[0] is not equilibrium:  # standing still: the field is the same
+                self._field_of = (equilibrium, self.physics.field_uT(equilibrium))
+            fields[index] = self._field_of[1]
+            rows[index] = self._truth_row(t, equilibrium, fields[index])
+            kinds.append("failed" if self._failed else equilibrium.kind)
+        self.truth.extend(rows, kinds)
         params = self._magnetometer(config)
-        counts = to_counts(field_uT, params, self.rng)
-        self._record(t, equilibrium, field_uT)
-        return counts, bool(is_saturated(counts, params))
+        counts = to_counts(fields, params, self.rng)
+        return counts, is_saturated(counts, params)
 
-    def _record(self, t: float, equilibrium, field_uT: np.ndarray) -> None:
-        row = np.concatenate([[t], self.stage_true_mm(t), self.tool_mm(t),
-                              np.asarray(equilibrium.contact_mm, float), np.asarray(equilibrium.tip_mm, float),
-                              [equilibrium.root_rotation_rad, field_uT[1] - self._static_uT[1]], field_uT])
-        self.truth.append(row, "failed" if self._failed else equilibrium.kind)
+    def _truth_row(self, t: float, equilibrium, field_uT: np.ndarray) -> np.ndarray:
+        stage_mm = self.stage_true_mm(t)
+        return np.concatenate([[t], stage_mm, self.config.geometry.to_whisker(stage_mm),
+                               np.asarray(equilibrium.contact_mm, float), np.asarray(equilibrium.tip_mm, float),
+                               [equilibrium.root_rotation_rad, field_uT[1] - self._static_uT[1]], field_uT])
 
     @property
     def static_field_uT(self) -> np.ndarray:

@@ -170,7 +170,8 @@ TEST(settings_are_validated) {
     CHECK_EQ(settings_set(100, 0.0f), STAGE_ERROR_BAD_NUMBER_FORMAT);
     CHECK_EQ(settings_set(999, 1.0f), STAGE_ERROR_INVALID_STATEMENT);
     CHECK_EQ(settings_set(102, 1.0f), STAGE_ERROR_INVALID_STATEMENT);   // there is no Z axis
-    CHECK_EQ(settings_set(110, 100000.0f), STAGE_ERROR_BAD_NUMBER_FORMAT);  // 133 kHz of steps
+    CHECK_EQ(settings_set(110, 7600.0f), STAGE_ERROR_BAD_NUMBER_FORMAT);  // 10.1 kHz of steps
+    CHECK_EQ(settings_set(110, 7400.0f), 0);                              // 9.9 kHz
     CHECK_EQ(settings_set(202, 0.25f), 0);
     CHECK_NEAR(settings_get(202), 0.25, 1e-7);
 }

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "../../common/host_test.h"
-#include "../wc_codes_check.h"
+#include "wc_codes.h"
 #include "../wn_command.h"
 #include "../wn_frame.h"
 #include "../wn_mlx.h"
@@ -192,6 +192,11 @@ TEST(long_line_is_refused_and_empty_line_ignored) {
     command_receive(r, '\n', s, 0);
     CHECK(board.tx.empty());
     CHECK_STR(send(s, r, "ID\r"), "OK whisker_nano fw=" WN_FIRMWARE_VERSION " proto=1");
+    CHECK_STR(send(s, r, " id "), "OK whisker_nano fw=" WN_FIRMWARE_VERSION " proto=1");
+    CHECK_STR(send(s, r, "gain  5"), "OK");
+    CHECK_STR(send(s, r, "GAIN 5 6"), "ERR:2");
+    CHECK_STR(send(s, r, "GAINS"), "ERR:1");
+    CHECK_STR(send(s, r, "cfg?"), "OK rate=300 gain=5 res=2 osr=0 filt=2");
 }
 
 TEST(settings_are_refused_while_streaming) {

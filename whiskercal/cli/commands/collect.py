@@ -53,7 +53,8 @@ def _print_plan(summary: dict, as_json: bool) -> None:
     click.echo(f"stage frame      x {summary['stage_x_mm'][0]:g}..{summary['stage_x_mm'][1]:g} mm, "
                f"y {summary['stage_y_mm'][0]:g}..{summary['stage_y_mm'][1]:g} mm")
     click.echo(f"path             {summary['path_length_mm']:.0f} mm in {summary['moves']} moves")
-    click.echo(f"stage time       {summary['estimated_stage_time_s']:.0f} s (estimated)")
+    click.echo(f"stage time       {summary['estimated_stage_time_s']:.0f} s (estimated, "
+               "without the homing cycle)")
     click.echo(f"limits           {'ok' if summary['limits_ok'] else 'VIOLATED'} "
                f"(travel {summary['travel_mm'][0]:g} x {summary['travel_mm'][1]:g} mm)")
     for problem in summary["problems"]:
@@ -111,7 +112,8 @@ def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json)
     Homes the stage (or requires it homed), measures the static baseline with the rod parked,
     visits each grid point from +y, averages the sensor there and appends the point to RAW.h5
     at once; then measures the baseline again. Ctrl-C stops cleanly after the current point;
-    a crash, kill or unplugged device loses nothing: continue with --resume.
+    a crash, kill or unplugged device loses nothing: continue with --resume. After a crash,
+    lift the rod clear of the whisker before resuming: the homing cycle moves X first.
     """
     from whiskercal.collect.config import load_config
     from whiskercal.collect.plan import build_plan

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
@@ -22,26 +21,17 @@ def command() -> None:
     """
 
 
-class _Progress:
-    """One status line on stderr: trial, depth, elapsed time and an estimate of the time left."""
+def _progress_printer(app: App, enabled: bool):
+    """A progress line on stderr (trials done, time left) on a terminal; None otherwise."""
+    if not (enabled and app.interactive):
+        return None
 
-    def __init__(self, enabled: bool) -> None:
-        self.enabled = enabled
-        self.started = time.monotonic()
-
-    def __call__(self, info: dict) -> None:
-        if not self.enabled:
-            return
-        done, total = info["trial"], info["trials"]
-        elapsed = time.monotonic() - self.started
-        left = f", ~{elapsed / done * (total - done):.0f} s left" if done else ""
-        sys.stderr.write(f"\rtrial {done + 1}/{total} at {info['depth_mm']:g} mm "
-                         f"({elapsed:.0f} s{left})   ")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.enabled:
-            sys.stderr.write("\n")
+    def show(progress) -> None:
+        left = progress.remaining_s
+        left_text = "--" if left == float("inf") else f"{int(left // 60)}m{int(left % 60):02d}s"
+        click.echo(f"\r  {progress.done}/{progress.total} trials  {left_text} left ", err=True,
+                   nl=progress.done == progress.total)
+    return show
 
 
 @command.command("run")
@@ -60,22 +50,22 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
                 resume: bool, as_json: bool) -> None:
     """Run the flat-plane study: first contact, then one constant-velocity slide per depth."""
     from whiskercal.rig import SensorClient, StageClient
-    from whiskercal.study.config import load_config
+    from whiskercal.study.config import PlaneGeometry, load_config
     from whiskercal.study.dataset import StudyWriter
     from whiskercal.study.run import StudyRun
+    from whiskercal.study.truth import check_world
 
     config = load_config(config_path)
     stage = StageClient(stage_url)
     sensor = SensorClient(sensor_url)
     world = getattr(sensor.transport.port, "world", None)
+    if world is not None:
+        check_world(world, PlaneGeometry.from_config(config))  # before a file is created
     sensor_id = _sensor_id(world, sensor)
     writer = StudyWriter(out_path, config, sensor_id, resume=resume)
-    progress = _Progress(app.interactive and not as_json)
     wall_started = time.monotonic()
-    try:
-        summary = StudyRun(stage, sensor, config, writer, world=world, progress=progress).run()
-    finally:
-        progress.close()
+    summary = StudyRun(stage, sensor, config, writer, world=world,
+                       progress=_progress_printer(app, not as_json)).run()
     result = {**summary.__dict__, "wall_time_s": round(time.monotonic() - wall_started, 3)}
     if as_json:
         echo_json(result)

@@ -47,7 +47,7 @@ def serve(app: App, scene: str, seed: int, speed: float, rod_radius: float, stoc
     options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
                "stock": ["1" if stock else "0"], "fault": list(faults)}
     try:
-        world = world_from_options("serve", "stage", options)
+        world = world_from_options("serve", options)
     except Exception as error:  # noqa: BLE001  (a bad --fault is the user's to fix)
         raise UsageError(str(error)) from None
     bridge = PtyBridge(world, speed)

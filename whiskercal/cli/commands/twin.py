@@ -87,3 +87,60 @@ def validate(as_json: bool) -> None:
     failed = [c for c in checks if not c.ok]
     if failed:
         abort(f"{len(failed)} of {len(checks)} mechanics checks failed.")
+
+
+def _depths(text: str) -> list[float]:
+    from whiskercal.errors import UsageError
+
+    try:
+        return [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise UsageError(f"--depths must be numbers separated by commas, got {text!r}.") from None
+
+
+@command.command("plane-study")
+@click.option("--depths", default="5,10,15,20,25,30,35,40,45,50", show_default=True,
+              help="Contact distances (mm) past the undeflected tip, comma-separated.")
+@click.option("--k-rot", type=float, default=None,
+              help="Root rotational stiffness (N·mm/rad) [default: the default whisker's].")
+@click.option("--k-lin", type=float, default=None,
+              help="Root translational stiffness (N/mm) [default: the default whisker's].")
+@click.option("--mu-static", type=float, default=None, help="Static friction coefficient.")
+@click.option("--mu-kinetic", type=float, default=None, help="Kinetic friction coefficient.")
+@click.option("--tilt-deg", type=float, default=20.0, show_default=True,
+              help="Tilt of the plane's normal from the whisker's axis (degrees).")
+@click.option("--motion", type=click.Choice(["-1", "1"]), default=None,
+              help="Direction the stage slides the plane along its tangent [default: the study's].")
+@click.option("--json", "as_json", is_flag=True, help="Print the sweep as JSON.")
+def plane_study(depths, k_rot, k_lin, mu_static, mu_kinetic, tilt_deg, motion, as_json):
+    """The study's flat plane at each depth: contact kind, tip, root pose and force.
+
+    Each depth is solved without history (steady kinetic sliding); this is the sweep that
+    chose the mechanics' defaults (docs/twin.md).
+    """
+    import dataclasses
+    import math
+
+    from whiskercal.twin.tuning import study_sweep, tangential_onset_mm
+    from whiskercal.twin.whisker import WhiskerParams
+
+    changes = {"root_rotational_stiffness_n_mm_per_rad": k_rot,
+               "root_translational_stiffness_n_per_mm": k_lin}
+    whisker = dataclasses.replace(WhiskerParams(),
+                                  **{k: v for k, v in changes.items() if v is not None})
+    options = {"mu_static": mu_static, "mu_kinetic": mu_kinetic,
+               "motion_sign": None if motion is None else int(motion)}
+    options = {k: v for k, v in options.items() if v is not None}
+    results = study_sweep(whisker, _depths(depths), tilt_rad=math.radians(tilt_deg), **options)
+    onset = tangential_onset_mm(results)
+    if as_json:
+        echo_json({"tangential_onset_mm": None if math.isnan(onset) else onset,
+                   "depths": [dataclasses.asdict(r) for r in results]})
+        return
+    click.echo(f"{'depth mm':>8s}  {'kind':10s}  {'tip x mm':>8s}  {'tip y mm':>8s}  "
+               f"{'root deg':>8s}  {'shift mm':>8s}  {'|F| mN':>7s}")
+    for r in results:
+        click.echo(f"{r.depth_mm:8.1f}  {r.kind:10s}  {r.tip_mm[0]:8.2f}  {r.tip_mm[1]:8.2f}  "
+                   f"{r.root_rotation_deg:8.2f}  {r.root_shift_mm:8.3f}  {r.force_mn:7.2f}")
+    click.echo(f"tangential contact from {onset:g} mm" if not math.isnan(onset)
+               else "no tangential contact at these depths")

@@ -1,0 +1,122 @@
+"""``whiskercal fit`` and ``whiskercal inspect``: outputs, JSON, exit codes, one-line errors."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from analytic import paper_grid_mm, rigid_z
+from rawfile import write_raw_grid
+from whiskercal.cli import cli
+
+FIXTURE = Path(__file__).parents[1] / "fixtures" / "calibration-1.0.0.h5"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, list(args), catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def raw_file(tmp_path_factory):
+    points = paper_grid_mm()
+    z = rigid_z(points) + np.random.default_rng(1).normal(0.0, 1.0, len(points))
+    path = tmp_path_factory.mktemp("raw") / "raw.h5"
+    return write_raw_grid(path, points, z, 0.0, "analytic-rigid",
+                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 78.0}})
+
+
+def test_fit_json_summary_and_artifact(raw_file, tmp_path):
+    out = tmp_path / "cal.h5"
+    result = run("fit", str(raw_file), "--out", str(out), "--degree", "auto", "--samples", "12",
+                 "--json")
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    for key in ("degree", "rmse", "r2", "cv_rmse", "lookup_holdout_rmse_mm", "samples"):
+        assert key in summary
+    assert summary["samples"] == 12 and 1 <= summary["degree"] <= 8
+    assert summary["r2"] > 0.999 and summary["lookup_holdout_rmse_mm"] < 1e-3
+    assert out.exists()
+
+
+def test_fit_text_output(raw_file, tmp_path):
+    result = run("fit", str(raw_file), "--out", str(tmp_path / "cal.h5"))
+    assert result.exit_code == 0
+    assert result.output.splitlines()[0] == f"wrote {tmp_path / 'cal.h5'}"
+    assert "hold-out RMSE" in result.output
+
+
+def test_fit_needs_a_trace_length_for_an_unknown_sensor(tmp_path):
+    points = paper_grid_mm()
+    raw = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "bench-sensor-7")
+    result = CliRunner().invoke(cli, ["fit", str(raw), "--out", str(tmp_path / "c.h5")])
+    assert result.exit_code == 2
+    assert result.output.count("\n") == 1 and "--trace-length-mm" in result.output
+
+
+@pytest.mark.parametrize("command", ["fit", "inspect"])
+def test_missing_and_corrupt_inputs_end_with_one_line(tmp_path, command):
+    junk = tmp_path / "junk.h5"
+    junk.write_text("not an hdf5 file")
+    for path in (tmp_path / "missing.h5", junk):
+        args = [command, str(path)] + (["--out", str(tmp_path / "o.h5")] if command == "fit" else [])
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 4
+        lines = result.output.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("error: ")
+        assert not (tmp_path / "o.h5").exists()
+
+
+def test_fit_refuses_an_artifact_as_input(tmp_path):
+    result = CliRunner().invoke(cli, ["fit", str(FIXTURE), "--out", str(tmp_path / "o.h5")])
+    assert result.exit_code == 4
+    assert "not a whiskercal.raw_grid file" in result.output
+
+
+def test_inspect_an_artifact(tmp_path):
+    result = run("inspect", str(FIXTURE), "--json")
+    assert result.exit_code == 0
+    summary = json.loads(result.output)
+    assert summary["schema"] == "whiskercal.calibration"
+    assert summary["schema_version"] == "1.0.0"
+    assert summary["kind"] == "calibration"
+    assert summary["lookup"]["samples"] == 20
+    assert len(summary["inputs_sha256"]["raw_grid"]) == 64
+    assert summary["datasets"]["/lookup/tip_mm"] == {"shape": [20, 2], "units": "mm"}
+    assert "lookup_holdout_rmse_mm" in summary["metrics"]
+    text = run("inspect", str(FIXTURE)).output
+    assert "schema               whiskercal.calibration" in text
+    assert "/surface/coefficients" in text
+
+
+def test_inspect_a_raw_grid(raw_file):
+    summary = json.loads(run("inspect", str(raw_file), "--json").output)
+    assert summary["kind"] == "raw_grid" and summary["points"] == 180
+    assert summary["complete"] is True
+
+
+def test_inspect_refuses_other_hdf5(tmp_path):
+    import h5py
+
+    with h5py.File(tmp_path / "other.h5", "w") as handle:
+        handle.attrs["schema"] = "someone.else"
+    result = CliRunner().invoke(cli, ["inspect", str(tmp_path / "other.h5")])
+    assert result.exit_code == 4 and "not a whiskercal calibration artifact" in result.output
+
+
+def test_fit_a_twin_grid_reports_the_lookup_against_truth(tmp_path):
+    from twin_grid import twin_grid, write_twin_raw
+
+    raw = write_twin_raw(tmp_path / "twin.h5", twin_grid(noise_uT=1.0, seed=2))
+    out = tmp_path / "cal.h5"
+    summary = json.loads(run("fit", str(raw), "--out", str(out), "--degree", "auto", "--json").output)
+    assert 0 < summary["lookup_vs_truth_rmse_mm"] <= summary["lookup_vs_truth_max_mm"]
+    from whiskercal.artifacts.calibration import read_calibration
+
+    data = read_calibration(out)
+    assert data.metrics["contact_error_corrected_mm"] < data.metrics["contact_error_uncorrected_mm"]
+    assert data.truth["error_mm"].shape == data.truth["z_uT"].shape
+    from whiskercal.twin.params import DEFAULT_SENSOR
+
+    assert data.trace_length_mm == DEFAULT_SENSOR.whisker.reach_mm  # found by the sensor's id

@@ -1,0 +1,40 @@
+"""Every raw dataset schema version that shipped must still load (fixtures in fixtures/)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from whiskercal.collect.dataset import read_raw_grid
+
+FIXTURES = sorted((Path(__file__).parent / "fixtures").glob("raw_grid_v*.h5"))
+
+
+def test_there_is_a_fixture_for_the_current_schema():
+    from whiskercal.collect.dataset import SCHEMA_VERSION
+
+    assert any(path.name == f"raw_grid_v{SCHEMA_VERSION}.h5" for path in FIXTURES)
+
+
+@pytest.mark.parametrize("path", FIXTURES, ids=lambda p: p.name)
+def test_fixture_loads_whole_and_consistent(path):
+    grid = read_raw_grid(path)
+    assert grid.complete and len(grid) == len(grid.plan_stage_mm) > 0
+    assert sorted(grid.plan_index) == list(range(len(grid.plan_stage_mm)))
+    assert grid.rod_center_mm.shape == (len(grid), 2) and grid.z_uT.shape == (len(grid),)
+    assert np.all(grid.n_samples > 0) and grid.rod_radius_mm > 0 and grid.sensor_id
+    error = grid.z_uT - grid.truth["z_uT"]
+    sigma = np.median(grid.z_std_uT) * np.sqrt(1 / grid.n_samples
+                                               + 1 / grid.config["acquisition"]["baseline_samples"])
+    assert np.all(np.abs(error) < 5 * sigma)
+    with h5py.File(path) as handle:
+        for key in ("schema", "schema_version", "created", "whiskercal_version", "sensor_id",
+                    "inputs_sha256", "config", "rod_radius_mm", "complete"):
+            assert key in handle.attrs, key
+        missing = []
+        handle.visititems(lambda name, obj: missing.append(name)
+                          if isinstance(obj, h5py.Dataset) and "units" not in obj.attrs else None)
+        assert missing == []

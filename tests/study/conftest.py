@@ -1,0 +1,52 @@
+"""Shared fixtures of the study tests: one twin calibration and one short twin study per session."""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (fakes, twin_calibration)
+
+# A short study that keeps what the assertions need: all nine depths, the paper's 300 Hz (the
+# kink test needs dense push-in samples), a 10 mm slide instead of 80 mm, faster moves off the
+# slide, a coarser first-contact search.
+TEST_CONFIG = """
+[trials]
+travel_mm = 10.0
+slide_start_mm = -5.0
+approach_speed_mm_s = 30.0
+rapid_speed_mm_s = 60.0
+retract_mm = 3.0
+[contact]
+search_step_mm = 0.25
+samples_per_step = 5
+baseline_samples = 60
+"""
+
+
+@pytest.fixture(scope="session")
+def twin_calibration(tmp_path_factory) -> Path:
+    """A calibration artifact fitted to a grid simulated on the default twin sensor."""
+    from twin_calibration import write_twin_calibration
+
+    return write_twin_calibration(tmp_path_factory.mktemp("cal") / "CAL.h5")
+
+
+@pytest.fixture(scope="session")
+def twin_study(tmp_path_factory):
+    """The nine-trial study run on the twin through the serial clients; (path, world)."""
+    from whiskercal.rig import SensorClient, StageClient
+    from whiskercal.study.config import load_config
+    from whiskercal.study.dataset import StudyWriter
+    from whiskercal.study.run import StudyRun
+    from whiskercal.twin import simport
+
+    folder = tmp_path_factory.mktemp("study")
+    (folder / "test.toml").write_text(TEST_CONFIG)
+    config = load_config(folder / "test.toml")
+    stage_port = simport.Serial("sim://study-test/stage?scene=plane&seed=7", timeout=1.0)
+    sensor_port = simport.Serial("sim://study-test/sensor", timeout=1.0)
+    writer = StudyWriter(folder / "STUDY.h5", config, "twin")
+    StudyRun(StageClient(stage_port), SensorClient(sensor_port), config, writer,
+             world=sensor_port.world).run()
+    return folder / "STUDY.h5", config

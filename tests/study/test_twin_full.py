@@ -1,0 +1,30 @@
+"""The study with every default (80 mm slides, 5 mm/s push-in, 300 Hz) on the twin: opt-in."""
+
+import numpy as np
+import pytest
+
+from whiskercal import runtime
+from whiskercal.rig import SensorClient, StageClient
+from whiskercal.study.config import load_config
+from whiskercal.study.dataset import StudyWriter
+from whiskercal.study.report import build_report
+from whiskercal.study.run import StudyRun
+from whiskercal.twin import simport
+
+
+@pytest.mark.slow
+def test_full_default_study(tmp_path, twin_calibration, request):
+    if "slow" not in (request.config.getoption("-m") or ""):
+        pytest.skip("the full default study takes about a minute: run it with -m slow")
+    config = load_config()
+    stage_port = simport.Serial("sim://study-full/stage?scene=plane&seed=11", timeout=1.0)
+    sensor_port = simport.Serial("sim://study-full/sensor", timeout=1.0)
+    writer = StudyWriter(tmp_path / "STUDY.h5", config, "twin")
+    StudyRun(StageClient(stage_port), SensorClient(sensor_port), config, writer,
+             world=sensor_port.world).run()
+    report = build_report(tmp_path / "STUDY.h5", runtime.load(twin_calibration))
+    by_depth = {row.depth_mm: row for row in report.rows}
+    assert all(by_depth[d].filtered_mean_mm < 2.0 and not by_depth[d].failing
+               for d in np.arange(5.0, 41.0, 5.0))
+    assert by_depth[45.0].failing and by_depth[45.0].tangential
+    assert report.choice.depth_mm <= 35.0

@@ -1,0 +1,189 @@
+"""Run the comparisons in one process and write DIR/bench.json, one JSON per comparison, PNG charts.
+
+Times are only comparable within one run on one machine, so every comparison runs here, one after
+the other, and each Pareto row also gets its time as a ratio to the fastest row of its chart.
+A comparison that raises is recorded with its error and the others still run; the caller decides
+what a failure means (``whiskercal bench`` exits non-zero).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from whiskercal import __version__
+from whiskercal.artifacts.h5io import now_iso
+from whiskercal.bench.pareto import draw_pareto, front_rows
+from whiskercal.bench.timing import machine_info
+from whiskercal.errors import UsageError
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """One comparison: how to run it (full or quick) and what it is about."""
+
+    name: str
+    summary: str
+    run: Callable[[bool, Callable | None], dict]
+
+
+def _module_run(module: str, **quick_kwargs) -> Callable[[bool, Callable | None], dict]:
+    def run(quick: bool, progress: Callable | None) -> dict:
+        return importlib.import_module(module).run(quick=quick, progress=progress, **quick_kwargs)
+    return run
+
+
+def _engines(quick: bool, progress: Callable | None) -> dict:
+    from whiskercal.bench import engines
+    from whiskercal.twin.elastica import DEFAULT_STEPS
+
+    options = dict(segments=(10,), rk4_steps=(16, DEFAULT_STEPS), alphas=(1.0, 5.0),
+                   representations=("chain",), repeats=1) if quick else {}
+    result = engines.run(progress=progress, **options)
+    for row in result["rows"]:
+        row["default"] = row["engine"] == "quasi-static" and row["resolution"] == DEFAULT_STEPS
+    spec = dict(result["pareto"])
+    result["pareto"] = {"x": spec["x"], "y": spec["y"], "panel": "case_set", "series": ["engine"],
+                        "label": spec.get("label", "resolution"), "x_label": "time per case (s)",
+                        "y_label": "max tip error / L"}
+    result["supports"] = {"engine": "quasi-static", "rk4_steps": DEFAULT_STEPS,
+                          "rule": "the twin's engine at its default resolution; MuJoCo cross-checks it"}
+    return result
+
+
+def _twin_speed(quick: bool, progress: Callable | None) -> dict:
+    from whiskercal.bench import twin_speed
+
+    if not quick:
+        return twin_speed.run()
+    return {**twin_speed.cold_solves(n_rods=10), **twin_speed.warm_rod_path(n_steps=60)}
+
+
+def _field_speed(quick: bool, progress: Callable | None) -> dict:
+    from whiskercal.bench import field_speed
+
+    result = field_speed.run(n_single=200, n_batch=2000) if quick else field_speed.run()
+    if not quick:
+        result["resolution"] = field_speed.resolution_study()
+    return result
+
+
+def _model_speed(quick: bool, progress: Callable | None) -> dict:
+    if quick:
+        return {"skipped": "the model's speed study runs in the full bench only"}
+    try:
+        module = importlib.import_module("whiskercal.bench.model_speed")
+    except ImportError:
+        return {"skipped": "whiskercal.bench.model_speed is not available"}
+    return module.run()
+
+
+COMPARISONS = {c.name: c for c in (
+    Comparison("tip-extraction", "paper trace vs adaptive trace vs lookup",
+               _module_run("whiskercal.bench.tip_extraction")),
+    Comparison("surface-degree", "polynomial degree 1..8: CV error vs evaluation time",
+               _module_run("whiskercal.bench.surface_degree")),
+    Comparison("collection", "samples per point and settle time vs fit error and stage time",
+               _module_run("whiskercal.bench.collection")),
+    Comparison("engines", "the twin's quasi-static engine vs MuJoCo", _engines),
+    Comparison("twin-speed", "the twin's mechanics against real time", _twin_speed),
+    Comparison("field-speed", "magnet field evaluation paths", _field_speed),
+    Comparison("model-speed", "the model's per-sample costs", _model_speed),
+    Comparison("stability", "where each method fails, and whether it is detected",
+               _module_run("whiskercal.bench.stability")),
+)}
+
+
+def select(only: tuple[str, ...] | list[str] | None) -> list[Comparison]:
+    """The comparisons named in ``only`` (all when empty), in the registry's order."""
+    if not only:
+        return list(COMPARISONS.values())
+    unknown = [name for name in only if name not in COMPARISONS]
+    if unknown:
+        raise UsageError(f"unknown comparison {', '.join(unknown)}; choose from "
+                         f"{', '.join(COMPARISONS)}")
+    return [c for c in COMPARISONS.values() if c.name in only]
+
+
+def add_time_ratios(rows: list[dict], x_key: str) -> None:
+    """Each row's time as a multiple of the fastest row's (same run, same machine)."""
+    times = [r[x_key] for r in rows if np.isfinite(r.get(x_key, np.nan)) and r[x_key] > 0]
+    if times:
+        fastest = min(times)
+        for row in rows:
+            row["time_ratio_to_fastest"] = row.get(x_key, np.nan) / fastest
+
+
+def _charts(name: str, result: dict, out_dir: Path) -> list[str]:
+    charts = []
+    if name == "stability":
+        from whiskercal.bench.stability_chart import draw_stability
+
+        charts.append(draw_stability(result, out_dir / "stability.png").name)
+    for key, suffix in (("pareto", ""), ("pareto_truth", "-truth")):
+        spec = result.get(key)
+        if spec and result.get("rows"):
+            add_time_ratios(result["rows"], spec["x"])
+            path = draw_pareto(result["rows"], spec, out_dir / f"{name}{suffix}.png",
+                               title=f"{name}: {spec.get('y_label', spec['y'])}")
+            result.setdefault("front", {})[key] = [
+                {k: r.get(k) for k in ("method", "engine", "kind", "label", spec["x"], spec["y"])
+                 if k in r} for r in front_rows(result["rows"], spec["x"], spec["y"])]
+            charts.append(path.name)
+    return charts
+
+
+def _jsonable(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return str(value)
+
+
+def write_json(path: Path, payload: dict) -> Path:
+    """Write JSON with numpy values converted (NaN stays NaN, as Python's json writes it)."""
+    path.write_text(json.dumps(payload, indent=2, default=_jsonable))
+    return path
+
+
+def run_one(comparison: Comparison, out_dir: Path, quick: bool,
+            progress: Callable | None = None) -> dict:
+    """Run one comparison, write its JSON and charts; return its entry of bench.json."""
+    started = time.perf_counter()
+    try:
+        result = comparison.run(quick, progress)
+        charts = _charts(comparison.name, result, out_dir)
+    except Exception as error:  # a broken comparison must not hide the others' results
+        return {"status": "error", "error": f"{type(error).__name__}: {error}",
+                "traceback": traceback.format_exc(), "elapsed_s": time.perf_counter() - started}
+    write_json(out_dir / f"{comparison.name}.json", result)
+    return {"status": "ok", "summary": comparison.summary, "json": f"{comparison.name}.json",
+            "charts": charts, "supports": result.get("supports"),
+            "elapsed_s": time.perf_counter() - started}
+
+
+def run_bench(out_dir: str | Path, only=None, quick: bool = False,
+              on_start: Callable[[str], None] | None = None,
+              progress: Callable | None = None) -> dict:
+    """Run the selected comparisons and write ``out_dir``/bench.json; return its content."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    chosen = select(only)
+    bench = {"benchmark": "whiskercal-bench", "created": now_iso(), "whiskercal_version": __version__,
+             "quick": quick, "machine": machine_info(), "comparisons": {}}
+    for comparison in chosen:
+        if on_start is not None:
+            on_start(comparison.name)
+        bench["comparisons"][comparison.name] = run_one(comparison, out_dir, quick, progress)
+    bench["defaults"] = {name: entry.get("supports") for name, entry in bench["comparisons"].items()
+                         if entry.get("supports")}
+    write_json(out_dir / "bench.json", bench)
+    return bench

@@ -1,0 +1,99 @@
+"""Calibration grids generated straight from the twin's physics, and the twin's true tips.
+
+The comparisons measure models, not acquisition: each rod position of the default collect plan
+goes through ``mechanics.solve_rod`` (warm-started down each column, as the stage visits them) and
+``truth.z_of_equilibrium`` gives its noise-free z. Measurement noise is added by the caller, either
+as the averaged reading's Gaussian error or sample by sample through the magnetometer model.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from whiskercal.collect.config import GridConfig, load_config
+from whiskercal.collect.plan import lattice_points, visiting_order
+from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrate
+from whiskercal.twin import mechanics, truth
+from whiskercal.twin.params import DEFAULT_SENSOR, SensorParams
+
+ROD_RADIUS_MM = 1.5
+# 5.6 µT per sample averaged over the default 30 samples per point (docs/bench.md, collection)
+AVERAGED_NOISE_UT = 1.0
+TRUTH_SAMPLES = 161
+
+
+@dataclass(frozen=True)
+class SimulatedGrid:
+    """Rod centres (n, 2) mm in visiting order, noise-free z (n,) µT, contact kinds, the sensor,
+    and the true contact points and tips (n, 2) mm."""
+
+    rod_center_mm: np.ndarray
+    z_true_uT: np.ndarray
+    kind: np.ndarray
+    sensor: SensorParams
+    rod_radius_mm: float
+    contact_mm: np.ndarray | None = None
+    tip_mm: np.ndarray | None = None
+
+
+def default_grid_config() -> GridConfig:
+    """The grid bands of ``whiskercal collect``'s default configuration."""
+    return load_config().grid
+
+
+@functools.lru_cache(maxsize=16)
+def simulate_grid(sensor: SensorParams = DEFAULT_SENSOR, grid: GridConfig | None = None,
+                  rod_radius_mm: float = ROD_RADIUS_MM) -> SimulatedGrid:
+    """Noise-free z at every point of a grid plan (cached per sensor, grid and rod)."""
+    points = lattice_points(grid or default_grid_config())
+    points = points[visiting_order(points)]
+    z, kinds, contacts, tips, previous, column = [], [], [], [], None, None
+    for center in points:
+        if center[0] != column:
+            previous, column = None, center[0]  # a new column starts from the free whisker
+        equilibrium = mechanics.solve_rod(sensor.whisker, center, rod_radius_mm, previous=previous)
+        previous = equilibrium if equilibrium.kind != "free" else None
+        z.append(truth.z_of_equilibrium(sensor, equilibrium))
+        kinds.append(equilibrium.kind)
+        contacts.append(equilibrium.contact_mm)
+        tips.append(equilibrium.tip_mm)
+    return SimulatedGrid(points, np.asarray(z), np.asarray(kinds), sensor, float(rod_radius_mm),
+                         np.asarray(contacts), np.asarray(tips))
+
+
+def noisy_z(grid: SimulatedGrid, noise_uT: float = AVERAGED_NOISE_UT, seed: int = 0) -> np.ndarray:
+    """The grid's z (µT) with seeded Gaussian noise of the averaged reading."""
+    return grid.z_true_uT + np.random.default_rng(seed).normal(0.0, noise_uT, grid.z_true_uT.shape)
+
+
+def calibrate_grid(grid: SimulatedGrid, z_uT: np.ndarray | None = None, **options) -> Calibration:
+    """Calibrate a simulated grid exactly as ``whiskercal fit`` does (options override defaults)."""
+    base = CalibrationOptions(trace_length_mm=grid.sensor.whisker.reach_mm)
+    z_uT = noisy_z(grid) if z_uT is None else z_uT
+    return calibrate(grid.rod_center_mm, z_uT, grid.rod_radius_mm, replace(base, **options))
+
+
+def truth_curve(sensor: SensorParams = DEFAULT_SENSOR, n: int = TRUTH_SAMPLES):
+    """The twin's noise-free z (n,) µT against the true tip (n, 2) mm for tip contact."""
+    return truth.tip_curve(sensor, n)
+
+
+def truth_points(sensor: SensorParams, z_low_uT: float, z_high_uT: float,
+                 n: int = TRUTH_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """The tip-curve samples whose z lies in [low, high] µT: (z (m,), true tips (m, 2) mm)."""
+    z, tips = truth_curve(sensor, n)
+    inside = (z >= z_low_uT) & (z <= z_high_uT)
+    return z[inside], tips[inside]
+
+
+def tip_error_mm(estimated_mm: np.ndarray, true_mm: np.ndarray) -> dict:
+    """RMSE and largest Euclidean distance (mm) between estimated and true tips."""
+    distance = np.linalg.norm(np.asarray(estimated_mm) - np.asarray(true_mm), axis=-1)
+    finite = distance[np.isfinite(distance)]
+    if finite.size == 0:
+        return {"rmse_mm": float("nan"), "max_mm": float("nan"), "n": 0}
+    return {"rmse_mm": float(np.sqrt(np.mean(finite ** 2))), "max_mm": float(finite.max()),
+            "n": int(finite.size)}

@@ -1,0 +1,179 @@
+"""Assemble the calibration report: one self-contained HTML file per calibration artifact.
+
+Sections: summary, grid and fit residuals (with the raw grid), level sets and traced tips, the
+lookup and its error (against the twin's truth when the raw grid has one), the flat-plane study
+(with a study file), the speed-accuracy charts (with a bench directory), provenance.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from whiskercal import __version__
+from whiskercal.artifacts.calibration import CalibrationData, read_calibration, surface_of
+from whiskercal.artifacts.h5io import now_iso, sha256_file
+from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.report import figures
+from whiskercal.report.html import Section, figure, key_values, paragraph, render, table
+
+SUMMARY_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
+                   "lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm", "points_used", "points_total")
+
+
+def _summary(data: CalibrationData) -> Section:
+    pairs = {"sensor": data.sensor_id, "surface": f"degree {data.degree}, {data.coordinates}",
+             "lookup": f"{len(data.lookup_z_uT)} samples, {data.lookup_kind}, z "
+                       f"{data.lookup_z_uT[0]:.0f} .. {data.lookup_z_uT[-1]:.0f} µT",
+             "tracer": data.tracer, "trace length (mm)": data.trace_length_mm,
+             "target z (µT)": "not chosen yet" if data.target_z_uT is None else data.target_z_uT}
+    pairs.update({name: data.metrics[name] for name in SUMMARY_METRICS if name in data.metrics})
+    return Section("Summary", key_values(pairs))
+
+
+def _residuals(data: CalibrationData, raw) -> Section:
+    if raw is None:
+        return Section("Grid and fit residuals", paragraph("No raw grid given (--raw): the grid "
+                                                           "and its residuals are not shown."))
+    from whiskercal.model.calibrate import contact_mask, correct_for_rod
+
+    surface = surface_of(data)
+    sem = raw.z_std_uT / np.sqrt(np.maximum(raw.n_samples, 1))
+    used = contact_mask(raw.z_uT, sem)
+    centres, z = raw.rod_center_mm[used], raw.z_uT[used]
+    contact = correct_for_rod(centres, z, raw.rod_radius_mm, surface) if raw.rod_radius_mm > 0 else centres
+    residual = surface(contact) - z
+    note = paragraph(f"{int(used.sum())} of {len(raw.z_uT)} grid points carry contact; the rod "
+                     f"centres are moved by the rod radius ({raw.rod_radius_mm:g} mm) onto the shaft.")
+    return Section("Grid and fit residuals",
+                   note + figure(figures.grid_residuals(data, contact, residual),
+                                 "grid contact points coloured by the fit residual"))
+
+
+def _twin_truth(data: CalibrationData, raw) -> dict | None:
+    """The twin's z -> true tip inside the lookup's range, when the raw grid came from the twin."""
+    if raw is not None and raw.truth is not None:
+        from whiskercal.twin import truth
+        from whiskercal.twin.params import SENSORS
+
+        sensor = SENSORS.get(raw.sensor_id)
+        if sensor is not None:
+            z, tips = truth.tip_curve(sensor)
+            inside = (z >= data.lookup_z_uT[0]) & (z <= data.lookup_z_uT[-1])
+            return {"z_uT": z[inside], "true_tip_mm": tips[inside]}
+    if data.truth and "z_uT" in data.truth and "true_tip_mm" in data.truth:
+        return {"z_uT": np.asarray(data.truth["z_uT"]), "true_tip_mm": np.asarray(data.truth["true_tip_mm"])}
+    return None
+
+
+def _lookup(data: CalibrationData, raw) -> Section:
+    truth = _twin_truth(data, raw)
+    note = paragraph("Against the twin's true tips (tip contact)." if truth is not None else
+                     "No ground truth: the raw grid has no /truth (a real rig).")
+    return Section("Lookup z → tip", note + figure(figures.lookup_curve(data, truth),
+                                                   "lookup curve and its error"))
+
+
+def _level_sets(data: CalibrationData) -> Section:
+    return Section("Level sets and traced tips",
+                   figure(figures.level_sets(data), "level sets traced from the root"))
+
+
+STUDY_COLUMNS = ("depth_mm", "contact_fraction", "median_z_uT", "raw_mean_mm", "filtered_mean_mm",
+                 "filtered_std_mm", "n_slips", "tangential", "failing", "true_filtered_mean_mm")
+
+
+def _study(cal_path: Path, study_path: Path | None) -> Section | None:
+    if study_path is None:
+        return None
+    from whiskercal.runtime import load
+    from whiskercal.study.figures import write_figures
+    from whiskercal.study.report import build_report
+
+    report = build_report(study_path, load(cal_path), allow_missing=True)
+    rows = [dict(r.as_dict(), reasons="; ".join(r.reasons)) for r in report.rows]
+    body = table(rows, STUDY_COLUMNS + ("reasons",))
+    body += paragraph(f"chosen target: {report.choice.as_dict()}" if report.choice
+                      else f"no target: {report.no_target}")
+    with tempfile.TemporaryDirectory() as scratch:
+        for path in write_figures(report.series, report.rows, Path(scratch)):
+            body += figure(path.read_bytes(), f"study: {path.stem.replace('_', ' ')}")
+    return Section("Flat-plane study", body)
+
+
+def _bench(bench_dir: Path | None) -> Section | None:
+    if bench_dir is None:
+        return None
+    index = bench_dir / "bench.json"
+    if not index.is_file():
+        raise UsageError(f"{bench_dir} holds no bench.json: run `whiskercal bench --out {bench_dir}`")
+    bench = json.loads(index.read_text())
+    body = paragraph(f"measured {bench.get('created')} on {bench.get('machine', {}).get('processor')} "
+                     f"({bench.get('machine', {}).get('cpu_count')} cores), quick={bench.get('quick')}")
+    for name, entry in bench.get("comparisons", {}).items():
+        body += f"<h3>{name}</h3>"
+        if entry.get("status") != "ok":
+            body += paragraph(f"failed: {entry.get('error')}", "fail")
+            continue
+        supports = {k: v for k, v in (entry.get("supports") or {}).items()
+                    if not isinstance(v, (dict, list))}
+        body += key_values(supports) if supports else ""
+        for chart in entry.get("charts", []):
+            if (bench_dir / chart).is_file():
+                body += figure((bench_dir / chart).read_bytes(), f"{name}: {chart}")
+    return Section("Speed against accuracy", body)
+
+
+def _provenance(cal_path: Path, data: CalibrationData, raw, study_path, bench_dir) -> Section:
+    files = [{"file": "calibration", "path": str(cal_path), "sha256": sha256_file(cal_path)}]
+    if raw is not None:
+        files.append({"file": "raw grid", "path": raw.path, "sha256": raw.sha256})
+    if study_path is not None:
+        files.append({"file": "study", "path": str(study_path), "sha256": sha256_file(study_path)})
+    if bench_dir is not None:
+        files.append({"file": "bench", "path": str(bench_dir / "bench.json"),
+                      "sha256": sha256_file(bench_dir / "bench.json")})
+    body = table(files, ["file", "path", "sha256"])
+    pairs = {"calibration created": data.created, "calibration whiskercal version": data.whiskercal_version,
+             "calibration schema version": data.schema_version,
+             **{f"input {k}": v for k, v in data.inputs.items()},
+             **{f"version {k}": v for k, v in data.config.get("versions", {}).items()},
+             "report created": now_iso(), "report whiskercal version": __version__,
+             "report python": platform.python_version()}
+    if raw is not None and raw.sensor_id != data.sensor_id:
+        body += paragraph(f"the raw grid's sensor {raw.sensor_id!r} is not the calibration's "
+                          f"{data.sensor_id!r}", "fail")
+    return Section("Provenance", body + key_values(pairs))
+
+
+def build_html(cal_path: str | Path, raw_path: str | Path | None = None,
+               study_path: str | Path | None = None, bench_dir: str | Path | None = None) -> str:
+    """The report's HTML for a calibration artifact and the optional raw grid, study and bench."""
+    from whiskercal.collect.dataset import read_raw_grid
+
+    cal_path = Path(cal_path)
+    data = read_calibration(cal_path)
+    raw = read_raw_grid(raw_path) if raw_path is not None else None
+    study_path = Path(study_path) if study_path is not None else None
+    bench_dir = Path(bench_dir) if bench_dir is not None else None
+    if study_path is not None and not study_path.is_file():
+        raise ArtifactError(f"{study_path}: no such study file")
+    sections = [_summary(data), _residuals(data, raw), _level_sets(data), _lookup(data, raw),
+                _study(cal_path, study_path), _bench(bench_dir),
+                _provenance(cal_path, data, raw, study_path, bench_dir)]
+    return render(f"whiskercal calibration report: {data.sensor_id}", [s for s in sections if s])
+
+
+def write_report(out_path: str | Path, cal_path, raw_path=None, study_path=None, bench_dir=None) -> Path:
+    """Write the report to ``out_path`` (the file is replaced whole)."""
+    out_path = Path(out_path)
+    page = build_html(cal_path, raw_path, study_path, bench_dir)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    scratch = out_path.with_name(out_path.name + ".partial")
+    scratch.write_text(page, encoding="utf-8")
+    scratch.replace(out_path)
+    return out_path

@@ -1,0 +1,140 @@
+"""Detectors of slips and of tangential contact, from the measurements alone (never the truth).
+
+- :func:`detect_slips`: jumps of z between consecutive samples far above the stream's own
+  sample-to-sample fluctuation: the tip breaking loose and snapping to a new equilibrium.
+- :func:`detect_kink`: while the plane is pushed in, a tip contact bends the whisker along a
+  smooth curve z(depth) whose slope changes by a few percent per mm. When the shaft meets the
+  plane before the tip does (tangential contact), the contact moves toward the root, the lever
+  arm shortens and the slope jumps (measured on the twin: about -170 µT/mm near 40 mm in tip
+  contact, -380 µT/mm once tangential); when the contact snaps to another equilibrium, z stalls
+  or falls back. Either way the slope leaves its trend.
+- :func:`monotone_breaks`: across trials, the median |z| must grow with depth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+MAD_TO_SIGMA = 1.4826
+"""Scale from the median absolute deviation to the standard deviation of a normal distribution."""
+
+
+def robust_sigma(values: np.ndarray) -> float:
+    """Standard deviation estimated from the median absolute deviation (ignores outliers, NaN)."""
+    values = np.asarray(values, float)
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return float("nan")
+    return float(MAD_TO_SIGMA * np.median(np.abs(values - np.median(values))))
+
+
+def detect_slips(z_uT: np.ndarray, contact: np.ndarray, jump_sigma: float = 10.0,
+                 jump_floor_uT: float = 200.0) -> np.ndarray:
+    """Indices of samples where z jumps: the first sample after each slip.
+
+    Only steps between two samples that are both in contact count (making and losing contact is
+    not a slip). The threshold is ``jump_sigma`` robust standard deviations of the stream's own
+    sample-to-sample differences, and at least ``jump_floor_uT``.
+    """
+    z_uT = np.asarray(z_uT, float)
+    contact = np.asarray(contact, bool)
+    if z_uT.size < 3:
+        return np.zeros(0, dtype=int)
+    steps = np.diff(z_uT)
+    both_in_contact = contact[1:] & contact[:-1]
+    sigma = robust_sigma(steps[both_in_contact]) if both_in_contact.any() else float("nan")
+    threshold = max(jump_floor_uT, jump_sigma * sigma) if np.isfinite(sigma) else jump_floor_uT
+    jumps = both_in_contact & (np.abs(steps) > threshold)
+    return np.flatnonzero(jumps) + 1
+
+
+def window_slopes(depth_mm: np.ndarray, z_uT: np.ndarray, window_mm: float,
+                  min_samples: int = 6) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least-squares slope dz/d depth (µT/mm) in consecutive depth windows.
+
+    Returns the windows' centres (mm), slopes (µT/mm) and the slopes' standard errors (µT/mm);
+    windows with fewer than ``min_samples`` samples, or spanning less than half a window, get NaN.
+    """
+    depth_mm, z_uT = np.asarray(depth_mm, float), np.asarray(z_uT, float)
+    if depth_mm.size == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    edges = np.arange(np.min(depth_mm), np.max(depth_mm) + window_mm, window_mm)
+    rows = []
+    for low, high in zip(edges[:-1], edges[1:]):
+        inside = (depth_mm >= low) & (depth_mm < high)
+        rows.append((0.5 * (low + high), *_slope(depth_mm[inside], z_uT[inside], window_mm, min_samples)))
+    centres, slopes, errors = (np.asarray(column) for column in zip(*rows))
+    return centres, slopes, errors
+
+
+def _slope(x: np.ndarray, y: np.ndarray, window: float, min_samples: int) -> tuple[float, float]:
+    """Slope and its standard error of a straight-line fit, NaN when the data cannot tell."""
+    if x.size < min_samples or np.ptp(x) < 0.5 * window:
+        return float("nan"), float("nan")
+    spread = np.sum((x - x.mean()) ** 2)
+    slope = float(np.sum((x - x.mean()) * (y - y.mean())) / spread)
+    residual = y - y.mean() - slope * (x - x.mean())
+    return slope, float(np.sqrt(np.sum(residual ** 2) / (x.size - 2) / spread))
+
+
+def detect_kink(depth_mm: np.ndarray, z_uT: np.ndarray, window_mm: float = 1.25,
+                tolerance: float = 0.3, sigmas: float = 4.0, start_mm: float = 2.5,
+                history: int = 4) -> float:
+    """Depth (mm) where z(depth) of a push-in leaves its smooth course, or NaN if it never does.
+
+    In tip contact the slope dz/d depth changes slowly (a few percent per mm). The slope of each
+    depth window is compared with the median slope of the ``history`` windows before it; a
+    window whose slope differs from that trend by more than ``tolerance`` of it, and by more than
+    ``sigmas`` standard errors of its own estimate (so noise never counts), marks a change of
+    contact: stiffening when the shaft meets the plane (the lever arm shortens), or z stalling or
+    falling back when the contact jumps to another equilibrium.
+
+    Parameters
+    ----------
+    depth_mm, z_uT
+        The push-in's samples: depth past first contact (mm) and z (µT).
+    window_mm
+        Depth window of each slope estimate (mm).
+    tolerance
+        Relative change of slope that counts as a kink.
+    sigmas
+        Noise guard, in standard errors of the window's slope.
+    start_mm
+        Depths below this are ignored (the first contact's own transition).
+    history
+        Windows that form the trend.
+    """
+    depth_mm, z_uT = np.asarray(depth_mm, float), np.asarray(z_uT, float)
+    keep = np.isfinite(depth_mm) & np.isfinite(z_uT) & (depth_mm >= start_mm)
+    centres, slopes, errors = window_slopes(depth_mm[keep], z_uT[keep], window_mm)
+    valid = np.isfinite(slopes)
+    centres, slopes, errors = centres[valid], slopes[valid], errors[valid]
+    for i in range(history, slopes.size):
+        trend = float(np.median(slopes[i - history:i]))
+        deviation = abs(slopes[i] - trend)
+        if deviation > tolerance * abs(trend) and deviation > sigmas * errors[i]:
+            return float(centres[i])
+    return float("nan")
+
+
+def monotone_breaks(depths_mm: np.ndarray, median_z_uT: np.ndarray,
+                    min_step_uT: float = 0.0) -> np.ndarray:
+    """Which trials break the growth of |z| with depth (bool per trial, in the given order).
+
+    Pushing the plane deeper bends a tip contact further, so the median |z| must grow from one
+    depth to the next. A trial whose median |z| does not exceed the largest |z| of every shallower
+    trial by ``min_step_uT`` has changed its kind of contact (or lost it). Trials without a median
+    (NaN) are not judged here.
+    """
+    order = np.argsort(depths_mm)
+    magnitude = np.abs(np.asarray(median_z_uT, float))[order]
+    breaks_sorted = np.zeros(magnitude.size, bool)
+    deepest_so_far = -np.inf
+    for i, value in enumerate(magnitude):
+        if not np.isfinite(value):
+            continue
+        breaks_sorted[i] = value <= deepest_so_far + min_step_uT
+        deepest_so_far = max(deepest_so_far, value)
+    breaks = np.zeros_like(breaks_sorted)
+    breaks[order] = breaks_sorted
+    return breaks
