@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (fakes, twin_calibration)
+sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (study_fakes, twin_calibration)
 
 # A short study that keeps what the assertions need: all nine depths, the paper's 300 Hz (the
 # kink test needs dense push-in samples), a 10 mm slide instead of 80 mm, faster moves off the

@@ -14,8 +14,7 @@ from whiskercal.study.figures import write_figures
 from whiskercal.study.report import IncompleteStudyError, build_report
 from whiskercal.study.run import StudyRun
 
-from fakes import FakeCalibration, fake_rig
-from test_run_fake import _config
+from study_fakes import FakeCalibration, fake_config as _config, fake_rig
 
 
 @pytest.fixture(scope="module")

@@ -4,21 +4,12 @@ import numpy as np
 import pytest
 
 from whiskercal.errors import DeviceError, UsageError
-from whiskercal.study.config import PlaneGeometry, load_config
+from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.dataset import PHASE_SLIDE, StudyWriter, read_study
 from whiskercal.study.recorder import OverloadError
 from whiskercal.study.run import NoContactError, StudyRun
 
-from fakes import fake_rig
-
-
-def _config(tmp_path, text=""):
-    path = tmp_path / "study.toml"
-    path.write_text("[trials]\ndepths_mm = [5.0, 10.0, 15.0]\ntravel_mm = 10.0\n"
-                    "slide_start_mm = -5.0\nspeed_mm_s = 20.0\n"
-                    "[contact]\nsearch_step_mm = 0.5\nsamples_per_step = 3\nbaseline_samples = 30\n"
-                    + text)
-    return load_config(path)
+from study_fakes import fake_config as _config, fake_rig
 
 
 def _run(tmp_path, config, resume=False, **rig_options):

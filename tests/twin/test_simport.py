@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 import serial
-from world_standin import RigidWhiskerPhysics
+from test_world_standin import RigidWhiskerPhysics
 
 import whiskercal.rig  # noqa: F401  (registers sim://)
 from whiskercal.errors import DeviceError

@@ -4,7 +4,7 @@ import itertools
 
 import numpy as np
 import pytest
-from world_standin import RigidWhiskerPhysics
+from test_world_standin import RigidWhiskerPhysics
 
 from whiskercal.errors import DeviceError
 from whiskercal.rig.sensor import SensorClient, SensorCommandError

@@ -5,7 +5,7 @@ import itertools
 import numpy as np
 import pytest
 import serial
-from world_standin import FIELD_PER_RAD_UT, RigidWhiskerPhysics
+from test_world_standin import FIELD_PER_RAD_UT, RigidWhiskerPhysics
 
 import whiskercal.rig  # noqa: F401  (registers sim://)
 from whiskercal.rig.sensor import SensorClient

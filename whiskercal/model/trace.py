@@ -64,14 +64,6 @@ class Domain:
         """True where points (..., 2) lie in the grown hull."""
         return self.distance_inside_mm(points_mm) >= 0.0
 
-    def contains_xy(self, x_mm: float, y_mm: float) -> bool:
-        """Scalar :meth:`contains` in plain floats (the tracers' inner loop)."""
-        limit = self.margin_mm
-        for a, b, c in self.equations.tolist():
-            if a * x_mm + b * y_mm + c > limit:
-                return False
-        return True
-
     def angle_range_rad(self, center_mm) -> tuple[float, float]:
         """Angles (rad) spanned by the hull as seen from a point outside it (no wrap-around)."""
         offsets = self.vertices_mm - np.asarray(center_mm, float)

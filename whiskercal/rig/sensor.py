@@ -179,7 +179,8 @@ class SensorClient:
         return self.config()
 
     def start(self) -> None:
-        """Start the sample stream; sequence and time unwrapping start afresh."""
+        """Start the sample stream; sequence and time unwrapping start afresh (unread samples
+        of an earlier stream are discarded)."""
         if self._config is None:
             self.config()
         self._unwrapper = _Unwrapper()

@@ -142,9 +142,9 @@ class StudyRun:
         self.sensor.start()
 
     def _stop_stage(self) -> None:
-        """Stop any move at once (soft reset)."""
+        """Stop any move (feed hold, then flush the queue)."""
         try:
-            self.stage.reset()
+            self._halt()
         except DeviceError:
             pass  # the port is gone: the stage has stopped with it
 
@@ -221,7 +221,9 @@ class StudyRun:
             mean, _ = self._mean_field(int(cfg["samples_per_step"]))
             z_uT = float(mean[SENSOR_AXIS_Y] - self.static_field_uT[SENSOR_AXIS_Y])
             if abs(z_uT) > float(self.config["safety"]["overload_uT"]):
-                raise OverloadError(f"deflection {z_uT:.0f} µT during the contact search")
+                self._back_off(start)  # straight back to retract_mm behind the search start
+                raise OverloadError(f"deflection |z| reached {abs(z_uT):.0f} µT during the contact "
+                                    "search, beyond the overload guard; the plane was backed off")
             if abs(z_uT) > float(cfg["threshold_uT"]):
                 self._move(start, speed, None, PHASE_RETRACT)
                 return position, z_uT
@@ -243,15 +245,41 @@ class StudyRun:
             self._move(points["slide_end"], float(trials["speed_mm_s"]), recorder, PHASE_SLIDE)
             self._move(points["retracted_end"], float(trials["rapid_speed_mm_s"]), recorder, PHASE_RETRACT)
         except OverloadError:
-            self._back_off(points["retracted_end"])
+            self._back_off(contact)
             raise
         return self._record(recorder, depth_mm, points)
 
-    def _back_off(self, safe_mm: np.ndarray) -> None:
-        """Stop at once and retreat to a position clear of the whisker."""
+    def _behind_contact(self, contact_stage_mm: np.ndarray) -> np.ndarray:
+        """Where the stage is now, moved straight back along the normal to behind first contact."""
+        here = np.asarray(self.stage.status().mpos_mm, float)[:2]
+        depth = float(self.geometry.depth_of_stage_mm(here, contact_stage_mm)[0])
+        push = self.geometry.to_stage_vector(self.geometry.push_whisker)
+        return here - (depth + float(self.config["trials"]["retract_mm"])) * push
+
+    def _halt(self) -> None:
+        """Feed hold, wait until stopped, then flush the queue: a reset while the stage still
+        moves would lose its position (grbl's ALARM:3); after a hold it keeps it."""
+        self.stage.hold()
+        for _ in range(500):  # ~10 s of 20 ms status polls
+            state = self.stage.status().state
+            if state.startswith("Hold:1") or state in ("Idle", "Alarm"):
+                break
+            self._drain_quietly()
+        self.stage.reset()
+        self.stage.unlock()
+
+    def _drain_quietly(self) -> None:
         try:
-            self.stage.reset()
-            self.stage.unlock()
+            self.sensor.read(max(1, int(self.rate_hz * 0.02)), timeout_s=1.0)
+        except DeviceError:
+            pass
+
+    def _back_off(self, reference_stage_mm: np.ndarray) -> None:
+        """Stop, then retreat straight along the normal to ``retract_mm`` behind the reference
+        (first contact) so the whisker is unloaded without sliding the plane."""
+        try:
+            self._halt()
+            safe_mm = self._behind_contact(reference_stage_mm)
             self.stage.move_to(float(safe_mm[0]), float(safe_mm[1]),
                                float(self.config["trials"]["approach_speed_mm_s"]) * 60.0)
             self.stage.wait_idle(float(self.config["safety"]["move_timeout_s"]), on_poll=self._drain)

@@ -117,7 +117,7 @@ class Serial(SerialBase):
         world = get_world(name)
         if world is None:
             world = world_from_options(name, options)
-        elif _world_level(options) and _world_level(options) != getattr(world, "url_options", None):
+        elif _world_level(options) and _world_level(options) != world.url_options:
             raise SerialException(f"sim world {name!r} already exists with other options; "
                                   "give the options on the first port only")
         self.world = world

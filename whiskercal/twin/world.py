@@ -307,6 +307,7 @@ class World:
         self.sensor_board = VirtualSensor(self.reading, self.config.sensor_faults,
                                           np.random.default_rng(seeds[1]), self.config.clock_drift_ppm)
         self.truth = TruthRecord()
+        self.url_options: dict | None = None  # set when a sim:// URL made the world
         self._receivers: dict[int, object] = {}
         self._equilibrium = self.physics.free()
         self._free_shape_mm = self._free_shape(self._equilibrium)

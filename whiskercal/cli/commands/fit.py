@@ -83,6 +83,10 @@ def _metrics(calibration) -> dict:
     }
 
 
+def _raw_metrics(grid) -> dict:
+    return {"raw_complete": bool(grid.complete), "raw_points_planned": int(len(grid.plan_rod_center_mm))}
+
+
 def _summary(data, elapsed_s: float) -> dict:
     m = data.metrics
     summary = {"degree": data.degree, "coordinates": data.coordinates, "rmse": m["rmse_uT"],
@@ -90,7 +94,8 @@ def _summary(data, elapsed_s: float) -> dict:
                "lookup_holdout_rmse_mm": m["lookup_holdout_rmse_mm"],
                "samples": int(len(data.lookup_z_uT)), "interpolant": data.lookup_kind,
                "z_range_uT": [float(data.lookup_z_uT[0]), float(data.lookup_z_uT[-1])],
-               "points_used": m["points_used"], "elapsed_s": elapsed_s}
+               "points_used": m["points_used"], "raw_complete": m["raw_complete"],
+               "elapsed_s": elapsed_s}
     for key in ("lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm"):
         if key in m:
             summary[key] = m[key]
@@ -155,7 +160,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     data = data_from_calibration(
         calibration, sensor_id=grid.sensor_id, rod_radius_mm=grid.rod_radius_mm, tracer=tracer,
         kalman=KalmanParams(), collision=CollisionParams(threshold_uT=threshold_uT),
-        metrics={**_metrics(calibration), **truth_metrics}, truth=truth_arrays,
+        metrics={**_metrics(calibration), **_raw_metrics(grid), **truth_metrics}, truth=truth_arrays,
         inputs={"raw_grid": grid.sha256}, config=_config(options, raw))
     write_calibration(out_path, data)
     _report(data, time.perf_counter() - started, out_path, as_json)
@@ -175,6 +180,9 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
         echo_json(summary)
         return
     click.echo(f"wrote {out_path}")
+    if not summary["raw_complete"]:
+        click.echo(f"note      the raw grid is incomplete: {data.metrics['points_total']} of "
+                   f"{data.metrics['raw_points_planned']} planned points", err=True)
     click.echo(f"surface   degree {summary['degree']} ({summary['coordinates']}), "
                f"RMSE {summary['rmse']:.2f} µT, R² {summary['r2']:.5f}, "
                f"CV RMSE {summary['cv_rmse']:.2f} µT, {summary['points_used']} points")

@@ -141,8 +141,9 @@ def format_table(report) -> str:
                      f"{row.true_filtered_mean_mm:11.3f} {row.n_slips:5d}  {verdict}")
     if report.choice is not None:
         choice = report.choice
+        scores = ", ".join(f"{depth:g} mm {score:.3f}" for depth, score in choice.scores_mm.items())
         lines += ["", f"target: {choice.z_uT:.0f} µT at {choice.depth_mm:g} mm",
-                  f"rule:   {choice.rule}", f"why:    {choice.reason}"]
+                  f"rule:   {choice.rule}", f"scores: {scores} (mm)", f"why:    {choice.reason}"]
         if report.artifact_out:
             lines.append(f"wrote:  {report.artifact_out}")
     else:

@@ -92,3 +92,16 @@ def test_a_twin_without_the_plane_is_refused(tmp_path):
     assert result.output == ("error: the simulated rig carries a RodFixture, not the plane: open "
                              "the stage as sim://NAME/stage?scene=plane\n")
     assert not (tmp_path / "s.h5").exists()
+
+
+def test_overload_on_the_twin_backs_off_and_keeps_the_finished_trials(tmp_path):
+    from whiskercal.twin.world import get_world
+
+    config = tmp_path / "overload.toml"
+    config.write_text(SMALL.replace("15.0]", "25.0]") + "[safety]\noverload_uT = 4000.0\n")
+    out = tmp_path / "STUDY.h5"
+    result = _invoke("optimal-depth", "run", "--stage", "sim://cli-ov/stage?scene=plane",
+                     "--sensor", "sim://cli-ov/sensor", "--out", str(out), "--config", str(config))
+    assert result.exit_code == 3 and "beyond the overload guard of 4000 µT" in result.output
+    assert [t.depth_mm for t in read_study(out).trials] == [5.0, 10.0]
+    assert get_world("cli-ov").truth.arrays()["kind"][-1] == "free"  # the whisker was unloaded

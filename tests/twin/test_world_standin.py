@@ -1,4 +1,4 @@
-"""A tiny stand-in physics for world tests: a rigid whisker turning about its root, linear field.
+"""A tiny stand-in physics for world tests (no tests here): a rigid whisker turning about its root.
 
 Test-only. It makes the world's plumbing (geometry, time order, truth record, counts) testable
 without depending on the real mechanics' numbers.

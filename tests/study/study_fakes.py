@@ -13,7 +13,7 @@ import numpy as np
 
 from whiskercal.rig.sensor import SampleBlock
 from whiskercal.rig.stage import StageStatus
-from whiskercal.study.config import PlaneGeometry
+from whiskercal.study.config import PlaneGeometry, load_config
 
 STATIC_Y_UT = 1160.0
 LSB_UT = 0.6
@@ -84,6 +84,9 @@ class FakeStage:
         travel = self.feed_mm_s * dt_s
         self.rig.position = self.target.copy() if distance <= travel else \
             self.rig.position + step / distance * travel
+
+    def hold(self):
+        self.target = self.rig.position.copy()
 
     def reset(self):
         self.target = self.rig.position.copy()
@@ -176,3 +179,13 @@ class FakeCalibration:
                                       "filtered_tip_mm": self.total / self.count})
 
         return Tracker()
+
+
+def fake_config(tmp_path, text=""):
+    """Three short trials with a quick search; ``text`` adds TOML lines."""
+    path = tmp_path / "study.toml"
+    path.write_text("[trials]\ndepths_mm = [5.0, 10.0, 15.0]\ntravel_mm = 10.0\n"
+                    "slide_start_mm = -5.0\nspeed_mm_s = 20.0\n"
+                    "[contact]\nsearch_step_mm = 0.5\nsamples_per_step = 3\nbaseline_samples = 30\n"
+                    + text)
+    return load_config(path)

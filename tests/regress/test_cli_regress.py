@@ -1,0 +1,89 @@
+"""`whiskercal regress`: passes on the recorded data, names what moved, rewrites on purpose."""
+
+import json
+import shutil
+from pathlib import Path
+
+import h5py
+import pytest
+from click.testing import CliRunner
+
+from whiskercal.cli import cli
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+SHORT = "twin-short-60mm"
+
+
+def _regress(*args):
+    return CliRunner().invoke(cli, ["regress", *map(str, args)], catch_exceptions=False)
+
+
+@pytest.fixture
+def short_copy(tmp_path):
+    """A temporary copy of the smaller recorded dataset (the repository's copy stays untouched)."""
+    shutil.copytree(DATA / SHORT, tmp_path / SHORT)
+    return tmp_path
+
+
+@pytest.mark.slow
+def test_regress_passes_on_the_recorded_data():
+    result = _regress(DATA, "--json")
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert report["ok"] is True
+    assert [d["dataset"] for d in report["datasets"]] == ["twin-paper-75mm", SHORT]
+    assert all(d["changes"] == [] and d["quantities"] > 100 for d in report["datasets"])
+
+
+def test_an_edited_golden_value_is_named_with_how_far_it_moved(short_copy):
+    golden_path = short_copy / SHORT / "golden.json"
+    document = json.loads(golden_path.read_text(encoding="utf-8"))
+    entry = document["quantities"]["study.trial[20mm].filtered_mean_mm"]
+    entry["value"] += 0.01
+    golden_path.write_text(json.dumps(document), encoding="utf-8")
+    result = _regress(short_copy)
+    assert result.exit_code == 1
+    assert "1 moved" in result.output
+    assert "study.trial[20mm].filtered_mean_mm:" in result.output
+    assert "moved -0.01 (allowed 1e-06" in result.output
+    assert "1 quantity moved beyond tolerance: twin-short-60mm:study.trial[20mm].filtered_mean_mm" \
+        in result.stderr
+
+
+def test_perturbed_recordings_fail_naming_fit_and_study_quantities_then_update_round_trips(short_copy):
+    with h5py.File(short_copy / SHORT / "raw_grid.h5", "r+") as raw:
+        field = raw["points/field_mean_uT"]
+        values = field[()]
+        values[40:50, 1] += 30.0  # ten grid points read 30 µT more deflection (Y axis)
+        field[...] = values
+    with h5py.File(short_copy / SHORT / "plane_study.h5", "r+") as study:
+        trial = study["trials/depth_20.00mm/stream/field_uT"]
+        values = trial[()]
+        values[:, 1] -= 40.0  # the whole 20 mm trial reads 40 µT more deflection
+        trial[...] = values
+    result = _regress(short_copy, "--json")
+    assert result.exit_code == 1
+    changes = {c["name"]: c for c in json.loads(result.output)["datasets"][0]["changes"]}
+    assert "fit.rmse_uT" in changes and changes["fit.rmse_uT"]["difference"] != 0
+    assert changes["study.trial[20mm].median_z_uT"]["difference"] == pytest.approx(-40.0, abs=1.0)
+    assert json.loads(result.output)["datasets"][0]["inputs_changed"] == ["plane_study.h5",
+                                                                          "raw_grid.h5"]
+    updated = _regress(short_copy, "--update")
+    assert updated.exit_code == 0
+    assert "golden.json rewritten" in updated.output and "fit.rmse_uT" in updated.output
+    again = _regress(short_copy)
+    assert again.exit_code == 0 and "all within tolerance" in again.output
+
+
+def test_a_missing_dataset_file_ends_with_one_clear_line(short_copy):
+    (short_copy / SHORT / "plane_study.h5").unlink()
+    result = _regress(short_copy)
+    assert result.exit_code == 4
+    assert result.stderr.strip() == (f"error: {SHORT}: missing plane_study.h5 in "
+                                     f"{short_copy / SHORT}")
+
+
+def test_a_missing_data_directory_is_a_usage_error(tmp_path):
+    result = _regress(tmp_path / "nowhere")
+    assert result.exit_code == 2
+    assert "no such directory" in result.stderr

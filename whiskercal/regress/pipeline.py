@@ -1,0 +1,158 @@
+"""Recompute every stage on a recorded dataset and flatten the results into named quantities.
+
+The stages run exactly as a user runs them: `whiskercal fit` (the command itself, in-process)
+writes a calibration artifact; the study report (`whiskercal optimal-depth report`'s
+``build_report``) localizes every trial through ``whiskercal.runtime``; the chosen target is
+written into a copy of the artifact, which ``whiskercal.runtime`` loads again.
+
+Quantity names say where a number comes from (``fit.rmse_uT``, ``lookup.tip_x_mm[07]``,
+``study.trial[20mm].filtered_mean_mm``, ``study.target.z_uT``, ``runtime.target_z_uT``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from whiskercal.errors import ArtifactError, WhiskercalError
+from whiskercal.regress.golden import Dataset
+
+# Fit metrics kept as golden quantities (the artifact's /metrics attributes).
+FIT_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
+               "points_used", "points_total", "lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm",
+               "lookup_vs_truth_points", "contact_error_uncorrected_mm",
+               "contact_error_corrected_mm")
+# Per-trial columns of the study report kept as golden quantities.
+TRIAL_COLUMNS = ("n_samples", "contact_fraction", "median_z_uT", "raw_mean_mm", "raw_std_mm",
+                 "filtered_mean_mm", "filtered_std_mm", "off_plane_fraction", "n_slips",
+                 "unlocalized_fraction", "slid_mm", "kink_depth_mm", "tangential",
+                 "true_raw_mean_mm", "true_filtered_mean_mm", "true_tangential_fraction",
+                 "failing", "reasons", "unmapped_samples")
+
+
+def recompute(dataset: Dataset, pipeline: dict[str, Any], workdir: Path,
+              say: Callable[[str], None] | None = None) -> tuple[dict[str, Any], str]:
+    """Run fit, lookup, study report and runtime on ``dataset``; return (quantities, sensor_id).
+
+    Parameters
+    ----------
+    dataset
+        The recorded dataset (its files already checked).
+    pipeline
+        ``fit_args`` for `whiskercal fit` and the report's ``margin_weight_mm``.
+    workdir
+        A scratch directory for the artifacts.
+    say
+        Progress callback (one short line per stage), or None.
+    """
+    say = say or (lambda message: None)
+    artifact = workdir / f"{dataset.name}-calibration.h5"
+    say(f"{dataset.name}: fit")
+    run_fit(dataset.raw_grid, artifact, list(pipeline.get("fit_args", [])))
+    from whiskercal.artifacts.calibration import read_calibration
+
+    data = read_calibration(artifact)
+    quantities = {**fit_quantities(data), **lookup_quantities(data)}
+    say(f"{dataset.name}: study report")
+    report = _study_report(dataset, artifact, float(pipeline.get("margin_weight_mm", 0.1)))
+    quantities.update(study_quantities(report.as_dict()))
+    if report.choice is not None:
+        quantities.update(_runtime_quantities(artifact, workdir, report))
+    return quantities, data.sensor_id
+
+
+def run_fit(raw_grid: Path, artifact: Path, fit_args: list[str]) -> None:
+    """Run `whiskercal fit RAW --out ARTIFACT [fit_args]` in this process, its output discarded."""
+    from whiskercal.cli.app import App
+    from whiskercal.cli.commands.fit import command as fit_command
+
+    args = [str(raw_grid), "--out", str(artifact), "--json", *fit_args]
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            fit_command.main(args=args, prog_name="whiskercal fit", standalone_mode=False,
+                             obj=App(quiet=True))
+        except SystemExit as stop:  # the command's own abort() path
+            if stop.code:
+                raise ArtifactError(f"{raw_grid}: whiskercal fit failed (exit {stop.code})") from None
+        except WhiskercalError as error:
+            raise type(error)(f"{raw_grid.parent.name}: fit failed: {error}") from None
+
+
+def fit_quantities(data) -> dict[str, Any]:
+    """The surface fit's metrics and settings from a calibration artifact."""
+    found = {"fit.degree": int(data.degree), "fit.coordinates": data.coordinates}
+    for key in FIT_METRICS:
+        if key in data.metrics:
+            found[f"fit.{key}"] = _plain(data.metrics[key])
+    return found
+
+
+def lookup_quantities(data) -> dict[str, Any]:
+    """The lookup table: its interpolant, every sample's z and tip."""
+    found: dict[str, Any] = {"lookup.kind": data.lookup_kind,
+                             "lookup.samples": int(len(data.lookup_z_uT))}
+    for i, (z, tip) in enumerate(zip(data.lookup_z_uT, data.lookup_tip_mm)):
+        found[f"lookup.z_uT[{i:02d}]"] = float(z)
+        found[f"lookup.tip_x_mm[{i:02d}]"] = float(tip[0])
+        found[f"lookup.tip_y_mm[{i:02d}]"] = float(tip[1])
+    return found
+
+
+def _study_report(dataset: Dataset, artifact: Path, margin_weight_mm: float):
+    from whiskercal import runtime
+    from whiskercal.study.report import build_report
+
+    return build_report(dataset.study, runtime.load(artifact), margin_weight_mm=margin_weight_mm)
+
+
+def study_quantities(report: dict) -> dict[str, Any]:
+    """The per-trial table, the failing depths and the chosen target from a report's dict."""
+    found: dict[str, Any] = {"study.failing_depths_mm": list(report["failing_depths_mm"]),
+                             "study.passing_mean_filtered_mm": _plain(report["passing_mean_filtered_mm"])}
+    for row in report["trials"]:
+        label = f"study.trial[{row['depth_mm']:g}mm]"
+        for column in TRIAL_COLUMNS:
+            if column in row:
+                found[f"{label}.{column}"] = _plain(row[column])
+    choice = report.get("choice")
+    if choice is None:
+        found["study.target.depth_mm"] = None
+        return found
+    found["study.target.depth_mm"] = float(choice["depth_mm"])
+    found["study.target.z_uT"] = float(choice["z_uT"])
+    found["study.target.score_mm"] = float(choice["score_mm"])
+    for depth, score in sorted(choice.get("scores_mm", {}).items(), key=lambda kv: float(kv[0])):
+        found[f"study.target.scores_mm[{float(depth):g}mm]"] = float(score)
+    return found
+
+
+def _runtime_quantities(artifact: Path, workdir: Path, report) -> dict[str, Any]:
+    """Write the target into a copy of the artifact and read it back as a robot would."""
+    from whiskercal import runtime
+    from whiskercal.study.artifact_target import write_target
+
+    with_target = write_target(artifact, workdir / f"{artifact.stem}-target.h5", report.choice,
+                               report.study.sha256)
+    calibration = runtime.load(with_target)
+    tip = calibration.tip(calibration.target_z_uT)
+    return {"runtime.target_z_uT": float(calibration.target_z_uT),
+            "runtime.tip_x_mm_at_target": float(tip[0]),
+            "runtime.tip_y_mm_at_target": float(tip[1])}
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars and arrays as JSON-able Python values; NaN stays a float NaN."""
+    if isinstance(value, np.ndarray):
+        return [_plain(v) for v in value.tolist()]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if value is None:
+        return math.nan
+    return value

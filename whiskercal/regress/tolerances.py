@@ -1,0 +1,121 @@
+"""How far a recomputed quantity may move from its golden value, and why.
+
+Every quantity that ``whiskercal regress`` checks belongs to one class below. A class's
+tolerance covers what can legitimately differ between two runs of the same method on the same
+data (another CPU, BLAS library or numpy release reordering floating-point sums), and nothing
+that a change of method or data would cause. Recomputing on one machine gives bit-identical
+numbers; the bounds say how much room a different machine gets.
+
+A quantity passes when ``|new - golden| <= abs_tol + rel_tol * |golden|``; non-numbers (counts
+stored as integers, flags, labels, lists) must be equal.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class ToleranceClass:
+    """A tolerance shared by quantities of one kind.
+
+    Attributes
+    ----------
+    name : str
+        Short label, written next to each quantity in the golden file.
+    abs_tol, rel_tol : float
+        Allowed absolute difference (in the quantity's unit) and relative difference.
+    why : str
+        The reason for the bound, in one or two sentences.
+    """
+
+    name: str
+    abs_tol: float
+    rel_tol: float
+    why: str
+
+    def allows(self, golden: float, new: float) -> bool:
+        """True when ``new`` is within this tolerance of ``golden`` (NaN only matches NaN)."""
+        if golden != golden or new != new:  # NaN: both must be NaN
+            return golden != golden and new != new
+        return abs(new - golden) <= self.abs_tol + self.rel_tol * abs(golden)
+
+
+EXACT = ToleranceClass(
+    "exact", 0.0, 0.0,
+    "A count, flag, label or decision (degree, interpolant, points used, failing trials, the "
+    "chosen depth): rounding cannot change it, so any change is a change of method or data.")
+MEASURED = ToleranceClass(
+    "measured", 1e-9, 1e-12,
+    "Computed from the recorded samples alone (medians and shares of z, distances slid, kink "
+    "depths): only the order of a few additions can differ, far below 1e-9 of the unit.")
+LEAST_SQUARES = ToleranceClass(
+    "least_squares", 1e-9, 1e-7,
+    "Surface fit statistics from LAPACK's least squares: another BLAS reorders its sums, and the "
+    "column-scaled design's condition number (tens to thousands) magnifies 1e-16 to at most "
+    "1e-12 relative; 1e-7 keeps a wide margin while a change of degree, basis or data moves "
+    "them by 1e-3 or more.")
+R_SQUARED = ToleranceClass(
+    "r_squared", 1e-10, 0.0,
+    "R² is 1 - SSres/SStot with SSres/SStot near 1e-5: a 1e-7 relative change of SSres (see "
+    "least_squares) moves it by 1e-12; 1e-10 is that with margin.")
+CONDITION = ToleranceClass(
+    "condition", 0.0, 1e-6,
+    "A condition number from an SVD: reordered sums change its trailing digits only.")
+TRACE = ToleranceClass(
+    "trace", 1e-6, 0.0,
+    "Tips traced along the level set (mm) and what follows from them (lookup errors, runtime "
+    "tips): the adaptive integrator (rtol 1e-7) reproduces them to about 1e-12 mm under reordered "
+    "sums; 1 nm is far above that and far below the 1e-4 mm the lookup resolves.")
+ESTIMATE = ToleranceClass(
+    "estimate", 1e-6, 0.0,
+    "Study errors (mm) from the lookup's tips through the Kalman filter: they inherit the trace "
+    "tolerance, 1 nm, against errors of 0.01 mm and more.")
+SCORE = ToleranceClass(
+    "score", 1e-6, 0.0,
+    "The target rule's scores (mm): sums of study errors, the estimate tolerance.")
+LOOKUP_RANGE = ToleranceClass(
+    "lookup_range", 1e-6, 1e-12,
+    "Lookup sample deflections (µT): evenly spaced between ends found by bisection on whether a "
+    "trace succeeds; rounding moves them only by the spacing's last digits, and a moved end means "
+    "the traceable range itself changed.")
+
+CLASSES = {c.name: c for c in (EXACT, MEASURED, LEAST_SQUARES, R_SQUARED, CONDITION, TRACE,
+                               ESTIMATE, SCORE, LOOKUP_RANGE)}
+
+# Quantity name patterns (fnmatch) -> class; the first match wins, so specific names go first.
+RULES: tuple[tuple[str, ToleranceClass], ...] = (
+    ("fit.r2", R_SQUARED),
+    ("fit.rmse_uT", LEAST_SQUARES),
+    ("fit.cv_rmse_uT", LEAST_SQUARES),
+    ("fit.cv_rmse_by_degree_uT*", LEAST_SQUARES),
+    ("fit.condition_number", CONDITION),
+    ("fit.lookup_*_mm", TRACE),
+    ("fit.contact_error_*_mm", TRACE),
+    ("lookup.z_uT*", LOOKUP_RANGE),
+    ("lookup.tip_*", TRACE),
+    ("runtime.tip_*", TRACE),
+    ("runtime.target_z_uT", MEASURED),
+    ("study.target.score_mm", SCORE),
+    ("study.target.scores_mm*", SCORE),
+    ("study.target.z_uT", MEASURED),
+    ("study.passing_mean_filtered_mm", ESTIMATE),
+    ("study.*.raw_*_mm", ESTIMATE),
+    ("study.*.filtered_*_mm", ESTIMATE),
+    ("study.*.true_raw_mean_mm", ESTIMATE),
+    ("study.*.true_filtered_mean_mm", ESTIMATE),
+    ("study.*.median_z_uT", MEASURED),
+    ("study.*.contact_fraction", MEASURED),
+    ("study.*.true_tangential_fraction", MEASURED),
+    ("study.*.slid_mm", MEASURED),
+    ("study.*.kink_depth_mm", MEASURED),
+)
+
+
+def tolerance_for(name: str) -> ToleranceClass:
+    """The tolerance class of a quantity name; names that match no rule are exact."""
+    for pattern, tolerance in RULES:
+        if fnmatch.fnmatchcase(name, pattern):
+            return tolerance
+    return EXACT
