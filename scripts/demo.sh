@@ -1,10 +1,96 @@
 #!/usr/bin/env bash
-# The whole calibration pipeline on the digital twin; prints where each output is.
+# The whole calibration pipeline on the digital twin, as on a real rig but with sim:// ports:
+# collect the grid, fit it, run and report the flat-plane study, write the HTML report, and load
+# the final artifact with whiskercal.runtime. Prints where each output is.
+#
+#   make demo                        # OUT=out/demo, the full pipeline (a few minutes on 2 cores)
+#   OUT=/tmp/d PY=.venv/bin/python DEMO_SIZE=small bash scripts/demo.sh
+#
+# DEMO_SIZE=small runs a reduced grid (6 mm lattice) and a three-depth study with short slides:
+# the same steps in well under a minute, for tests.
 set -euo pipefail
 OUT=${OUT:-out/demo}
 PY=${PY:-python3}
+DEMO_SIZE=${DEMO_SIZE:-full}
+SEED=${SEED:-1}
 mkdir -p "$OUT"
 wc() { "$PY" -m whiskercal "$@"; }
+started=$(date +%s)
+step() { echo; echo "== $1 ($(( $(date +%s) - started )) s)"; }
 
-echo "== twin validation"
+RAW="$OUT/raw_grid.h5"
+CAL="$OUT/calibration.h5"
+STUDY="$OUT/plane_study.h5"
+STUDY_DIR="$OUT/study"
+FINAL="$OUT/calibration-target.h5"
+HTML="$OUT/report.html"
+# The demo owns these outputs: a rerun starts them afresh (collect never overwrites a dataset).
+rm -rf "$RAW" "$RAW.journal" "$CAL" "$STUDY" "$STUDY.partial" "$STUDY_DIR" "$FINAL" "$HTML"
+
+collect_config=()
+study_config=()
+if [ "$DEMO_SIZE" = small ]; then
+    cat > "$OUT/collect-small.toml" <<'EOF'
+# A reduced grid for a quick run: the default bands on a 6 mm lattice.
+[grid]
+step_mm = 6.0
+expected_points = 0
+EOF
+    cat > "$OUT/study-small.toml" <<'EOF'
+# A reduced study for a quick run: three depths, 20 mm slides.
+[trials]
+depths_mm = [10.0, 20.0, 30.0]
+travel_mm = 20.0
+slide_start_mm = -10.0
+EOF
+    collect_config=(--config "$OUT/collect-small.toml")
+    study_config=(--config "$OUT/study-small.toml")
+fi
+
+step "0/6 check the twin's mechanics against independent references"
 wc twin validate
+
+step "1/6 collect the calibration grid (sim:// stage and sensor)"
+wc collect --stage "sim://demo_grid/stage?seed=$SEED" --sensor sim://demo_grid/sensor \
+    --out "$RAW" "${collect_config[@]}"
+
+step "2/6 fit the surface, trace the level sets, build the lookup"
+wc fit "$RAW" --out "$CAL"
+
+step "3/6 run the flat-plane study"
+wc optimal-depth run --stage "sim://demo_study/stage?scene=plane&seed=$((SEED + 1))" \
+    --sensor sim://demo_study/sensor --out "$STUDY" "${study_config[@]}"
+
+step "4/6 report the study and choose the deflection target"
+wc optimal-depth report "$STUDY" --artifact "$CAL" --out "$STUDY_DIR" --out-artifact "$FINAL"
+
+step "5/6 write the HTML report"
+wc report "$FINAL" --raw "$RAW" --study "$STUDY" --out "$HTML"
+
+step "6/6 load the final artifact as a robot does (whiskercal.runtime)"
+"$PY" - "$FINAL" <<'EOF'
+import sys
+
+import numpy as np
+
+from whiskercal import runtime
+
+calibration = runtime.load(sys.argv[1])
+low, high = calibration.z_range_uT
+print(f"calibrated z range {low:.0f} .. {high:.0f} µT")
+for z in np.linspace(low, high, 5):
+    x, y = calibration.tip(z)
+    print(f"  z {z:8.0f} µT -> tip ({x:6.2f}, {y:6.2f}) mm")
+target = calibration.target_z_uT
+x, y = calibration.tip(target)
+print(f"target z {target:.0f} µT -> tip ({x:.2f}, {y:.2f}) mm")
+EOF
+
+echo
+echo "== outputs ($(( $(date +%s) - started )) s in all)"
+echo "raw grid           $RAW"
+echo "calibration        $CAL"
+echo "plane study        $STUDY"
+echo "study figures      $STUDY_DIR/"
+echo "final artifact     $FINAL   (whiskercal.runtime.load)"
+echo "HTML report        $HTML"

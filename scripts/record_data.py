@@ -110,6 +110,11 @@ def _readme(spec: dict, commands: list[str], outputs: list, sizes: dict) -> str:
         *commands,
         "```",
         "",
+        "`RECORDED/` is the scratch directory the commands wrote to; the files were then "
+        "compacted into this directory (see Storage). To record again: "
+        f"`.venv/bin/python scripts/record_data.py --only {spec['name']}`, then review "
+        "`git diff data/` and the changes `whiskercal regress data --update` lists.",
+        "",
         f"World seeds: {grid_seed} (grid), {study_seed} (study): every random number of the twin "
         "(sensor noise, stage) comes from them. Everything not named in the URLs or config files "
         "is the default (docs/twin.md: rod radius 1.5 mm, backlash 0.02 mm, no faults).",
@@ -131,6 +136,13 @@ def _readme(spec: dict, commands: list[str], outputs: list, sizes: dict) -> str:
         "computed from these files. Sizes (bytes, as recorded -> stored):",
         "",
         *[f"- {name}: {before:,} -> {after:,}" for name, (before, after) in sizes.items()],
+        "",
+        "## Golden results",
+        "",
+        "`golden.json`: every quantity `whiskercal regress` checks, with its tolerance class and "
+        "the reason for each class. The pipeline it records: `whiskercal fit raw_grid.h5 "
+        "--degree 5 --samples 20`, then the study report (margin weight 0.1 mm) and the "
+        "runtime's view of the chosen target.",
         "",
         "## Twin parameters",
         "",

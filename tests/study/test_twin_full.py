@@ -15,7 +15,7 @@ from whiskercal.twin import simport
 @pytest.mark.slow
 def test_full_default_study(tmp_path, twin_calibration, request):
     if "slow" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the full default study takes about a minute: run it with -m slow")
+        pytest.skip("the full default study takes 20-75 s of wall time: run it with -m slow")
     config = load_config()
     stage_port = simport.Serial("sim://study-full/stage?scene=plane&seed=11", timeout=1.0)
     sensor_port = simport.Serial("sim://study-full/sensor", timeout=1.0)

@@ -25,6 +25,7 @@ from whiskercal.bench.twin_grid import calibrate_grid, simulate_grid, tip_error_
 from whiskercal.collect.config import load_config
 from whiskercal.collect.estimate import plan_summary
 from whiskercal.collect.plan import build_plan
+from whiskercal.model.calibrate import CalibrationOptions
 from whiskercal.model.errors import ModelError
 from whiskercal.model.surface import fit_fixed
 from whiskercal.twin import truth
@@ -86,24 +87,16 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
         Seed of the simulated readings.
     """
     say = progress or (lambda _row: None)
-    config = load_config()
-    degree = 5
-    grid = simulate_grid()
+    config, degree, grid = load_config(), int(CalibrationOptions().degree), simulate_grid()
     counts, settles = ((3, 30), (0.0, 0.3)) if quick else (SAMPLES_PER_POINT, SETTLE_S)
     noise_free = _grid_errors(grid, grid.z_true_uT, degree) if not quick else {}
     rows = []
     for n in counts:
         z_uT = measured_z(grid, n, config.acquisition.baseline_samples, seed)
-        errors = (_grid_errors(grid, z_uT, degree) if not quick else
-                  {"surface_vs_truth_rmse_uT": _surface_error(grid, z_uT, degree),
-                   "z_noise_rms_uT": float(np.sqrt(np.mean((z_uT - grid.z_true_uT) ** 2)))})
+        errors = _quick_errors(grid, z_uT, degree) if quick else _grid_errors(grid, z_uT, degree)
         for settle in settles:
-            row = {"samples_per_point": n, "settle_s": settle, "label": f"{n}",
-                   "series": f"settle {settle:g} s", "stage_time_s": stage_time_s(n, settle),
-                   "default": (n, settle) == (config.acquisition.samples_per_point,
-                                              config.acquisition.settle_s), **errors}
-            rows.append(row)
-            say(row)
+            rows.append(_row(n, settle, errors, config))
+            say(rows[-1])
     return {
         "benchmark": "collection", "quick": quick, "machine": machine_info(),
         "units": {"time": "s", "z_error": "µT", "tip_error": "mm"},
@@ -121,9 +114,19 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
     }
 
 
-def _surface_error(grid, z_uT: np.ndarray, degree: int) -> float:
+def _quick_errors(grid, z_uT: np.ndarray, degree: int) -> dict:
+    """Surface error and reading noise only (µT): no calibration, for the quick run."""
     surface, _ = fit_fixed(grid.rod_center_mm, z_uT, degree, "polar")
-    return float(np.sqrt(np.mean((surface(grid.rod_center_mm) - grid.z_true_uT) ** 2)))
+    return {"surface_vs_truth_rmse_uT":
+            float(np.sqrt(np.mean((surface(grid.rod_center_mm) - grid.z_true_uT) ** 2))),
+            "z_noise_rms_uT": float(np.sqrt(np.mean((z_uT - grid.z_true_uT) ** 2)))}
+
+
+def _row(samples: int, settle_s: float, errors: dict, config) -> dict:
+    current = (config.acquisition.samples_per_point, config.acquisition.settle_s)
+    return {"samples_per_point": samples, "settle_s": settle_s, "label": f"{samples}",
+            "series": f"settle {settle_s:g} s", "stage_time_s": stage_time_s(samples, settle_s),
+            "default": (samples, settle_s) == current, **errors}
 
 
 def _supports(rows: list[dict], noise_free: dict, config) -> dict:

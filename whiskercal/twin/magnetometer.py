@@ -30,37 +30,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from whiskercal.errors import UsageError
+from whiskercal.rig import mlx90393
+from whiskercal.rig.mlx90393 import I2C_EXCHANGE_MS
 
-# [GAIN_SEL][X/Y, Z] in µT/LSB at RES 0 (Adafruit_MLX90393.h, mlx90393_lsb_lookup, HALLCONF 0xC).
-_LSB_RES0_UT = np.array([
-    [0.751, 1.210],  # GAIN_SEL 0 (the driver's "5x")
-    [0.601, 0.968],  # 1 ("4x")
-    [0.451, 0.726],  # 2 ("3x")
-    [0.376, 0.605],  # 3 ("2.5x")
-    [0.300, 0.484],  # 4 ("2x")
-    [0.250, 0.403],  # 5 ("1.67x")
-    [0.200, 0.323],  # 6 ("1.33x")
-    [0.150, 0.242],  # 7 ("1x")
-])
-
-# [DIG_FILT][OSR] three-axis conversion time in ms (Adafruit_MLX90393.h, mlx90393_tconv).
-_CONVERSION_MS_TABLE = np.array([
-    [1.27, 1.84, 3.00, 5.30],
-    [1.46, 2.23, 3.76, 6.84],
-    [1.84, 3.00, 5.30, 9.91],
-    [2.61, 4.53, 8.37, 16.05],
-    [4.15, 7.60, 14.52, 28.34],
-    [7.22, 13.75, 26.80, 52.92],
-    [13.36, 26.04, 51.38, 102.07],
-    [25.65, 50.61, 100.53, 200.37],
-])
-
-# One single-measurement exchange per sample on a 400 kHz I2C bus: the SM command with its status
-# byte, then RM with status and six data bytes, about 135 bit times (0.34 ms), plus the Wire
-# library's gaps between bytes. The firmware needs it on top of the conversion within a period;
-# with it, 300 Hz admits exactly the combinations the reference numbers list.
-I2C_EXCHANGE_MS = 0.36
-
+# The sensitivity and conversion-time tables and the I2C exchange time are the host's
+# (whiskercal/rig/mlx90393.py): the twin's chip and the host must convert counts alike.
 # Signed count range after the firmware removes the RES 2/3 output offsets, per RES.
 _COUNT_RANGE = {0: (-32768, 32767), 1: (-32768, 32767), 2: (-32768, 32767), 3: (-16384, 16383)}
 
@@ -82,15 +56,14 @@ def lsb_uT(gain: int, res: int) -> np.ndarray:
     """
     _check_index("GAIN_SEL", gain, 7)
     _check_index("RES", res, 3)
-    xy, z = _LSB_RES0_UT[gain] * 2**res
-    return np.array([xy, xy, z])
+    return mlx90393.lsb_uT(gain, res)
 
 
 def conversion_time_ms(osr: int, filt: int) -> float:
     """Duration of one three-axis conversion in ms for an OSR (0..3) and DIG_FILT (0..7)."""
     _check_index("OSR", osr, 3)
     _check_index("DIG_FILT", filt, 7)
-    return float(_CONVERSION_MS_TABLE[filt, osr])
+    return mlx90393.conversion_time_ms(osr, filt)
 
 
 def count_range(res: int) -> tuple[int, int]:
