@@ -40,3 +40,12 @@ firmware-deps:
 
 firmware-host-test:
 	$(MAKE) -C firmware host-test
+
+# ---- recorded datasets (data/README.md) ----
+.PHONY: regress record-data
+
+regress: $(INSTALLED)
+	$(PY) -m whiskercal regress data
+
+record-data: $(INSTALLED)
+	$(PY) scripts/record_data.py

@@ -3,7 +3,7 @@
 # collect the grid, fit it, run and report the flat-plane study, write the HTML report, and load
 # the final artifact with whiskercal.runtime. Prints where each output is.
 #
-#   make demo                        # OUT=out/demo, the full pipeline (a few minutes on 2 cores)
+#   make demo                        # OUT=out/demo, the full pipeline (about 30 s on 2 cores)
 #   OUT=/tmp/d PY=.venv/bin/python DEMO_SIZE=small bash scripts/demo.sh
 #
 # DEMO_SIZE=small runs a reduced grid (6 mm lattice) and a three-depth study with short slides:
@@ -14,7 +14,7 @@ PY=${PY:-python3}
 DEMO_SIZE=${DEMO_SIZE:-full}
 SEED=${SEED:-1}
 mkdir -p "$OUT"
-wc() { "$PY" -m whiskercal "$@"; }
+wcal() { "$PY" -m whiskercal "$@"; }
 started=$(date +%s)
 step() { echo; echo "== $1 ($(( $(date +%s) - started )) s)"; }
 
@@ -48,24 +48,24 @@ EOF
 fi
 
 step "0/6 check the twin's mechanics against independent references"
-wc twin validate
+wcal twin validate
 
 step "1/6 collect the calibration grid (sim:// stage and sensor)"
-wc collect --stage "sim://demo_grid/stage?seed=$SEED" --sensor sim://demo_grid/sensor \
+wcal collect --stage "sim://demo_grid/stage?seed=$SEED" --sensor sim://demo_grid/sensor \
     --out "$RAW" "${collect_config[@]}"
 
 step "2/6 fit the surface, trace the level sets, build the lookup"
-wc fit "$RAW" --out "$CAL"
+wcal fit "$RAW" --out "$CAL"
 
 step "3/6 run the flat-plane study"
-wc optimal-depth run --stage "sim://demo_study/stage?scene=plane&seed=$((SEED + 1))" \
+wcal optimal-depth run --stage "sim://demo_study/stage?scene=plane&seed=$((SEED + 1))" \
     --sensor sim://demo_study/sensor --out "$STUDY" "${study_config[@]}"
 
 step "4/6 report the study and choose the deflection target"
-wc optimal-depth report "$STUDY" --artifact "$CAL" --out "$STUDY_DIR" --out-artifact "$FINAL"
+wcal optimal-depth report "$STUDY" --artifact "$CAL" --out "$STUDY_DIR" --out-artifact "$FINAL"
 
 step "5/6 write the HTML report"
-wc report "$FINAL" --raw "$RAW" --study "$STUDY" --out "$HTML"
+wcal report "$FINAL" --raw "$RAW" --study "$STUDY" --out "$HTML"
 
 step "6/6 load the final artifact as a robot does (whiskercal.runtime)"
 "$PY" - "$FINAL" <<'EOF'

@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from whiskercal import __version__
+from whiskercal.regress.golden import DEFAULT_PIPELINE
 from whiskercal.regress.pack import compact_copy
 from whiskercal.twin.params import sensor_by_id
 
@@ -54,7 +55,8 @@ def _commands(spec: dict, directory: Path, raw: Path, study: Path) -> list[list[
     if spec["collect_config"]:
         collect += ["--config", str(directory / spec["collect_config"])]
     run = ["whiskercal", "optimal-depth", "run",
-           "--stage", f"sim://{world}_study/stage?scene=plane&sensor={spec['sensor']}&seed={study_seed}",
+           "--stage",
+           f"sim://{world}_study/stage?scene=plane&sensor={spec['sensor']}&seed={study_seed}",
            "--sensor", f"sim://{world}_study/sensor", "--out", str(study), "--json"]
     if spec["study_config"]:
         run += ["--config", str(directory / spec["study_config"])]
@@ -141,8 +143,8 @@ def _readme(spec: dict, commands: list[str], outputs: list, sizes: dict) -> str:
         "",
         "`golden.json`: every quantity `whiskercal regress` checks, with its tolerance class and "
         "the reason for each class. The pipeline it records: `whiskercal fit raw_grid.h5 "
-        "--degree 5 --samples 20`, then the study report (margin weight 0.1 mm) and the "
-        "runtime's view of the chosen target.",
+        f"{' '.join(DEFAULT_PIPELINE['fit_args'])}`, then the study report (margin weight "
+        f"{DEFAULT_PIPELINE['margin_weight_mm']} mm) and the runtime's view of the chosen target.",
         "",
         "## Twin parameters",
         "",

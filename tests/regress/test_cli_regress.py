@@ -87,3 +87,18 @@ def test_a_missing_data_directory_is_a_usage_error(tmp_path):
     result = _regress(tmp_path / "nowhere")
     assert result.exit_code == 2
     assert "no such directory" in result.stderr
+
+
+@pytest.mark.parametrize("fit_args, message", [
+    (["--samples", "1"], "whiskercal fit --samples 1:"),
+    (["--degree", "9"], "whiskercal fit failed:"),
+])
+def test_a_stage_that_fails_on_a_dataset_is_named(short_copy, fit_args, message):
+    golden_path = short_copy / SHORT / "golden.json"
+    document = json.loads(golden_path.read_text(encoding="utf-8"))
+    document["pipeline"]["fit_args"] = fit_args
+    golden_path.write_text(json.dumps(document), encoding="utf-8")
+    result = _regress(short_copy)
+    assert result.exit_code == 1
+    assert result.stderr.startswith(f"error: {SHORT}: {message}")
+    assert len(result.stderr.strip().splitlines()) == 1

@@ -70,6 +70,14 @@ def test_report_has_every_section_and_the_truth(report_html, twin_files, study_f
     study_rows = re.findall(r"<tr><td>(10|30)</td>", page)
     assert study_rows == ["10", "30"]
 
+def test_residual_map_reproduces_the_artifacts_fit(report_html, twin_files):
+    from whiskercal.artifacts.calibration import read_calibration
+
+    page = report_html.read_text(encoding="utf-8")
+    shown = float(re.search(r"Residual RMS ([0-9.]+) µT", page).group(1))
+    assert shown == pytest.approx(read_calibration(twin_files[1]).metrics["rmse_uT"], abs=1e-3)
+
+
 def test_without_raw_the_grid_is_explained_not_drawn(twin_files, tmp_path):
     _, cal = twin_files
     out = tmp_path / "bare.html"

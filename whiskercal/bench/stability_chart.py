@@ -11,16 +11,18 @@ from pathlib import Path
 
 import numpy as np
 
+from matplotlib.ticker import NullFormatter
+
 from whiskercal.bench.pareto import _pyplot
 
 PANELS = (
     ("z_range", "fast", "tracer (fast): z beyond the data", "z (µT)", "error_vs_truth_mm"),
-    ("domain", None, "grid cut short of the tip", "grid reach (mm)", "error_vs_truth_mm"),
+    ("domain", None, "grid cut short of the tip", "grid reach (mm)", "max_error_vs_truth_mm"),
     ("paper_step", None, "paper trace: step size", "step (mm)", "error_vs_reference_mm"),
-    ("noise", None, "reading noise", "noise (µT)", "error_vs_truth_mm"),
+    ("noise", None, "reading noise", "noise (µT)", "max_error_vs_truth_mm"),
     ("plane_slip", None, "plane study: slip into tangential contact", "depth (mm)",
      "true_tangential_fraction"),
-    ("stiffness_ratio", None, "k_θ·L/EI sweep", "k_θ·L/EI", "error_vs_truth_mm"),
+    ("stiffness_ratio", None, "k_θ·L/EI sweep", "k_θ·L/EI", "max_error_vs_truth_mm"),
     ("vanishing_gradient", None, "ridge of zero gradient", "z (µT)", None),
 )
 
@@ -42,7 +44,7 @@ def _value(entry: dict, y_key: str | None) -> float:
 def _panel(ax, entries: list[dict], title: str, x_label: str, y_key: str | None) -> None:
     ok = [e for e in entries if e["status"] in RETURNED]
     failed = [e for e in entries if e["status"] not in RETURNED]
-    if y_key is not None and ok:
+    if ok:
         ax.plot([e["setting"] for e in ok], [_value(e, y_key) for e in ok], "o", color="C0",
                 ms=4, label="returned a value")
     silent = [e for e in entries if e.get("silent")]
@@ -57,7 +59,7 @@ def _panel(ax, entries: list[dict], title: str, x_label: str, y_key: str | None)
     ax.set_xlabel(x_label, fontsize=8)
     ax.set_ylabel(y_key or "", fontsize=7)
     ax.grid(True, alpha=0.3)
-    if y_key is not None and (ok or silent):
+    if ok or silent:
         ax.legend(fontsize=6)
 
 
@@ -77,6 +79,7 @@ def draw_stability(result: dict, path: str | Path) -> Path:
         _panel(ax, _entries(probes, name, sub), title, x_label, y_key)
         if name in ("paper_step", "stiffness_ratio", "noise"):
             ax.set_xscale("log")
+            ax.xaxis.set_minor_formatter(NullFormatter())
         if name == "vanishing_gradient":
             ax.set_xscale("symlog", linthresh=1e-6)
     _kalman_table(axes.flat[-1], probes.get("kalman", []))

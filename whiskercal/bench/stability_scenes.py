@@ -77,6 +77,13 @@ def simulate_trial(calibration, sensor, depth_mm: float, quick: bool = False,
         approach_depth_mm=depths, approach_z_uT=push_z + rng.normal(0.0, SAMPLE_NOISE_UT, depths.size))
 
 
+def _slip_status(metrics) -> str:
+    """What the study's analysis reported: tangential contact, a failing trial, or tip contact."""
+    if metrics.tangential:
+        return "tangential"
+    return "failing" if metrics.failing else "tip"
+
+
 def plane_slip_probe(calibration, sensor, depths_mm, quick: bool = False, seed: int = 0) -> dict:
     """Per depth: the truth's tangential share and whether the study's analysis flagged it."""
     entries = []
@@ -84,7 +91,7 @@ def plane_slip_probe(calibration, sensor, depths_mm, quick: bool = False, seed: 
         metrics = analyse_trial(simulate_trial(calibration, sensor, float(depth), quick, seed))
         truly = bool(metrics.true_tangential_fraction > 0.5)
         entries.append({
-            "setting": float(depth), "status": "tangential" if metrics.tangential else "tip",
+            "setting": float(depth), "status": _slip_status(metrics),
             "true_tangential_fraction": metrics.true_tangential_fraction,
             "flagged_tangential": metrics.tangential, "failing": metrics.failing,
             "reasons": list(metrics.reasons), "kink_depth_mm": metrics.kink_depth_mm,

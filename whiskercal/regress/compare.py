@@ -75,7 +75,7 @@ def compare(golden: dict[str, Any], classes: dict[str, str], new: dict[str, Any]
 
 def _agrees(golden: Any, new: Any, tolerance: ToleranceClass) -> bool:
     golden, new = _nan_for_none(golden), _nan_for_none(new)
-    if isinstance(golden, bool) or isinstance(new, bool) or not (_is_number(golden) and _is_number(new)):
+    if not (_is_number(golden) and _is_number(new)):  # flags, labels, lists: equal or not
         return golden == new
     return tolerance.allows(float(golden), float(new))
 

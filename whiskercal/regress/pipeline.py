@@ -17,10 +17,15 @@ import math
 from pathlib import Path
 from typing import Any, Callable
 
+import click
 import numpy as np
 
-from whiskercal.errors import ArtifactError, WhiskercalError
+from whiskercal.errors import WhiskercalError
 from whiskercal.regress.golden import Dataset
+
+
+class StageFailedError(WhiskercalError):
+    """A stage of the pipeline failed on a recorded dataset (its message names both)."""
 
 # Fit metrics kept as golden quantities (the artifact's /metrics attributes).
 FIT_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
@@ -78,9 +83,14 @@ def run_fit(raw_grid: Path, artifact: Path, fit_args: list[str]) -> None:
                              obj=App(quiet=True))
         except SystemExit as stop:  # the command's own abort() path
             if stop.code:
-                raise ArtifactError(f"{raw_grid}: whiskercal fit failed (exit {stop.code})") from None
+                raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit failed "
+                                       f"(exit {stop.code})") from None
         except WhiskercalError as error:
-            raise type(error)(f"{raw_grid.parent.name}: fit failed: {error}") from None
+            raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit failed: "
+                                   f"{error}") from None
+        except click.ClickException as error:  # bad fit_args in golden.json
+            raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit "
+                                   f"{' '.join(fit_args)}: {error.format_message()}") from None
 
 
 def fit_quantities(data) -> dict[str, Any]:
@@ -107,13 +117,17 @@ def _study_report(dataset: Dataset, artifact: Path, margin_weight_mm: float):
     from whiskercal import runtime
     from whiskercal.study.report import build_report
 
-    return build_report(dataset.study, runtime.load(artifact), margin_weight_mm=margin_weight_mm)
+    try:
+        return build_report(dataset.study, runtime.load(artifact), margin_weight_mm=margin_weight_mm)
+    except WhiskercalError as error:
+        raise StageFailedError(f"{dataset.name}: the study report failed: {error}") from None
 
 
 def study_quantities(report: dict) -> dict[str, Any]:
     """The per-trial table, the failing depths and the chosen target from a report's dict."""
-    found: dict[str, Any] = {"study.failing_depths_mm": list(report["failing_depths_mm"]),
-                             "study.passing_mean_filtered_mm": _plain(report["passing_mean_filtered_mm"])}
+    found: dict[str, Any] = {
+        "study.failing_depths_mm": list(report["failing_depths_mm"]),
+        "study.passing_mean_filtered_mm": _plain(report["passing_mean_filtered_mm"])}
     for row in report["trials"]:
         label = f"study.trial[{row['depth_mm']:g}mm]"
         for column in TRIAL_COLUMNS:

@@ -48,7 +48,8 @@ class DatasetResult:
         """JSON-able form."""
         return {"dataset": self.name, "quantities": self.quantities,
                 "changes": [c.as_dict() for c in self.changes],
-                "inputs_changed": self.inputs_changed, "updated": self.updated, "created": self.created,
+                "inputs_changed": self.inputs_changed, "updated": self.updated,
+                "created": self.created,
                 "elapsed_s": round(self.elapsed_s, 3)}
 
 

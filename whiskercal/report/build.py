@@ -35,23 +35,40 @@ def _summary(data: CalibrationData) -> Section:
     return Section("Summary", key_values(pairs))
 
 
+def _fit_options(data: CalibrationData):
+    """The options the artifact was fitted with (its config), else ones matching its surface."""
+    from dataclasses import fields
+
+    from whiskercal.model.calibrate import CalibrationOptions
+
+    stored = data.config.get("options", {}) if isinstance(data.config, dict) else {}
+    known = {f.name for f in fields(CalibrationOptions)}
+    options = {k: tuple(v) if isinstance(v, list) else v for k, v in stored.items() if k in known}
+    options.setdefault("degree", data.degree)
+    options.setdefault("coordinates", data.coordinates)
+    options.setdefault("trace_length_mm", data.trace_length_mm)
+    return CalibrationOptions(**options)
+
+
 def _residuals(data: CalibrationData, raw) -> Section:
     if raw is None:
         return Section("Grid and fit residuals", paragraph("No raw grid given (--raw): the grid "
                                                            "and its residuals are not shown."))
-    from whiskercal.model.calibrate import contact_mask, correct_for_rod
+    from whiskercal.model.calibrate import calibrate
 
-    surface = surface_of(data)
+    # refit with the artifact's own options: the points it used, moved onto the shaft as it did
     sem = raw.z_std_uT / np.sqrt(np.maximum(raw.n_samples, 1))
-    used = contact_mask(raw.z_uT, sem)
-    centres, z = raw.rod_center_mm[used], raw.z_uT[used]
-    contact = correct_for_rod(centres, z, raw.rod_radius_mm, surface) if raw.rod_radius_mm > 0 else centres
-    residual = surface(contact) - z
-    note = paragraph(f"{int(used.sum())} of {len(raw.z_uT)} grid points carry contact; the rod "
-                     f"centres are moved by the rod radius ({raw.rod_radius_mm:g} mm) onto the shaft.")
+    refit = calibrate(raw.rod_center_mm, raw.z_uT, raw.rod_radius_mm, _fit_options(data), sem)
+    residual = surface_of(data)(refit.contact_points_mm) - refit.z_uT
+    unused = raw.rod_center_mm[~refit.used]
+    rms = float(np.sqrt(np.mean(residual ** 2)))
+    note = paragraph(f"{int(refit.used.sum())} of {len(raw.z_uT)} grid points were fitted (the others, "
+                     f"grey crosses, carry no contact or lie inside the trace's entry circle); the "
+                     f"rod centres are moved by the rod radius ({raw.rod_radius_mm:g} mm) onto the "
+                     f"shaft. Residual RMS {rms:.4f} µT.")
+    png = figures.grid_residuals(data, refit.contact_points_mm, residual, unused)
     return Section("Grid and fit residuals",
-                   note + figure(figures.grid_residuals(data, contact, residual),
-                                 "grid contact points coloured by the fit residual"))
+                   note + figure(png, "grid contact points coloured by the fit residual"))
 
 
 def _twin_truth(data: CalibrationData, raw) -> dict | None:

@@ -42,10 +42,13 @@ def _hull(ax, data: CalibrationData) -> None:
     ax.plot(hull[:, 0], hull[:, 1], "k-", lw=0.8, label="calibrated domain (hull)")
 
 
-def grid_residuals(data: CalibrationData, contact_mm: np.ndarray, residual_uT: np.ndarray) -> bytes:
-    """The grid's contact points coloured by the fit residual f - z (µT)."""
+def grid_residuals(data: CalibrationData, contact_mm: np.ndarray, residual_uT: np.ndarray,
+                   unused_mm: np.ndarray | None = None) -> bytes:
+    """The fitted contact points coloured by the residual f - z (µT); unused grid points greyed."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 5))
+    if unused_mm is not None and len(unused_mm):
+        ax.plot(unused_mm[:, 0], unused_mm[:, 1], "x", color="0.6", ms=5, label="not fitted")
     # a robust colour scale: one point off by much would wash out the others
     limit = float(np.nanpercentile(np.abs(residual_uT), 98)) or 1.0
     dots = ax.scatter(contact_mm[:, 0], contact_mm[:, 1], c=residual_uT, cmap="coolwarm",

@@ -6,11 +6,9 @@ import time
 
 import click
 
+from whiskercal.bench.runner import COMPARISONS
 from whiskercal.cli.app import App, echo_json, pass_app
 from whiskercal.errors import WhiskercalError
-
-_NAMES = ("tip-extraction", "surface-degree", "collection", "engines", "twin-speed", "field-speed",
-          "model-speed", "stability")
 
 
 class BenchFailed(WhiskercalError):
@@ -47,7 +45,7 @@ def _print(bench: dict, out: str) -> None:
 
 
 @click.command("bench")
-@click.option("--only", multiple=True, type=click.Choice(_NAMES),
+@click.option("--only", multiple=True, type=click.Choice(list(COMPARISONS)),
               help="Run only this comparison (repeatable) [default: all].")
 @click.option("--quick", is_flag=True,
               help="A reduced run (fewer settings and samples): seconds, for tests and smoke checks.")
