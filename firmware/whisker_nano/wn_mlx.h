@@ -24,7 +24,7 @@ enum : uint8_t {
 };
 
 struct mlx_settings {
-    uint8_t gain;  // GAIN_SEL 0..7 (7 is 1x, the least sensitive)
+    uint8_t gain;  // GAIN_SEL 0..7 (7 is the driver's "1x": the finest step, the smallest range)
     uint8_t res;   // RES_X = RES_Y = RES_Z 0..3
     uint8_t osr;   // OSR 0..3
     uint8_t filt;  // DIG_FILT 0..7

@@ -5,7 +5,7 @@
 #include "wn_hal.h"
 
 void sampler_init(sampler_state& s) {
-    s.mlx.gain = 7;
+    s.mlx.gain = 5;
     s.mlx.res = 2;
     s.mlx.osr = 0;
     s.mlx.filt = 2;

@@ -31,7 +31,8 @@ struct sampler_state {
     uint32_t frames_dropped;  // frames not sent because the transmit buffer was full
 };
 
-// Defaults of docs/protocol.md: 300 Hz, gain 7, resolution 2, OSR 0, DIG_FILT 2.
+// Defaults of docs/protocol.md: 300 Hz, gain 5, resolution 2, OSR 0, DIG_FILT 2 (docs/firmware.md
+// says why: every axis stays inside its output range over the whole working range).
 void sampler_init(sampler_state& s);
 
 // True when the conversion time of (osr, filt) plus the I2C transactions fit the period of rate_hz.

@@ -37,7 +37,7 @@ class SensorConfig:
     """The board's settings: sample rate in Hz and the MLX90393's GAIN_SEL, RES, OSR, DIG_FILT."""
 
     rate_hz: int = 300
-    gain: int = 7
+    gain: int = 5
     res: int = 2
     osr: int = 0
     filt: int = 2

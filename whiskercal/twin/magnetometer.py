@@ -93,7 +93,7 @@ class MagnetometerParams:
         Static offset of the chip itself (Hall-plate offset, ambient field), µT.
     """
 
-    gain: int = 7
+    gain: int = 5
     res: int = 2
     osr: int = 0
     filt: int = 2

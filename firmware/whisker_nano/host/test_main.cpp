@@ -158,7 +158,7 @@ TEST(identify_and_default_configuration) {
     sampler_state s; command_reader r;
     sampler_init(s); command_reader_init(r);
     CHECK_STR(send(s, r, "ID"), "OK whisker_nano fw=" WN_FIRMWARE_VERSION " proto=1");
-    CHECK_STR(send(s, r, "CFG?"), "OK rate=300 gain=7 res=2 osr=0 filt=2");
+    CHECK_STR(send(s, r, "CFG?"), "OK rate=300 gain=5 res=2 osr=0 filt=2");
 }
 
 TEST(commands_validate_their_values) {
@@ -179,7 +179,7 @@ TEST(commands_validate_their_values) {
     CHECK_STR(send(s, r, "RATE 300"), "ERR:4");
     CHECK_STR(send(s, r, "GAINS 1"), "ERR:1");
     CHECK_STR(send(s, r, "HELLO"), "ERR:1");
-    CHECK_STR(send(s, r, "CFG?"), "OK rate=100 gain=7 res=2 osr=3 filt=1");
+    CHECK_STR(send(s, r, "CFG?"), "OK rate=100 gain=5 res=2 osr=3 filt=1");
 }
 
 TEST(long_line_is_refused_and_empty_line_ignored) {
@@ -193,10 +193,10 @@ TEST(long_line_is_refused_and_empty_line_ignored) {
     CHECK(board.tx.empty());
     CHECK_STR(send(s, r, "ID\r"), "OK whisker_nano fw=" WN_FIRMWARE_VERSION " proto=1");
     CHECK_STR(send(s, r, " id "), "OK whisker_nano fw=" WN_FIRMWARE_VERSION " proto=1");
-    CHECK_STR(send(s, r, "gain  5"), "OK");
+    CHECK_STR(send(s, r, "gain  6"), "OK");
     CHECK_STR(send(s, r, "GAIN 5 6"), "ERR:2");
     CHECK_STR(send(s, r, "GAINS"), "ERR:1");
-    CHECK_STR(send(s, r, "cfg?"), "OK rate=300 gain=5 res=2 osr=0 filt=2");
+    CHECK_STR(send(s, r, "cfg?"), "OK rate=300 gain=6 res=2 osr=0 filt=2");
 }
 
 TEST(settings_are_refused_while_streaming) {
@@ -239,28 +239,34 @@ TEST(stream_runs_at_300_hz_with_consecutive_sequence) {
 
 TEST(counts_match_the_field_at_the_configured_sensitivity) {
     reset_board();
-    board.field_uT[0] = 1500.0; board.field_uT[1] = -8760.0; board.field_uT[2] = 2420.0;
+    // the -8760 µT target on Y and the deepest Z of the twin's calibration grid (-34.6 mT)
+    board.field_uT[0] = 1500.0; board.field_uT[1] = -8760.0; board.field_uT[2] = -34600.0;
     sampler_state s;
     sampler_init(s);
     int bad = 0;
     std::vector<decoded_frame> frames = stream(s, 20000, &bad);
     CHECK(!frames.empty());
     const std::vector<uint8_t>& p = frames[0].payload;
-    // gain 7, res 2: 0.600 µT/LSB on X/Y and 0.968 µT/LSB on Z.
-    CHECK_NEAR((int16_t)u16(p, 6) * 0.600, 1500.0, 0.3);
-    CHECK_NEAR((int16_t)u16(p, 8) * 0.600, -8760.0, 0.3);
-    CHECK_NEAR((int16_t)u16(p, 10) * 0.968, 2420.0, 0.5);
+    // gain 5, res 2: 1.000 µT/LSB on X/Y and 1.612 µT/LSB on Z; within half a step.
+    CHECK_NEAR((int16_t)u16(p, 6) * 1.000, 1500.0, 0.5);
+    CHECK_NEAR((int16_t)u16(p, 8) * 1.000, -8760.0, 0.5);
+    CHECK_NEAR((int16_t)u16(p, 10) * 1.612, -34600.0, 0.81);
+    CHECK_EQ(p[12] & SENSOR_STATUS_SATURATED, 0);
 }
 
 TEST(saturation_is_flagged) {
-    reset_board();
-    board.field_uT[1] = 30000.0;  // beyond the ±19.6 mT of gain 7, res 2
-    sampler_state s;
-    sampler_init(s);
-    int bad = 0;
-    std::vector<decoded_frame> frames = stream(s, 20000, &bad);
-    CHECK(!frames.empty());
-    CHECK(frames[0].payload[12] & SENSOR_STATUS_SATURATED);
+    // Beyond the ±32.8 mT of X/Y and the ±52.8 mT of Z at gain 5, res 2, one axis at a time.
+    const double beyond_uT[3] = {-33500.0, 33500.0, -54000.0};
+    for (int axis = 0; axis < 3; ++axis) {
+        reset_board();
+        board.field_uT[axis] = beyond_uT[axis];
+        sampler_state s;
+        sampler_init(s);
+        int bad = 0;
+        std::vector<decoded_frame> frames = stream(s, 20000, &bad);
+        CHECK(!frames.empty());
+        CHECK(frames[0].payload[12] & SENSOR_STATUS_SATURATED);
+    }
 }
 
 TEST(missing_sensor_is_reported_not_zero) {
