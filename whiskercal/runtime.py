@@ -7,7 +7,10 @@
 >>> state = tracker.update(z_uT)   # per sample: contact, raw and filtered tip   # doctest: +SKIP
 
 Loading validates the schema (an unknown major version is refused with a clear message) and
-never executes code. Evaluation uses only the precomputed lookup: one sample takes about a
+never executes code. A calibration written with ``whiskercal fit --allow-extrapolation`` marks
+the z whose tips lie farther past the grid than its limit: they are refused like z outside the
+calibrated range, unless loaded with ``allow_extrapolated=True`` (then each such sample is
+flagged in ``TrackerState.extrapolated``). Evaluation uses only the precomputed lookup: one sample takes about a
 microsecond, a batch runs at tens of millions of samples a second (docs/model.md).
 """
 
@@ -22,9 +25,9 @@ from whiskercal.artifacts.calibration import (CalibrationData, collision_params_
                                               kalman_params_of, lookup_of, problem_of,
                                               read_calibration)
 from whiskercal.model.collision import CollisionDetector
-from whiskercal.model.errors import ModelError
+from whiskercal.model.errors import ExtrapolationLimitError, ModelError
 from whiskercal.model.kalman import ConstantStateKalman
-from whiskercal.model.lookup import OUT_OF_RANGE_POLICIES
+from whiskercal.model.lookup import OUT_OF_RANGE_POLICIES, TipLookup
 from whiskercal.model.trace import TRACERS
 
 
@@ -34,11 +37,14 @@ class TrackerState:
 
     ``raw_tip_mm`` is None without contact (or with z outside the calibrated range under the
     "nan" policy); ``filtered_tip_mm`` is None until the filter has its first tip in a contact.
+    ``extrapolated`` is True when the raw tip came from the part of the range marked as
+    extrapolated past the grid (only when loaded with ``allow_extrapolated=True``).
     """
 
     contact: bool
     raw_tip_mm: np.ndarray | None
     filtered_tip_mm: np.ndarray | None
+    extrapolated: bool = False
 
 
 class Tracker:
@@ -71,7 +77,8 @@ class Tracker:
             filtered = self._kalman.state_mm
             return TrackerState(True, None, None if filtered is None else filtered.copy())
         raw = np.array([x, y])
-        return TrackerState(True, raw, self._kalman.update(raw))
+        flagged = self._calibration._flagged(float(z_uT))
+        return TrackerState(True, raw, self._kalman.update(raw), flagged)
 
 
 class Calibration:
@@ -82,14 +89,26 @@ class Calibration:
     data : CalibrationData
         Everything the file holds (metrics, provenance, settings).
     z_range_uT : (float, float)
-        The calibrated range the lookup covers.
+        The range the lookup answers: the calibrated range, less the part marked as extrapolated
+        unless ``allow_extrapolated``.
+    trusted_z_range_uT : (float, float) or None
+        The part whose tips lie within the extrapolation limit (None: no part).
     target_z_uT : float or None
         The optimal deflection target once the optimal-depth study has written one.
+
+    Raises
+    ------
+    ExtrapolationLimitError
+        When every tip of the calibration is marked as extrapolated and ``allow_extrapolated``
+        is False.
     """
 
-    def __init__(self, data: CalibrationData) -> None:
+    def __init__(self, data: CalibrationData, allow_extrapolated: bool = False) -> None:
         self.data = data
-        self.lookup = lookup_of(data)
+        self.trusted_z_range_uT = data.trusted_range_uT()
+        self.lookup = _lookup(data, allow_extrapolated)
+        # only an allowed extrapolated part can answer a z that needs a flag
+        self._flagging = bool(allow_extrapolated and data.extrapolated)
         self.kalman_params = kalman_params_of(data)
         self.collision_params = collision_params_of(data)
         self.z_range_uT = (self.lookup.z_min_uT, self.lookup.z_max_uT)
@@ -105,6 +124,24 @@ class Calibration:
         """
         _check_policy(out_of_range)
         return self.lookup(z_uT, out_of_range)
+
+    def extrapolated(self, z_uT) -> np.ndarray:
+        """True where z (µT) lies in the calibrated range's part marked as extrapolated."""
+        z = np.asarray(z_uT, float)
+        inside = (z >= self.data.lookup_z_uT[0]) & (z <= self.data.lookup_z_uT[-1])
+        if not self.data.extrapolated:
+            return np.zeros(z.shape, bool)
+        if self.trusted_z_range_uT is None:
+            return inside
+        low, high = self.trusted_z_range_uT
+        return inside & ((z < low) | (z > high))
+
+    def _flagged(self, z_uT: float) -> bool:
+        """The tracker's per-sample test, for a z the lookup has already answered."""
+        if not self._flagging:
+            return False
+        trusted = self.trusted_z_range_uT
+        return trusted is None or not trusted[0] <= z_uT <= trusted[1]
 
     def tracker(self, out_of_range: str = "raise") -> Tracker:
         """A fresh streaming tracker (collision detection + lookup + filter)."""
@@ -125,6 +162,25 @@ def _check_policy(out_of_range: str) -> None:
                          f"not {out_of_range!r}")
 
 
-def load(path: str | Path) -> Calibration:
-    """Load and validate a calibration artifact (schema ``whiskercal.calibration`` 1.x)."""
-    return Calibration(read_calibration(path))
+def _lookup(data: CalibrationData, allow_extrapolated: bool) -> TipLookup:
+    """The artifact's lookup, narrowed to its trusted range unless extrapolation is allowed."""
+    lookup = lookup_of(data)
+    if allow_extrapolated or not data.extrapolated:
+        return lookup
+    trusted = data.trusted_range_uT()
+    if trusted is None:
+        raise ExtrapolationLimitError(
+            f"every tip of this calibration lies more than {data.max_extension_mm:g} mm past its "
+            "grid (written with --allow-extrapolation): load it with allow_extrapolated=True to "
+            "use it anyway")
+    return TipLookup(data.lookup_z_uT, data.lookup_tip_mm, data.lookup_kind, trusted)
+
+
+def load(path: str | Path, allow_extrapolated: bool = False) -> Calibration:
+    """Load and validate a calibration artifact (schema ``whiskercal.calibration`` 1.x).
+
+    ``allow_extrapolated``: answer z in the range marked as extrapolated past the grid too
+    (flagged by :meth:`Calibration.extrapolated` and ``TrackerState.extrapolated``) instead of
+    refusing it.
+    """
+    return Calibration(read_calibration(path), allow_extrapolated)

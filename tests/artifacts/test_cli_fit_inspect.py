@@ -24,7 +24,7 @@ def raw_file(tmp_path_factory):
     z = rigid_z(points) + np.random.default_rng(1).normal(0.0, 1.0, len(points))
     path = tmp_path_factory.mktemp("raw") / "raw.h5"
     return write_raw_grid(path, points, z, 0.0, "analytic-rigid",
-                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 78.0}})
+                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
 
 
 def test_fit_json_summary_and_artifact(raw_file, tmp_path):
@@ -120,3 +120,72 @@ def test_fit_a_twin_grid_reports_the_lookup_against_truth(tmp_path):
     from whiskercal.twin.params import DEFAULT_SENSOR
 
     assert data.trace_length_mm == DEFAULT_SENSOR.whisker.reach_mm  # found by the sensor's id
+
+
+def test_fit_refuses_a_grid_that_stops_short_of_the_tip(tmp_path):
+    points = paper_grid_mm()  # reaches 65 mm: a 78 mm trace would extrapolate 14 mm
+    raw = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
+                         config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 78.0}})
+    out = tmp_path / "cal.h5"
+    result = CliRunner().invoke(cli, ["fit", str(raw), "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists()
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "stops short of the tip" in lines[0]
+    assert "more than the 9.5 mm" in lines[0] and "--allow-extrapolation" in lines[0]
+
+
+def test_fit_with_allow_extrapolation_marks_the_range_for_inspect_and_runtime(tmp_path):
+    from whiskercal import runtime
+    from whiskercal.model.errors import ExtrapolationLimitError
+
+    points = paper_grid_mm()
+    raw = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
+                         config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 78.0}})
+    out = tmp_path / "cal.h5"
+    summary = json.loads(run("fit", str(raw), "--out", str(out), "--allow-extrapolation",
+                             "--json").output)
+    assert summary["extrapolated"] and summary["trusted_z_uT"] is None
+    assert summary["extension_max_mm"] > summary["extension_limit_mm"] == 9.5
+    assert any("stops short of the tip" in w for w in summary["warnings"])
+    described = json.loads(run("inspect", str(out), "--json").output)
+    assert described["extension"]["extrapolated"] is True
+    assert described["extension"]["max_mm"] == pytest.approx(summary["extension_max_mm"])
+    assert described["datasets"]["/lookup/extension_mm"]["units"] == "mm"
+    with pytest.raises(ExtrapolationLimitError, match="allow_extrapolated=True"):
+        runtime.load(out)
+    calibration = runtime.load(out, allow_extrapolated=True)
+    z = float(np.mean(calibration.z_range_uT))
+    assert calibration.extrapolated(z) and calibration.tracker().update(z).extrapolated
+
+
+def test_fit_a_raised_extension_limit_accepts_the_short_grid(tmp_path):
+    points = paper_grid_mm()
+    raw = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
+                         config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 78.0}})
+    summary = json.loads(run("fit", str(raw), "--out", str(tmp_path / "cal.h5"),
+                             "--max-extension-mm", "16", "--json").output)
+    assert not summary["extrapolated"] and summary["extension_limit_mm"] == 16.0
+
+
+def test_fit_warns_of_an_underfitting_surface_with_the_numbers(raw_file, tmp_path):
+    out = tmp_path / "cal.h5"
+    result = CliRunner().invoke(cli, ["fit", str(raw_file), "--out", str(out),
+                                         "--degree", "1"], catch_exceptions=False)
+    assert result.exit_code == 0
+    assert "warning   the surface under-fits: its CV RMSE" in result.stderr
+    from whiskercal.artifacts.calibration import read_calibration
+
+    warnings = read_calibration(out).metrics["warnings"]
+    assert len(warnings) == 1 and "1.02 µT noise expected at the grid points" in warnings[0]
+    good = json.loads(run("fit", str(raw_file), "--out", str(out), "--degree", "5", "--json").output)
+    assert good["warnings"] == [] and good["cv_rmse"] < 2 * good["expected_noise_uT"]
+
+
+def test_fit_reports_a_trace_length_option_that_overrides_the_recorded_one(raw_file, tmp_path):
+    summary = json.loads(run("fit", str(raw_file), "--out", str(tmp_path / "cal.h5"),
+                             "--trace-length-mm", "68", "--json").output)
+    assert summary["warnings"] == ["--trace-length-mm 68 mm overrides the 70 mm of the raw grid's "
+                                   "rig config"]
+    from whiskercal.artifacts.calibration import read_calibration
+
+    assert read_calibration(tmp_path / "cal.h5").trace_length_mm == 68.0

@@ -49,7 +49,7 @@ def test_full_run_records_every_point_once_with_z_against_truth(tmp_path):
     np.testing.assert_allclose(grid.z_uT, grid.truth["z_uT"], atol=4.0)
     assert np.ptp(grid.z_uT) > 1000.0  # the grid really bends the whisker
     np.testing.assert_allclose(grid.rod_center_mm, plan.rod_center_mm, atol=1e-9)
-    assert sensor.configured == {"rate_hz": 300, "gain": 7, "res": 2, "osr": 0, "filt": 2}
+    assert sensor.configured == {"rate_hz": 300, "gain": 5, "res": 2, "osr": 0, "filt": 2}
     assert stage.commands[0] == "$H"
     assert not journal_path(tmp_path / "raw.h5").exists()
     assert summary.stage_time_s > 0 and summary.baseline_drift_uT is not None

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 SYNC = b"\xa5\x5a"
 SAMPLE, TEXT = 0x01, 0x02
-DEFAULT_CONFIG = "OK rate=300 gain=7 res=2 osr=0 filt=2"
+DEFAULT_CONFIG = "OK rate=300 gain=5 res=2 osr=0 filt=2"
 
 
 def crc16_ccitt_false(data: bytes) -> int:
@@ -169,7 +169,7 @@ def check_conversion_time_limits_the_rate(port) -> None:
     assert link.command("OSR 3") == "ERR:4"     # DF2/OSR3: 9.91 ms + I2C > 10 ms
     assert link.command("FILT 1") == "OK"
     assert link.command("OSR 3") == "OK"        # DF1/OSR3: 6.84 ms
-    assert link.command("CFG?") == "OK rate=100 gain=7 res=2 osr=3 filt=1"
+    assert link.command("CFG?") == "OK rate=100 gain=5 res=2 osr=3 filt=1"
 
 
 def check_rate_setting_changes_the_period(port) -> None:

@@ -1,7 +1,7 @@
 """Raw calibration grids generated straight from the twin's physics, for fast, honest model tests.
 
-Each rod position on the paper's lattice (3 mm, reach 12.5..65 mm, angle -44.5..0 deg, 180
-points) goes through ``mechanics.solve_rod`` (warm-started along each column, as the stage
+Each rod position of ``whiskercal collect``'s default plan (the paper's 3 mm lattice, reach
+22.5..71.75 mm, an angle band tapering from -28.5 to -46 deg, 180 points) goes through ``mechanics.solve_rod`` (warm-started along each column, as the stage
 visits them), then ``truth.z_of_equilibrium`` plus seeded Gaussian noise of the averaged reading.
 No serial protocol, no stage: what is tested here is the model, not the acquisition.
 """
@@ -16,8 +16,9 @@ import numpy as np
 from whiskercal.twin import mechanics, truth
 from whiskercal.twin.params import DEFAULT_SENSOR, SensorParams
 
-from analytic import paper_grid_mm
 from rawfile import write_raw_grid
+from whiskercal.collect.config import load_config
+from whiskercal.collect.plan import lattice_points, visiting_order
 
 ROD_RADIUS_MM = 1.5
 
@@ -39,8 +40,8 @@ class TwinGrid:
 
 @functools.lru_cache(maxsize=4)
 def _noise_free(sensor: SensorParams, rod_radius_mm: float):
-    points = paper_grid_mm()
-    points = points[np.lexsort((-points[:, 1], points[:, 0]))]  # columns in x, each from +y down
+    points = lattice_points(load_config().grid)
+    points = points[visiting_order(points)]  # columns in x, each from +y down
     rows, previous, last_x = [], None, None
     for center in points:
         if center[0] != last_x:

@@ -8,7 +8,7 @@ from whiskercal.errors import DeviceError
 from whiskercal.rig.frames import encode_sample, encode_text
 from whiskercal.rig.sensor import SensorClient, SensorCommandError
 
-CFG = encode_text("OK rate=300 gain=7 res=2 osr=0 filt=2")
+CFG = encode_text("OK rate=300 gain=5 res=2 osr=0 filt=2")
 
 
 def _samples(seqs, period_us=3333, start_us=0, counts=(10, -20, 30)):
@@ -20,7 +20,7 @@ def test_identify_and_config():
     with expected_protocol(SensorClient, pairs) as sensor:
         assert sensor.identify() == "whisker_nano fw=0.1.0 proto=1"
         config = sensor.config()
-    assert (config.rate_hz, config.gain, config.res, config.osr, config.filt) == (300, 7, 2, 0, 2)
+    assert (config.rate_hz, config.gain, config.res, config.osr, config.filt) == (300, 5, 2, 0, 2)
 
 
 def test_configure_sends_each_setting_then_reads_back():
@@ -47,7 +47,8 @@ def test_stream_unwraps_seq_and_time_and_converts_to_uT():
         block = sensor.read(4, timeout_s=1)
     np.testing.assert_array_equal(block.seq, [65534, 65535, 65536, 65537])
     np.testing.assert_allclose(np.diff(block.t_s), 3333e-6)
-    np.testing.assert_allclose(block.field_uT[0], [10 * 0.600, -20 * 0.600, 30 * 0.968])
+    # GAIN_SEL 5, RES 2 (the CFG? answer): 1.000 µT/LSB on X/Y, 1.612 on Z
+    np.testing.assert_allclose(block.field_uT[0], [10 * 1.000, -20 * 1.000, 30 * 1.612])
     assert block.dropped == 0 and block.corrupt == 0
 
 

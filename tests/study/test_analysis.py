@@ -5,7 +5,8 @@ import pytest
 
 from whiskercal.study.analysis import (
     Criteria, TrialSeries, analyse_study, analyse_trial, distance_to_line_mm)
-from whiskercal.study.detect import detect_kink, detect_slips, monotone_breaks
+from whiskercal.study.detect import (detect_kink, detect_slips, monotone_breaks,
+                                     stiffening_breaks)
 
 NORMAL = np.array([np.cos(np.radians(20)), np.sin(np.radians(20))])
 DIRECTION = np.array([NORMAL[1], -NORMAL[0]])
@@ -118,3 +119,50 @@ def test_sparse_noisy_push_in_is_not_a_kink():
     depth = np.linspace(0, 45, 200)  # 0.2 mm a sample
     z = -330 * depth + 1.8 * depth ** 2 + rng.normal(0, 40.0, depth.size)
     assert np.isnan(detect_kink(depth, z))
+
+
+def _sawtooth(period, jump_uT, n=1500, seed=4):
+    """Stick-slip: z creeps one way while stuck and jumps back at each slip, plus 6 µT noise."""
+    rng = np.random.default_rng(seed)
+    phase = np.arange(n) % period
+    z = -8000.0 + jump_uT * phase / period + rng.normal(0, 6.0, n)
+    return z, np.flatnonzero(phase == 0)[1:]
+
+
+@pytest.mark.parametrize("period, jump_uT", [(30, 120.0), (10, 150.0)])
+def test_stick_slip_jumps_are_found_against_the_creep(period, jump_uT):
+    z, slips = _sawtooth(period, jump_uT)
+    assert detect_slips(z, np.ones(z.size, bool)).tolist() == slips.tolist()
+
+
+def test_a_steady_creep_with_noise_is_not_a_slip():
+    rng = np.random.default_rng(5)
+    z = -8000.0 + 3.0 * np.arange(3000) + rng.normal(0, 6.0, 3000)
+    assert detect_slips(z, np.ones(z.size, bool)).size == 0
+
+
+# median z per depth of a tip contact on the twin (concave: it grows ever more slowly)
+TIP_DEPTHS = np.array([5, 10, 15, 20, 25, 30, 35, 40.0])
+TIP_Z = np.array([-1870, -3108, -4216, -5206, -6140, -7028, -7884, -8709.0])
+
+
+def test_z_growing_ever_more_slowly_with_depth_is_tip_contact():
+    assert not stiffening_breaks(TIP_DEPTHS, TIP_Z).any()
+
+
+def test_z_growing_faster_again_flags_tangential_from_there_on():
+    depths = np.r_[TIP_DEPTHS, 45.0, 50.0]
+    median_z = np.r_[TIP_Z, -9569.0, -10300.0]   # 172 µT/mm after 165 µT/mm: stiffer
+    assert stiffening_breaks(depths, median_z).tolist() == [False] * 8 + [True, True]
+    order = np.random.default_rng(2).permutation(depths.size)
+    assert stiffening_breaks(depths[order], median_z[order]).tolist() == (order >= 8).tolist()
+
+
+def test_a_stiffening_trial_is_reported_tangential():
+    trials = [_series(d, z_uT=z, seed=int(d)) for d, z in zip(TIP_DEPTHS, TIP_Z)]
+    trials.append(_series(45.0, z_uT=-9569.0, seed=45))
+    rows = analyse_study(trials, Criteria())
+    assert [row.tangential for row in rows] == [False] * 8 + [True]
+    assert rows[-1].failing and any("stiffened" in reason and reason.startswith("tangential")
+                                    for reason in rows[-1].reasons)
+    assert not any(row.failing for row in rows[:-1])

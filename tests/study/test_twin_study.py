@@ -56,6 +56,9 @@ def test_slip_into_tangential_contact_is_detected_from_the_data(twin_study, repo
     assert deepest.true_tangential_fraction > 0.5        # the twin says it slipped ...
     assert deepest.tangential and deepest.failing        # ... and the data said so too
     assert any("tangential" in reason for reason in deepest.reasons)
+    # found twice over: the push-in's kink and |z| growing faster with depth across trials
+    assert any("kinked" in reason for reason in deepest.reasons)
+    assert any("stiffened" in reason for reason in deepest.reasons)
     for row in report.rows:                               # no false alarm in tip contact
         if _truly_tip(study, row.depth_mm):
             assert not row.tangential, row.depth_mm

@@ -18,9 +18,12 @@ from whiskercal.twin.magnetometer import (
 DEFAULT = MagnetometerParams()
 
 
-def test_sensitivity_at_unity_gain():
+def test_sensitivity_table_and_the_default_settings():
     np.testing.assert_allclose(lsb_uT(7, 0), [0.150, 0.150, 0.242])
-    np.testing.assert_allclose(DEFAULT.lsb_uT(), [0.600, 0.600, 0.968])
+    np.testing.assert_allclose(lsb_uT(5, 0), [0.250, 0.250, 0.403])
+    # default GAIN_SEL 5, RES 2 (docs/protocol.md)
+    np.testing.assert_allclose(DEFAULT.lsb_uT(), [1.000, 1.000, 1.612])
+    np.testing.assert_allclose(DEFAULT.full_scale_uT(), [32767.0, 32767.0, 1.612 * 32767])
 
 
 @pytest.mark.parametrize("gain", range(8))
@@ -62,7 +65,7 @@ def test_settings_out_of_range_are_refused(bad):
 
 
 def test_quantization_rounds_to_the_nearest_count():
-    params = DEFAULT.with_settings(res=0)
+    params = DEFAULT.with_settings(gain=7, res=0)  # 0.150 / 0.242 µT per count
     field = np.array([[0.074, 0.076, 0.5], [-0.226, 0.0, -0.4]])
     np.testing.assert_array_equal(to_counts(field, params, None), [[0, 1, 2], [-2, 0, -2]])
     counts = to_counts(field, params, None)
@@ -71,21 +74,24 @@ def test_quantization_rounds_to_the_nearest_count():
 
 
 def test_saturation_at_the_end_of_the_output_range():
-    res0 = DEFAULT.with_settings(res=0)
-    # RES 0 at unity gain holds only about ±4.9 mT on X/Y: the -8760 µT target would clip.
+    res0 = DEFAULT.with_settings(gain=7, res=0)
+    # RES 0 at GAIN_SEL 7 holds only about ±4.9 mT on X/Y: the -8760 µT target would clip.
     assert res0.full_scale_uT()[1] == pytest.approx(0.150 * 32767)
     field = np.array([[0.0, -8760.0, 0.0], [0.0, 4000.0, 0.0]])
     counts = to_counts(field, res0, None)
     assert counts[0, 1] == -32768 and is_saturated(counts, res0).tolist() == [True, False]
-    # The default RES 2 fits -12 mT without clipping.
-    deep = to_counts([0.0, -12000.0, 0.0], DEFAULT, None)
+    # The defaults fit -12 mT on Y and the -34.6 mT the default sensor's Z reaches on the
+    # calibration grid, which GAIN_SEL 7 (±31.7 mT on Z at RES 2) clipped.
+    deep = to_counts([0.0, -12000.0, -34600.0], DEFAULT, None)
     assert not is_saturated(deep, DEFAULT)
-    assert to_uT(deep, DEFAULT)[1] == pytest.approx(-12000.0, abs=0.31)
+    np.testing.assert_allclose(to_uT(deep, DEFAULT)[1:], [-12000.0, -34600.0], atol=0.81)
+    gain7 = DEFAULT.with_settings(gain=7)
+    assert is_saturated(to_counts([0.0, -12000.0, -34600.0], gain7, None), gain7)
 
 
 def test_resolution_three_range_is_half_the_counts():
     assert count_range(3) == (-16384, 16383)
-    res3 = DEFAULT.with_settings(res=3)
+    res3 = DEFAULT.with_settings(gain=7, res=3)  # 1.2 µT per count on Y: 30 mT is 25000 counts
     assert to_counts([0.0, 30000.0, 0.0], res3, None)[1] == 16383
 
 

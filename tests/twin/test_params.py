@@ -5,10 +5,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from whiskercal.collect.config import load_config as load_collect_config
+from whiskercal.collect.plan import lattice_points
 from whiskercal.errors import UsageError
+from whiskercal.study.config import load_config as load_study_config
+from whiskercal.twin.contacts import solve_rod
 from whiskercal.twin.magnet import field_uT, interpolation_error_uT
 from whiskercal.twin.magnetometer import is_saturated, to_counts, to_uT
 from whiskercal.twin.params import DEFAULT_SENSOR, SECOND_SENSOR, SensorParams, sensor_by_id
+from whiskercal.twin.plane import solve_plane
+from whiskercal.twin.scenes import plane_for_depth
 from whiskercal.twin.truth import static_field_uT, tip_contact_sweep
 
 
@@ -53,7 +59,7 @@ def test_default_noise_at_rest_is_like_the_real_sensor():
 
 def test_default_settings_fit_the_sample_rate():
     meter = DEFAULT_SENSOR.magnetometer
-    assert (meter.gain, meter.res, meter.osr, meter.filt, meter.rate_hz) == (7, 2, 0, 2, 300.0)
+    assert (meter.gain, meter.res, meter.osr, meter.filt, meter.rate_hz) == (5, 2, 0, 2, 300.0)
     assert meter.fits_rate()
 
 
@@ -67,3 +73,29 @@ def test_no_axis_saturates_over_the_tip_contact_range(sensor):
 @pytest.mark.parametrize("sensor", [DEFAULT_SENSOR, SECOND_SENSOR], ids=lambda s: s.sensor_id)
 def test_shipped_magnets_interpolate_well_below_the_noise(sensor):
     assert interpolation_error_uT(sensor.magnet, n_poses=2000, seed=3).max() < 0.5
+
+
+def _grid_and_study_fields_uT(sensor) -> np.ndarray:
+    """Noise-free field (n, 3) at every default calibration-grid point and study depth, µT."""
+    grid = load_collect_config()
+    poses = [solve_rod(sensor.whisker, point, grid.rig.rod_radius_mm) for point in lattice_points(grid.grid)]
+    depths_mm = load_study_config()["trials"]["depths_mm"]
+    poses += [solve_plane(sensor.whisker, plane_for_depth(sensor.whisker, float(d))) for d in depths_mm]
+    rotation = np.array([pose.root_rotation_rad for pose in poses])
+    shift = np.array([pose.root_shift_mm for pose in poses])
+    return field_uT(sensor.magnet, rotation, shift)
+
+
+@pytest.mark.parametrize("sensor", [DEFAULT_SENSOR, SECOND_SENSOR], ids=lambda s: s.sensor_id)
+def test_every_axis_keeps_a_quarter_of_its_range_over_grid_and_study(sensor):
+    # The whole calibration grid (the rod near the root shifts the suspension: Z peaks there)
+    # and every study depth, at the default settings, with room for build tolerances.
+    fields = _grid_and_study_fields_uT(sensor) + np.asarray(sensor.magnetometer.offset_uT)
+    peak = np.abs(fields).max(axis=0)
+    assert np.all(peak < 0.75 * sensor.magnetometer.full_scale_uT()), peak
+
+
+def test_default_quantization_is_well_below_the_noise():
+    meter = DEFAULT_SENSOR.magnetometer
+    quantization_uT = meter.lsb_uT() / np.sqrt(12)  # RMS of rounding to whole counts
+    assert np.all(quantization_uT < 0.1 * meter.effective_noise_uT())

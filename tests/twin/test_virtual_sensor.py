@@ -22,7 +22,7 @@ def _sensor(**options):
 def test_commands_answer_as_documented():
     world, sensor = _sensor()
     assert sensor.identify() == "whisker_nano fw=0.1.0 proto=1"
-    assert sensor.command("CFG?") == "rate=300 gain=7 res=2 osr=0 filt=2"
+    assert sensor.command("CFG?") == "rate=300 gain=5 res=2 osr=0 filt=2"
     assert sensor.configure(rate_hz=400).rate_hz == 400  # 1.84 + 0.36 ms fit 2.5 ms
     for command, code in (("RATE 0", 2), ("RATE 501", 2), ("RATE 500", 4), ("GAIN 8", 2), ("RES x", 2),
                           ("OSR 3", 4), ("FILT 7", 4), ("BOGUS", 1), ("ID" + "D" * 40, 6)):
@@ -30,7 +30,7 @@ def test_commands_answer_as_documented():
             sensor.command(command)
     sensor.start()
     with pytest.raises(SensorCommandError, match="ERR:3"):
-        sensor.command("GAIN 5")
+        sensor.command("GAIN 6")
     sensor.stop()
 
 
@@ -57,7 +57,7 @@ def test_counts_match_the_ground_truth_within_noise():
     residual = block.field_uT[:, 1] - truth["field_true_uT"][:, 1]
     noise = world.sensor.magnetometer.effective_noise_uT()[1]
     assert abs(residual.mean()) < 4 * noise / np.sqrt(600) + 0.3
-    assert residual.std() == pytest.approx(np.hypot(noise, 0.600 / np.sqrt(12)), rel=0.15)
+    assert residual.std() == pytest.approx(np.hypot(noise, 1.000 / np.sqrt(12)), rel=0.15)
 
 
 def test_link_faults_are_detected_and_counted():

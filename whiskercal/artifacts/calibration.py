@@ -6,10 +6,15 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
   map of the basis' variables onto [-1, 1]; attributes ``degree``, ``basis``, ``coordinates``
   ("polar": r mm, θ rad about the origin; "cartesian": x, y mm).
 - ``/domain``: hull vertices of the (rod-corrected) grid and the margin.
-- ``/trace``: root position and its shift with z, trace length, entry radius, tip-side extension.
-- ``/lookup``: sample z values and their traced tips; attribute ``kind`` (the interpolant).
+- ``/trace``: root position and its shift with z, trace length, entry radius, tip-side extension
+  (the longest allowed, ``tip_extension_mm``, and the longest trusted, ``max_extension_mm``; 1.2).
+- ``/lookup``: sample z values and their traced tips; attribute ``kind`` (the interpolant). Since
+  1.2: ``extension_mm``, each sample's straight extension past the grid, and the attributes
+  ``extrapolated`` (some of the range lies beyond ``max_extension_mm``) and ``trusted_z_uT`` (the
+  part that does not, NaN when none; the runtime refuses the rest unless told otherwise).
 - ``/filter``, ``/collision``: settings as attributes.
-- ``/metrics``: fit and lookup evidence; ``/metrics/truth`` when the raw grid came from the twin.
+- ``/metrics``: fit and lookup evidence, and ``warnings`` (JSON list of sentences, 1.2);
+  ``/metrics/truth`` when the raw grid came from the twin.
 - ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``.
 
 Reading never executes code: plain arrays and JSON text only.
@@ -31,7 +36,7 @@ from whiskercal.artifacts.h5io import (check_schema, open_h5, read_array, read_j
 from whiskercal.errors import ArtifactError
 
 SCHEMA = "whiskercal.calibration"
-SCHEMA_VERSION = "1.0.0"
+SCHEMA_VERSION = "1.2.0"  # 1.1: /target (the study); 1.2: extrapolation marks
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
 
@@ -71,6 +76,17 @@ class CalibrationData:
     schema_version: str = SCHEMA_VERSION
     created: str = ""
     whiskercal_version: str = ""
+    # 1.2: how far past the grid tips are extrapolated (None in older artifacts)
+    max_extension_mm: float | None = None
+    lookup_extension_mm: np.ndarray | None = None
+    extrapolated: bool = False
+    trusted_z_uT: tuple[float, float] | None = None  # with extrapolated: None means no part
+
+    def trusted_range_uT(self) -> tuple[float, float] | None:
+        """The z range (µT) whose tips lie within the extrapolation limit; None when none do."""
+        if not self.extrapolated:
+            return float(self.lookup_z_uT[0]), float(self.lookup_z_uT[-1])
+        return self.trusted_z_uT
 
 
 def _none_to_nan(value):
@@ -83,7 +99,7 @@ def _nan_to_none(value):
 
 
 def write_calibration(path: str | Path, data: CalibrationData) -> Path:
-    """Write a calibration artifact (version 1.0.0); the file is replaced atomically."""
+    """Write a calibration artifact (version 1.2.0); the file is replaced atomically."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     scratch = path.with_name(path.name + ".partial")
@@ -119,7 +135,7 @@ def _write_trace(handle: h5py.File, data: CalibrationData) -> None:
     write_array(trace, "root_mm", data.root_mm, "mm")
     write_array(trace, "root_shift_mm_per_uT", data.root_shift_mm_per_uT, "mm/µT")
     for name in ("trace_length_mm", "entry_radius_mm", "extension_radius_mm", "tip_extension_mm",
-                 "min_gradient_uT_per_mm"):
+                 "min_gradient_uT_per_mm", "max_extension_mm"):
         trace.attrs[name] = float(_none_to_nan(getattr(data, name)))
     trace.attrs["tracer"] = data.tracer
 
@@ -128,6 +144,11 @@ def _write_lookup(group: h5py.Group, data: CalibrationData) -> None:
     write_array(group, "z_uT", data.lookup_z_uT, "µT")
     write_array(group, "tip_mm", data.lookup_tip_mm, "mm")
     group.attrs["kind"] = data.lookup_kind
+    if data.lookup_extension_mm is not None:
+        write_array(group, "extension_mm", data.lookup_extension_mm, "mm")
+    group.attrs["extrapolated"] = bool(data.extrapolated)
+    trusted = data.trusted_z_uT if data.trusted_z_uT is not None else (math.nan, math.nan)
+    group.attrs["trusted_z_uT"] = np.asarray(trusted, float)
 
 
 def _write_settings(handle: h5py.File, data: CalibrationData) -> None:
@@ -141,7 +162,7 @@ def _write_metrics(group: h5py.Group, data: CalibrationData) -> None:
     for key, value in data.metrics.items():
         if isinstance(value, np.ndarray):
             write_array(group, key, value, _metric_units(key))
-        elif isinstance(value, dict):
+        elif isinstance(value, (dict, list)):
             group.attrs[key] = json.dumps(value, sort_keys=True)
         else:
             group.attrs[key] = _none_to_nan(value)
@@ -213,7 +234,20 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         target_z_uT=float(handle["target"]["z_uT"][()]) if "target" in handle else None,
         created=_text(handle.attrs.get("created", "")),
         whiskercal_version=_text(handle.attrs.get("whiskercal_version", "")),
+        **_read_extrapolation(trace, lookup),
     )
+
+
+def _read_extrapolation(trace: h5py.Group, lookup: h5py.Group) -> dict[str, Any]:
+    """The 1.2 extrapolation marks; artifacts before 1.2 have none (every z trusted)."""
+    limit = _nan_to_none(float(trace.attrs["max_extension_mm"])) \
+        if "max_extension_mm" in trace.attrs else None
+    trusted = np.asarray(lookup.attrs.get("trusted_z_uT", [math.nan, math.nan]), float)
+    return {"max_extension_mm": limit,
+            "lookup_extension_mm": lookup["extension_mm"][()] if "extension_mm" in lookup else None,
+            "extrapolated": bool(lookup.attrs.get("extrapolated", False)),
+            "trusted_z_uT": None if np.any(np.isnan(trusted)) else (float(trusted[0]),
+                                                                     float(trusted[1]))}
 
 
 def _text(value: Any) -> str:
@@ -236,7 +270,7 @@ def _read_metrics(group: h5py.Group) -> dict[str, Any]:
     metrics: dict[str, Any] = {}
     for key, value in group.attrs.items():
         value = _plain(value)
-        if isinstance(value, str) and value.startswith("{"):
+        if isinstance(value, str) and value.startswith(("{", "[")):
             value = json.loads(value)
         metrics[key] = _nan_to_none(value)
     for key, item in group.items():
@@ -266,6 +300,12 @@ def validate(data: CalibrationData, path: str | Path = "") -> None:
         (bool(np.all(np.isfinite(data.lookup_tip_mm))), "finite lookup tips"),
         (np.shape(data.root_mm) == (2,), "a root position (2,)"),
         (data.trace_length_mm > 0, "a positive trace length"),
+        (data.lookup_extension_mm is None
+         or np.shape(data.lookup_extension_mm) == np.shape(data.lookup_z_uT),
+         "one extension per lookup sample"),
+        (data.trusted_z_uT is None or bool(data.lookup_z_uT[0] <= data.trusted_z_uT[0]
+                                           <= data.trusted_z_uT[1] <= data.lookup_z_uT[-1]),
+         "a trusted z range inside the lookup's"),
     ]
     for ok, expectation in checks:
         if not ok:
@@ -298,7 +338,11 @@ def data_from_calibration(calibration, *, sensor_id: str, rod_radius_mm: float, 
         rod_radius_mm=rod_radius_mm, tracer=tracer,
         lookup_z_uT=lookup.z_knots_uT, lookup_tip_mm=lookup.tips_mm, lookup_kind=lookup.kind,
         filter=asdict(kalman), collision=asdict(collision), metrics=metrics, truth=truth,
-        inputs=dict(inputs or {}), config=dict(config or {}))
+        inputs=dict(inputs or {}), config=dict(config or {}),
+        max_extension_mm=calibration.extension_limit_mm,
+        lookup_extension_mm=calibration.lookup_report.knot_extension_mm,
+        extrapolated=calibration.extrapolated,
+        trusted_z_uT=calibration.trusted_z_uT if calibration.extrapolated else None)
 
 
 def surface_of(data: CalibrationData):
@@ -328,7 +372,8 @@ def problem_of(data: CalibrationData):
 
 
 def lookup_of(data: CalibrationData):
-    """The :class:`~whiskercal.model.lookup.TipLookup` stored in an artifact."""
+    """The :class:`~whiskercal.model.lookup.TipLookup` stored in an artifact, over its whole range
+    (extrapolated part included: see :meth:`CalibrationData.trusted_range_uT`)."""
     from whiskercal.model.lookup import TipLookup
 
     return TipLookup(data.lookup_z_uT, data.lookup_tip_mm, data.lookup_kind)

@@ -108,12 +108,94 @@ def study_scene(with_field: bool = True) -> dict:
             "study_includes_field": field is not None, "study_contact_kinds": kinds}
 
 
+def _plane_waypoints_stage_mm(world, depth_mm: float, slide_mm: float,
+                              retract_mm: float = 10.0) -> dict:
+    """Stage targets of one trial: retracted at the slide start, pushed in, slid, retracted."""
+    fixture = world.config.fixture
+    normal = np.array([math.cos(fixture.normal_rad), math.sin(fixture.normal_rad)])
+    tangent = fixture.tangent()
+    tip = np.array([world.sensor.whisker.reach_mm, 0.0])
+    half = 0.5 * slide_mm * tangent
+
+    def at(depth: float, along: np.ndarray) -> np.ndarray:
+        return world.stage_target_for(tip + depth * normal + along)
+
+    return {"start": at(-retract_mm, -half), "pushed": at(depth_mm, -half),
+            "slid": at(depth_mm, half), "end": at(-retract_mm, half)}
+
+
+def _move(stage, sensor, target_mm, speed_mm_s: float, chunk: int) -> int:
+    """G1 to a stage target while reading the sensor between status polls; samples read."""
+    stage.move_to(float(target_mm[0]), float(target_mm[1]), 60.0 * speed_mm_s)
+    samples = [0]
+
+    def on_poll(status) -> None:
+        if not status.idle:
+            samples[0] += len(sensor.read(chunk, timeout_s=1.0))
+        samples[0] += len(sensor.read_available())
+
+    stage.wait_idle(600.0, on_poll=on_poll)
+    return samples[0]
+
+
+def world_study_scene(depths_mm=STUDY_DEPTHS_MM, travel_mm: float = STUDY_TRAVEL_MM,
+                      name: str = "bench-plane") -> dict:
+    """The flat-plane scene end to end: a ``sim://NAME/stage?scene=plane`` world driven by the
+    rig's clients (G1 moves, ``?`` polls every 20 ms, the 300 Hz stream read between polls),
+    per depth a push-in at 5 mm/s, a slide of `travel_mm` at 10 mm/s and a retract.
+
+    Returns the simulated, wall and process CPU times of the slides alone and of everything (s),
+    the ratios simulated/wall (the "x real time") and simulated/CPU (what the machine's other
+    load does not change), samples read and solver failures.
+    """
+    from whiskercal.rig import SensorClient, StageClient
+    from whiskercal.twin import simport
+    from whiskercal.twin.world import drop_world
+
+    stage_port = simport.Serial(f"sim://{name}/stage?scene=plane&seed={SEED % 1000}", timeout=1.0)
+    sensor_port = simport.Serial(f"sim://{name}/sensor", timeout=1.0)
+    stage, sensor, world = StageClient(stage_port), SensorClient(sensor_port), sensor_port.world
+    chunk = int(SAMPLE_RATE_HZ * 0.02)
+    try:
+        stage.home()
+        sensor.configure(rate_hz=int(SAMPLE_RATE_HZ))
+        sensor.start()
+        slide_sim = slide_wall = slide_cpu = 0.0
+        samples = 0
+        wall_start, cpu_start, sim_start = time.perf_counter(), time.process_time(), world.now_s
+        for depth in depths_mm:
+            points = _plane_waypoints_stage_mm(world, float(depth), travel_mm)
+            samples += _move(stage, sensor, points["start"], 40.0, chunk)
+            samples += _move(stage, sensor, points["pushed"], 5.0, chunk)
+            tick, cpu_tick, sim_tick = time.perf_counter(), time.process_time(), world.now_s
+            samples += _move(stage, sensor, points["slid"], STUDY_SPEED_MM_S, chunk)
+            slide_wall += time.perf_counter() - tick
+            slide_cpu += time.process_time() - cpu_tick
+            slide_sim += world.now_s - sim_tick
+            samples += _move(stage, sensor, points["end"], 40.0, chunk)
+        total_wall, total_sim = time.perf_counter() - wall_start, world.now_s - sim_start
+        total_cpu = time.process_time() - cpu_start
+        sensor.stop()
+    finally:
+        stage_port.close()
+        sensor_port.close()
+        drop_world(name)
+    return {"world_slides_simulated_s": slide_sim, "world_slides_wall_s": slide_wall,
+            "world_slides_realtime_factor": slide_sim / slide_wall,
+            "world_slides_cpu_s": slide_cpu, "world_slides_cpu_factor": slide_sim / slide_cpu,
+            "world_total_simulated_s": total_sim, "world_total_wall_s": total_wall,
+            "world_total_realtime_factor": total_sim / total_wall,
+            "world_total_cpu_s": total_cpu, "world_total_cpu_factor": total_sim / total_cpu,
+            "world_samples": samples, "world_solver_failures": world.solver_failures}
+
+
 def run() -> dict:
     """Every measurement above, in one JSON-able dict (times in ms or s as named)."""
     results = {"first_solve_s": first_solve_s()}
     results.update(cold_solves())
     results.update(warm_rod_path())
     results.update(study_scene())
+    results.update(world_study_scene())
     return results
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from whiskercal.collect.checkpoint import Checkpoint
 from whiskercal.collect.dataset import Baseline, PointRecord
 from whiskercal.collect.plan import GridPlan, Move
-from whiskercal.collect.recorder import OverloadError, StreamRecorder, field_stats
+from whiskercal.collect.recorder import OverloadError, StreamRecorder, describe_axes, field_stats
 from whiskercal.errors import DeviceError
 from whiskercal.rig.stage import StageAlarmError
 
@@ -178,6 +178,12 @@ class Collector:
         if acq.settle_s > 0:
             self.recorder.read_for(acq.settle_s, guard=False)
         block = self.recorder.read(acq.baseline_samples, guard=False)
+        axes = self.recorder.saturated_axes(block)
+        if axes:
+            settings = self.config.sensor
+            raise DeviceError(f"{describe_axes(axes)} saturated with the whisker at rest at "
+                              f"GAIN_SEL {settings.gain}, RES {settings.res}: choose settings with a "
+                              "wider range in [sensor] (docs/firmware.md)")
         mean, std, _ = field_stats(block)
         return Baseline(mean, std, float(np.mean(block.t_s)))
 

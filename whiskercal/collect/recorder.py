@@ -19,10 +19,13 @@ from whiskercal.rig.codes import SensorStatus
 
 # Samples whose axes are not a measurement; they are recorded but never averaged.
 _INVALID = int(SensorStatus.NO_SENSOR | SensorStatus.MLX_ERROR)
-# Highest |count| the Y axis holds per RES once the board has removed the RES 2/3 offsets
-# (MLX90393 datasheet: 16-bit output; RES 3 leaves 15 bits). The status byte's SATURATED bit
-# covers every axis, and Z may sit at its end at rest without saying anything about z.
-_Y_COUNT_LIMIT = {0: 32767, 1: 32767, 2: 32767, 3: 16383}
+_SATURATED = int(SensorStatus.SATURATED)
+# Highest |count| an axis holds per RES once the board has removed the RES 2/3 offsets
+# (MLX90393 datasheet: 16-bit output; RES 3 leaves 15 bits). The default settings keep every
+# axis inside its range at rest and over the whole grid (docs/firmware.md), so a saturated axis,
+# Z as much as Y, means the reading is no measurement of the whisker.
+_COUNT_LIMIT = {0: 32767, 1: 32767, 2: 32767, 3: 16383}
+_AXES = "XYZ"
 
 
 class OverloadError(DeviceError):
@@ -54,7 +57,7 @@ class StreamRecorder:
     rate_hz
         The configured sample rate, Hz (sets read timeouts).
     res
-        The configured MLX90393 resolution code (sets the Y axis's saturation count).
+        The configured MLX90393 resolution code (sets the axes' saturation count).
     resume_from
         (device time s, wall time s) of the last record of a resumed run, or None.
     """
@@ -63,7 +66,7 @@ class StreamRecorder:
                  resume_from: tuple[float, float] | None = None) -> None:
         self.sensor = sensor
         self.rate_hz = float(rate_hz)
-        self.y_count_limit = _Y_COUNT_LIMIT[res]
+        self.count_limit = _COUNT_LIMIT[res]
         self._resume_from = resume_from
         self._offset_s: float | None = None
         self._parts: list[StreamChunk] = []
@@ -107,18 +110,35 @@ class StreamRecorder:
                 self._offset_s = last_t_s + gap_s - float(block.t_s[0])
         return self._offset_s or 0.0
 
+    def saturated_axes(self, block: Block) -> str:
+        """Names of the axes ("Y", "XZ", ...) at an end of their output range in a valid sample.
+
+        A sample whose SATURATED status bit is set without any axis at the limit (a board that
+        judges the raw word differently) gives "?", so that it is never taken as unsaturated.
+        """
+        valid = block.valid
+        counts = np.asarray(block.counts)[valid]
+        at_end = (counts >= self.count_limit) | (counts < -self.count_limit)
+        axes = "".join(name for name, hit in zip(_AXES, at_end.any(axis=0)) if hit)
+        flagged = bool(np.any(np.asarray(block.status)[valid].astype(int) & _SATURATED))
+        return axes or ("?" if flagged else "")
+
     def check_overload(self, block: Block) -> None:
-        """Raise ``OverloadError`` when a sample's |z| exceeds the limit or the Y axis saturates."""
+        """Raise ``OverloadError`` when any axis saturates or a sample's |z| exceeds the limit.
+
+        Armed once the static reading is known (``static_y_uT``); the static reading itself is
+        checked for saturation by the loop, which can say that the settings are at fault.
+        """
         if self.static_y_uT is None or not len(block.t_s):
             return
-        valid = block.valid
-        z_uT = block.field_uT[valid, 1] - self.static_y_uT
+        axes = self.saturated_axes(block)
+        if axes:
+            raise OverloadError(f"overload guard: {describe_axes(axes)} saturated, so the reading "
+                                "is no measurement; the rod was backed off")
+        z_uT = block.field_uT[block.valid, 1] - self.static_y_uT
         worst = float(np.max(np.abs(z_uT))) if len(z_uT) else 0.0
-        y_counts = block.counts[valid, 1]
-        saturated = bool(np.any((y_counts >= self.y_count_limit) | (y_counts < -self.y_count_limit)))
-        if worst > self.overload_z_uT or saturated:
-            what = "the sensor's Y axis saturated" if saturated else f"|z| reached {worst:.0f} µT"
-            raise OverloadError(f"overload guard: {what}, over the safe limit of "
+        if worst > self.overload_z_uT:
+            raise OverloadError(f"overload guard: |z| reached {worst:.0f} µT, over the safe limit of "
                                 f"{self.overload_z_uT:.0f} µT; the rod was backed off")
 
     def take_chunk(self) -> StreamChunk:
@@ -135,6 +155,15 @@ class StreamRecorder:
         counts = (self.dropped, self.corrupt)
         self.dropped = self.corrupt = 0
         return counts
+
+
+def describe_axes(axes: str) -> str:
+    """``saturated_axes``'s answer in words: "the sensor's Z axis", "the sensor's X and Z axes"."""
+    if axes == "?":
+        return "one of the sensor's axes"
+    if len(axes) == 1:
+        return f"the sensor's {axes} axis"
+    return f"the sensor's {', '.join(axes[:-1])} and {axes[-1]} axes"
 
 
 def field_stats(block: Block) -> tuple[np.ndarray, np.ndarray, int]:

@@ -11,16 +11,21 @@ Steps (docs/model.md says why each is done the way it is):
 3. The level-set problem: domain = hull of the corrected points plus a margin; the trace enters
    the data at ``entry_radius_mm`` and may extend straight past the grid's far edge.
 4. The lookup over the traceable z range, its interpolant chosen by hold-out.
+5. The extrapolation check: where a tip lies more than ``max_extension_mm`` past the grid's far
+   edge, the calibration is refused, or (``allow_extrapolation``) that part of the z range is
+   marked as untrusted and the lookup refuses it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from whiskercal.model.errors import FitError
-from whiskercal.model.lookup import LookupReport, TipLookup, build_lookup
+from whiskercal.model.diagnostics import expected_noise_uT, level_set_shift_mm, underfit_warning
+from whiskercal.model.errors import ExtrapolationLimitError, FitError
+from whiskercal.model.lookup import (LookupReport, TipLookup, bisect_end, build_lookup,
+                                     traces_ok)
 from whiskercal.model.surface import FitReport, Surface, fit_surface
 from whiskercal.model.trace import Domain, LevelSetProblem, far_edge_radius
 
@@ -34,6 +39,11 @@ FIT_MARGIN_INSIDE_ENTRY_MM = 3.0
 # How far past the grid's far edge the trace may be extended straight (mm, beyond the gap
 # between the farthest grid point and the trace length).
 EXTENSION_ALLOWANCE_MM = 8.0
+# How far past the grid's far edge a tip may be extrapolated and still be trusted (mm). Measured
+# on the twin's default sensor with the default grid cut shorter and on coarser lattices
+# (docs/model.md): the lookup's RMS error against the true tips passes 0.5 mm (0.44 mm on the
+# default grid) between 9.1 mm of extension (0.47 mm RMS) and 9.8 mm (0.60 mm).
+MAX_EXTENSION_MM = 9.5
 
 
 @dataclass(frozen=True)
@@ -54,6 +64,8 @@ class CalibrationOptions:
     min_standard_errors: float = 5.0
     folds: int = 5
     seed: int = 0
+    max_extension_mm: float = MAX_EXTENSION_MM
+    allow_extrapolation: bool = False
 
 
 @dataclass
@@ -69,6 +81,13 @@ class Calibration:
     z_uT: np.ndarray
     used: np.ndarray                      # mask of the raw points used
     rod_shift_mm: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    extension_limit_mm: float = MAX_EXTENSION_MM
+    # the part of the lookup's range whose tips lie within the limit; None: no part does
+    trusted_z_uT: tuple[float, float] | None = None
+    extrapolated: bool = False            # some of the lookup's range lies beyond the limit
+    warnings: list[str] = field(default_factory=list)  # sentences with their numbers
+    expected_noise_uT: float = float("nan")  # RMS standard error of the used points' mean z
+    cv_level_set_shift_mm: float = float("nan")  # the CV RMSE as a level-set shift
 
 
 def correct_for_rod(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
@@ -117,12 +136,13 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     options : CalibrationOptions
     z_sem_uT : ndarray (n,), optional
         Standard error of each point's mean z (µT); points within ``min_standard_errors`` of
-        zero are taken as no contact.
+        zero are taken as no contact, and a CV RMSE far above it is warned of (``warnings``).
     progress : callable(str), optional
         Told the name of each stage as it starts.
     """
     say = progress or (lambda _message: None)
     rod_center_mm, z_uT = np.asarray(rod_center_mm, float), np.asarray(z_uT, float)
+    z_sem_uT = None if z_sem_uT is None else np.asarray(z_sem_uT, float)
     used = contact_mask(z_uT, z_sem_uT, options.min_standard_errors)
     used &= _traced_region(rod_center_mm, options)
     if used.sum() < 10:
@@ -139,8 +159,73 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     say(f"tracing {options.samples} tips and the hold-out set")
     lookup, lookup_report = build_lookup(problem, options.samples, options.tracer,
                                          options.lookup_kind)
-    return Calibration(surface, report, problem, lookup, lookup_report, points, z, used,
-                       points - rod_center_mm[used])
+    calibration = Calibration(surface, report, problem, lookup, lookup_report, points, z, used,
+                              points - rod_center_mm[used], float(options.max_extension_mm))
+    _check_extrapolation(calibration, options)
+    _check_fit(calibration, None if z_sem_uT is None else z_sem_uT[used])
+    return calibration
+
+
+def _check_extrapolation(calibration: Calibration, options: CalibrationOptions) -> None:
+    """Refuse, or mark, the z whose tips lie beyond ``max_extension_mm`` past the grid."""
+    lookup, report = calibration.lookup, calibration.lookup_report
+    trusted = trusted_z_range(calibration.problem, lookup, report, options)
+    calibration.trusted_z_uT = trusted
+    calibration.extrapolated = trusted != (lookup.z_min_uT, lookup.z_max_uT)
+    if not calibration.extrapolated:
+        return
+    message = extrapolation_message(lookup, report, trusted, options.max_extension_mm)
+    if not options.allow_extrapolation:
+        raise ExtrapolationLimitError(message)
+    calibration.warnings.append(f"{message}; that range is marked and the runtime refuses it")
+    if trusted is not None:
+        calibration.lookup = TipLookup(lookup.z_knots_uT, lookup.tips_mm, lookup.kind, trusted)
+
+
+def _check_fit(calibration: Calibration, z_sem_uT: np.ndarray | None) -> None:
+    """Warn when the surface's CV RMSE lies far above the noise of the points it was fitted to."""
+    noise = expected_noise_uT(z_sem_uT) if z_sem_uT is not None else float("nan")
+    shift = level_set_shift_mm(calibration.surface, calibration.contact_points_mm,
+                               calibration.fit.cv_rmse_uT)
+    calibration.expected_noise_uT, calibration.cv_level_set_shift_mm = noise, shift
+    underfit = underfit_warning(calibration.fit.cv_rmse_uT, noise, shift,
+                                calibration.surface.degree)
+    if underfit:
+        calibration.warnings.insert(0, underfit)
+
+
+def trusted_z_range(problem: LevelSetProblem, lookup: TipLookup, report: LookupReport,
+                    options: CalibrationOptions) -> tuple[float, float] | None:
+    """The part of the lookup's z range (µT) whose tips lie at most ``max_extension_mm`` past the
+    grid's far edge: the whole range when no trace needed more, None when none manages with less.
+
+    The traces are repeated with the extension capped at the limit, bisecting each end inward
+    from the lookup sample that needed the least extension.
+    """
+    full = (lookup.z_min_uT, lookup.z_max_uT)
+    if report.max_extension_mm <= options.max_extension_mm:
+        return full
+    capped = replace(problem, z_range_uT=full,
+                     tip_extension_mm=min(problem.tip_extension_mm, options.max_extension_mm))
+    seed = float(lookup.z_knots_uT[int(np.argmin(report.knot_extension_mm))])
+    if not traces_ok(capped, options.tracer, seed):
+        return None
+    return (bisect_end(capped, options.tracer, seed, full[0], 12),
+            bisect_end(capped, options.tracer, seed, full[1], 12))
+
+
+def extrapolation_message(lookup: TipLookup, report: LookupReport,
+                          trusted: tuple[float, float] | None, limit_mm: float) -> str:
+    """One sentence: which z the grid does not reach far enough for, and by how much."""
+    low, high = float(lookup.z_knots_uT[0]), float(lookup.z_knots_uT[-1])
+    if trusted is None:
+        where = f"every z in [{low:.0f}, {high:.0f}] µT"
+    else:
+        parts = [f"[{a:.0f}, {b:.0f}]" for a, b in ((low, trusted[0]), (trusted[1], high)) if b > a]
+        where = f"z in {' and '.join(parts)} µT (trusted: [{trusted[0]:.0f}, {trusted[1]:.0f}] µT)"
+    return (f"the grid stops short of the tip: for {where} the trace runs up to "
+            f"{report.max_extension_mm:.1f} mm straight past the grid's far edge, more than the "
+            f"{limit_mm:.1f} mm it may extrapolate")
 
 
 def entry_radius(points_mm: np.ndarray, options: CalibrationOptions) -> float:

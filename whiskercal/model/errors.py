@@ -36,3 +36,11 @@ class VanishingGradientError(TraceError):
 
 class NonConvergenceError(TraceError):
     """The trace or the projection onto the level set did not converge."""
+
+
+class TraceDriftError(TraceError):
+    """A fixed-step trace drifted off its level set by more than its step allows (step too large)."""
+
+
+class ExtrapolationLimitError(TraceError):
+    """The tip lies farther past the calibrated grid than the trace may extrapolate."""

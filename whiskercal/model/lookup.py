@@ -17,7 +17,7 @@ import numpy as np
 from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator, PPoly
 
 from whiskercal.model.errors import ModelError, TraceError, ZOutOfRangeError
-from whiskercal.model.trace import TRACERS, LevelSetProblem, trace_many
+from whiskercal.model.trace import TRACERS, LevelSetProblem
 
 KINDS = ("linear", "cubic", "pchip", "akima", "polynomial")
 POLYNOMIAL_DEGREE = 5  # the authors' characterized model: one 5th-order polynomial per axis
@@ -63,7 +63,8 @@ class TipLookup:
         One of :data:`KINDS`.
     """
 
-    def __init__(self, z_knots_uT: np.ndarray, tips_mm: np.ndarray, kind: str) -> None:
+    def __init__(self, z_knots_uT: np.ndarray, tips_mm: np.ndarray, kind: str,
+                 trusted_z_uT: tuple[float, float] | None = None) -> None:
         self.z_knots_uT = np.asarray(z_knots_uT, float)
         self.tips_mm = np.asarray(tips_mm, float)
         self.kind = kind
@@ -73,17 +74,28 @@ class TipLookup:
         if np.ptp(steps) > 1e-9 * np.ptp(self.z_knots_uT):
             raise ModelError("lookup knots must be evenly spaced in z")
         breaks, self._table = piece_table(self.z_knots_uT, self.tips_mm, kind)
+        self._z0 = float(breaks[0])  # the pieces' origin; the accepted range may be narrower
         self.z_min_uT, self.z_max_uT = float(breaks[0]), float(breaks[-1])
         self._n_pieces = len(breaks) - 1
         self._inv_width = self._n_pieces / (self.z_max_uT - self.z_min_uT)
+        self._range_name = "the calibrated range"
+        if trusted_z_uT is not None:
+            self._restrict(*trusted_z_uT)
         self._breaks = np.asarray(breaks, float)
         self._break_list = self._breaks.tolist()
         self._flat_table = np.ascontiguousarray(
             np.concatenate([self._table[:, :, 0], self._table[:, :, 1]], axis=1))
         self._rows = [[tuple(c) for c in piece] for piece in self._table.tolist()]
 
+    def _restrict(self, low_uT: float, high_uT: float) -> None:
+        if not self.z_min_uT <= low_uT <= high_uT <= self.z_max_uT:
+            raise ModelError(f"the trusted range [{low_uT:.1f}, {high_uT:.1f}] µT does not lie "
+                             f"inside the lookup's [{self.z_min_uT:.1f}, {self.z_max_uT:.1f}] µT")
+        self.z_min_uT, self.z_max_uT = float(low_uT), float(high_uT)
+        self._range_name = "the trusted range (tips beyond it are extrapolated past the grid)"
+
     def _out_of_range(self, z: float) -> ZOutOfRangeError:
-        return ZOutOfRangeError(f"z = {z:.1f} µT is outside the calibrated range "
+        return ZOutOfRangeError(f"z = {z:.1f} µT is outside {self._range_name} "
                                 f"[{self.z_min_uT:.1f}, {self.z_max_uT:.1f}] µT")
 
     def tip_scalar(self, z_uT: float, out_of_range: str = "raise") -> tuple[float, float]:
@@ -95,7 +107,7 @@ class TipLookup:
                 raise self._out_of_range(z_uT)
             else:
                 return float("nan"), float("nan")
-        piece = min(int((z_uT - self.z_min_uT) * self._inv_width), self._n_pieces - 1)
+        piece = min(int((z_uT - self._z0) * self._inv_width), self._n_pieces - 1)
         t = z_uT - self._break_list[piece]
         x = y = 0.0
         for cx, cy in self._rows[piece]:
@@ -121,7 +133,7 @@ class TipLookup:
                 raise self._out_of_range(float(flat[outside][0]))
             flat = np.clip(flat, self.z_min_uT, self.z_max_uT)
             flat[np.isnan(flat)] = self.z_min_uT  # a placeholder: its row is set to NaN below
-        cells = (flat - self.z_min_uT) * self._inv_width
+        cells = (flat - self._z0) * self._inv_width
         piece = cells.astype(np.intp)
         np.minimum(piece, self._n_pieces - 1, out=piece)
         t = (cells - piece) / self._inv_width  # z - the piece's breakpoint, without a gather
@@ -149,6 +161,8 @@ class LookupReport:
     rmse_by_kind_mm: dict           # kind -> Euclidean hold-out RMSE
     holdout_z_uT: np.ndarray
     holdout_tips_mm: np.ndarray
+    knot_extension_mm: np.ndarray | None = None  # straight extension past the grid per sample
+    max_extension_mm: float = float("nan")       # the longest among all traces (samples, hold-out)
 
 
 def supported_z_range(problem: LevelSetProblem, tracer: str = "fast", iterations: int = 12,
@@ -160,11 +174,12 @@ def supported_z_range(problem: LevelSetProblem, tracer: str = "fast", iterations
     """
     low, high = problem.z_range_uT
     middle = _traceable_middle(problem, tracer)
-    return (_bisect_end(problem, tracer, middle, low, iterations),
-            _bisect_end(problem, tracer, middle, high, iterations))
+    return (bisect_end(problem, tracer, middle, low, iterations),
+            bisect_end(problem, tracer, middle, high, iterations))
 
 
-def _traces(problem: LevelSetProblem, tracer: str, z: float) -> bool:
+def traces_ok(problem: LevelSetProblem, tracer: str, z: float) -> bool:
+    """True when ``tracer`` reaches the tip at z (µT) without a :class:`TraceError`."""
     try:
         TRACERS[tracer](problem, z)
     except TraceError:
@@ -176,19 +191,20 @@ def _traceable_middle(problem: LevelSetProblem, tracer: str) -> float:
     low, high = problem.z_range_uT
     for fraction in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8):
         z = low + fraction * (high - low)
-        if _traces(problem, tracer, z):
+        if traces_ok(problem, tracer, z):
             return z
     raise ModelError("no z in the calibrated range can be traced to the tip: the grid does not "
                      "cover the whisker out to its trace length")
 
 
-def _bisect_end(problem, tracer, good: float, end: float, iterations: int) -> float:
-    if _traces(problem, tracer, end):
+def bisect_end(problem, tracer, good: float, end: float, iterations: int) -> float:
+    """The z (µT) nearest ``end`` that still traces, bisecting from a z that does (``good``)."""
+    if traces_ok(problem, tracer, end):
         return end
     bad = end
     for _ in range(iterations):
         middle = (good + bad) / 2
-        good, bad = (middle, bad) if _traces(problem, tracer, middle) else (good, middle)
+        good, bad = (middle, bad) if traces_ok(problem, tracer, middle) else (good, middle)
     return good
 
 
@@ -205,7 +221,9 @@ def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "f
     low, high = supported_z_range(problem, tracer)
     problem = _with_range(problem, (low, high))
     dense_z = np.linspace(low, high, (n_samples - 1) * (holdout_per_interval + 1) + 1)
-    dense_tips = trace_many(problem, dense_z, tracer)
+    results = [TRACERS[tracer](problem, float(z)) for z in dense_z]
+    dense_tips = np.array([result.tip_mm for result in results])
+    extensions = np.array([result.extension_mm for result in results])
     every = holdout_per_interval + 1
     z_knots, tips = dense_z[::every], dense_tips[::every]
     holdout = np.ones(len(dense_z), bool)
@@ -217,7 +235,8 @@ def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "f
     if chosen not in errors:
         raise ModelError(f"unknown interpolant {kind!r}; choose one of {', '.join(KINDS)} or auto")
     report = LookupReport(chosen, errors[chosen][0], errors[chosen][1],
-                          {k: e[0] for k, e in errors.items()}, holdout_z, holdout_tips)
+                          {k: e[0] for k, e in errors.items()}, holdout_z, holdout_tips,
+                          extensions[::every], float(extensions.max()))
     return TipLookup(z_knots, tips, chosen), report
 
 

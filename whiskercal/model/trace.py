@@ -32,13 +32,18 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import ConvexHull
 
-from whiskercal.model.errors import (DomainExitError, NonConvergenceError, VanishingGradientError,
-                                     ZOutOfRangeError)
+from whiskercal.model.errors import (DomainExitError, NonConvergenceError, TraceDriftError,
+                                     VanishingGradientError, ZOutOfRangeError)
 from whiskercal.model.ode import integrate
 from whiskercal.model.surface import Surface
 
 PAPER_STEP_MM = 1e-3
 EXTENSION_CHORD_MM = 5.0  # chord length that sets the tip-side extension's direction
+# A fixed-step trace may lie at most this fraction of its step off the level set (a turn of the
+# tangent of about 2 x 0.03 rad = 3.4 degrees per step). Measured on the twin (docs/model.md):
+# every trace under it erred by at most 0.13 mm, every trace above 0.06 by 0.16 mm to 12 mm.
+DRIFT_FRACTION_OF_STEP = 0.03
+DRIFT_FLOOR_MM = 1e-9
 
 
 @dataclass(frozen=True)
@@ -279,21 +284,24 @@ def _extend(problem: LevelSetProblem, edge: tuple[float, float], back: tuple[flo
 
 def _paper_walk(problem: LevelSetProblem, start: tuple[float, float], z_uT: float, sign: float,
                 length_mm: float, step_mm: float, path: list | None = None,
-                region=None) -> tuple[float, float, float]:
-    """Fixed steps from ``start`` for ``length_mm`` or until the domain's edge; (x, y, travelled).
+                region=None) -> tuple[float, float, float, float]:
+    """Fixed steps from ``start`` for ``length_mm`` or until the domain's edge.
 
-    The domain is tested whenever the distance to its boundary could have been used up, so the
-    edge is found to within one step.
+    Returns (x, y, travelled, drift): drift is the largest distance (mm) off the level set,
+    |f - z| / |grad f|, seen at the start of a step (that is, after the previous step's tangent
+    advance and before its pull-back). The domain is tested whenever the distance to its boundary
+    could have been used up, so the edge is found to within one step.
     """
     vg, floor2 = problem.surface.value_and_gradient, problem.min_gradient_uT_per_mm ** 2
     x, y = start
     n_full = int(length_mm // step_mm)
     next_check = 0 if region is not None else n_full + 1
+    drift = 0.0
     for k in range(n_full + 1):
         if k >= next_check:
             margin = region(x, y)
             if margin < 0:
-                return x, y, k * step_mm
+                return x, y, k * step_mm, drift
             next_check = k + max(1, int(0.5 * margin / step_mm))
         h = step_mm if k < n_full else length_mm - n_full * step_mm
         f, fx, fy = vg(x, y)
@@ -301,13 +309,39 @@ def _paper_walk(problem: LevelSetProblem, start: tuple[float, float], z_uT: floa
         if g2 < floor2:
             raise _gradient_floor_error(problem, (x, y))
         inv, pull = 1.0 / math.sqrt(g2), (f - z_uT) / g2
+        drift = max(drift, abs(f - z_uT) * inv)
         x += sign * h * fy * inv - pull * fx
         y -= sign * h * fx * inv + pull * fy
         if path is not None:
             path.append((x, y))
     if region is not None and region(x, y) < 0:
-        return x, y, n_full * step_mm
-    return x, y, length_mm
+        return x, y, n_full * step_mm, drift
+    return x, y, length_mm, drift
+
+
+def _distance_off(problem: LevelSetProblem, point, z_uT: float) -> float:
+    """|f - z| / |grad f| at a point (mm): how far it lies off the level set, to first order."""
+    f, fx, fy = problem.surface.value_and_gradient(float(point[0]), float(point[1]))
+    return abs(f - z_uT) / max(math.hypot(fx, fy), problem.min_gradient_uT_per_mm)
+
+
+def drift_tolerance_mm(step_mm: float) -> float:
+    """Largest distance (mm) off the level set a fixed-step trace may show at ``step_mm``.
+
+    After a tangent step of length h along a level set of curvature κ the point lies about
+    κh²/2 off it, so drift / h is half the tangent's turn per step. ``DRIFT_FRACTION_OF_STEP``
+    caps that turn; the absolute floor keeps round-off at tiny steps from counting as drift.
+    """
+    return max(DRIFT_FRACTION_OF_STEP * step_mm, DRIFT_FLOOR_MM)
+
+
+def _check_drift(z_uT: float, step_mm: float, drift_mm: float) -> None:
+    tolerance = drift_tolerance_mm(step_mm)
+    if not drift_mm <= tolerance:
+        raise TraceDriftError(
+            f"the fixed-step trace at z = {z_uT:.1f} µT with a {step_mm:g} mm step drifted "
+            f"{drift_mm:.3g} mm off the level set (tolerance {tolerance:.3g} mm, "
+            f"{DRIFT_FRACTION_OF_STEP:g} of the step): use a smaller step")
 
 
 def trace_paper(problem: LevelSetProblem, z_uT: float, step_mm: float = PAPER_STEP_MM,
@@ -316,17 +350,23 @@ def trace_paper(problem: LevelSetProblem, z_uT: float, step_mm: float = PAPER_ST
 
     Each step moves ``step_mm`` along the unit tangent and adds the Gauss-Newton step of
     (f - z)²/2, -(f - z) grad f / |grad f|², which pulls the point back onto the level set; the
-    arc length counts the tangent advances.
+    arc length counts the tangent advances. The pull-back hides a step that is too coarse for
+    the level set's curvature (the trace cuts corners, yet every step starts near f = z), so the
+    distance off the level set is watched at every step and at the end: beyond
+    :func:`drift_tolerance_mm` the trace raises :class:`TraceDriftError`.
     """
     root, entry, remaining, sign = _start(problem, z_uT)
     path = [tuple(entry)] if keep_path else None
-    x, y, travelled = _paper_walk(problem, (float(entry[0]), float(entry[1])), z_uT, sign,
-                                  remaining, step_mm, path, _region(problem, root))
+    x, y, travelled, drift = _paper_walk(problem, (float(entry[0]), float(entry[1])), z_uT, sign,
+                                         remaining, step_mm, path, _region(problem, root))
+    _check_drift(z_uT, step_mm, max(drift, _distance_off(problem, (x, y), z_uT)))
     _check_stop(problem, root, x, y, remaining - travelled)
     back = (x, y)
     if remaining - travelled > 1e-12:
-        back = _paper_walk(problem, (x, y), z_uT, -sign, min(EXTENSION_CHORD_MM, travelled),
-                           step_mm)[:2]
+        bx, by, _, back_drift = _paper_walk(problem, (x, y), z_uT, -sign,
+                                            min(EXTENSION_CHORD_MM, travelled), step_mm)
+        _check_drift(z_uT, step_mm, back_drift)
+        back = (bx, by)
     tip, extension = _extend(problem, (x, y), back, remaining - travelled)
     evaluations = int(round((travelled + (remaining - travelled > 0) * EXTENSION_CHORD_MM) / step_mm))
     return TraceResult(tip, entry, root, evaluations, extension,

@@ -18,7 +18,8 @@ from dataclasses import dataclass, field, asdict
 
 import numpy as np
 
-from whiskercal.study.detect import detect_kink, detect_slips, monotone_breaks
+from whiskercal.study.detect import (depth_gains, detect_kink, detect_slips, monotone_breaks,
+                                     stiffening_breaks)
 
 
 @dataclass(frozen=True)
@@ -33,10 +34,11 @@ class Criteria:
     """A raw estimate farther than this from the plane's line has left the plane."""
     max_off_plane_fraction: float = 0.2
     """More of the contact samples off the plane than this means tangential contact."""
-    jump_sigma: float = 10.0
-    """A slip is a jump of z above this many robust standard deviations of the differences ..."""
-    jump_floor_uT: float = 200.0
-    """... and above this absolute size, so that quantization and noise never count as slips."""
+    jump_sigma: float = 8.0
+    """A slip is a step of z that leaves the median step by this many robust standard deviations
+    of the steps (the default sensor's 5.6 µT noise makes them ~8 µT) ..."""
+    jump_floor_uT: float = 60.0
+    """... and by this absolute size, so that quantization never counts as a slip."""
     min_contact_samples: int = 10
     """Fewer contact samples than this cannot give an error statistic."""
     max_unlocalized_fraction: float = 0.1
@@ -51,6 +53,9 @@ class Criteria:
     more than 4 standard errors) means the contact changed kind (tangential contact)."""
     kink_window_mm: float = 1.25
     """Depth window of each slope estimate in the kink test (mm)."""
+    stiffening_tolerance: float = 0.02
+    """Across trials, a gain of |z| per mm of depth that exceeds the gain below it by this
+    fraction means the contact stiffened (tangential contact); in tip contact it only falls."""
 
 
 @dataclass
@@ -239,10 +244,29 @@ def analyse_study(trials: list[TrialSeries], criteria: Criteria = Criteria()) ->
     Returns the rows in order of depth.
     """
     rows = sorted((analyse_trial(series, criteria) for series in trials), key=lambda r: r.depth_mm)
-    breaks = monotone_breaks(np.array([r.depth_mm for r in rows]),
-                             np.array([r.median_z_uT for r in rows]))
+    depths = np.array([r.depth_mm for r in rows])
+    medians = np.array([r.median_z_uT for r in rows])
+    breaks = monotone_breaks(depths, medians)
     for row, broken in zip(rows, breaks):
         if broken:
             row.reasons.append("median |z| does not grow with depth (contact changed kind)")
             row.failing = True
+    _flag_stiffening(rows, depths, medians, criteria)
     return rows
+
+
+def _flag_stiffening(rows: list[TrialMetrics], depths: np.ndarray, medians: np.ndarray,
+                     criteria: Criteria) -> None:
+    """Mark the trials where |z| grows faster with depth than below them as tangential."""
+    gains = depth_gains(depths, medians)
+    flagged = stiffening_breaks(depths, medians, criteria.stiffening_tolerance)
+    for i, row in enumerate(rows):
+        if not flagged[i]:
+            continue
+        first = int(np.argmax(flagged))
+        row.tangential = True
+        row.failing = True
+        row.reasons.append(
+            f"tangential contact: median |z| grew {gains[first]:.0f} µT/mm from "
+            f"{depths[first - 1]:g} to {depths[first]:g} mm, faster than the "
+            f"{gains[first - 1]:.0f} µT/mm below (the contact stiffened)")

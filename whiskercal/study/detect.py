@@ -1,7 +1,9 @@
 """Detectors of slips and of tangential contact, from the measurements alone (never the truth).
 
 - :func:`detect_slips`: jumps of z between consecutive samples far above the stream's own
-  sample-to-sample fluctuation: the tip breaking loose and snapping to a new equilibrium.
+  sample-to-sample fluctuation: the tip breaking loose and snapping to a new equilibrium. In
+  stick-slip the stuck tip is dragged along and z drifts steadily one way between slips, so a
+  jump is measured from the typical (median) step, not from zero.
 - :func:`detect_kink`: while the plane is pushed in, a tip contact bends the whisker along a
   smooth curve z(depth) whose slope changes by a few percent per mm. When the shaft meets the
   plane before the tip does (tangential contact), the contact moves toward the root, the lever
@@ -9,6 +11,11 @@
   contact, -380 µT/mm once tangential); when the contact snaps to another equilibrium, z stalls
   or falls back. Either way the slope leaves its trend.
 - :func:`monotone_breaks`: across trials, the median |z| must grow with depth.
+- :func:`stiffening_breaks`: across trials, in tip contact |z| grows ever more slowly with depth
+  (z(depth) is concave: the bent whisker turns its root less per mm the deeper it is pushed).
+  When the shaft lies on the plane the lever arm shortens and |z| grows faster again: the first
+  trial whose gain per mm exceeds the gain below it marks tangential contact, and so does every
+  deeper trial.
 """
 
 from __future__ import annotations
@@ -28,13 +35,14 @@ def robust_sigma(values: np.ndarray) -> float:
     return float(MAD_TO_SIGMA * np.median(np.abs(values - np.median(values))))
 
 
-def detect_slips(z_uT: np.ndarray, contact: np.ndarray, jump_sigma: float = 10.0,
-                 jump_floor_uT: float = 200.0) -> np.ndarray:
+def detect_slips(z_uT: np.ndarray, contact: np.ndarray, jump_sigma: float = 8.0,
+                 jump_floor_uT: float = 60.0) -> np.ndarray:
     """Indices of samples where z jumps: the first sample after each slip.
 
     Only steps between two samples that are both in contact count (making and losing contact is
-    not a slip). The threshold is ``jump_sigma`` robust standard deviations of the stream's own
-    sample-to-sample differences, and at least ``jump_floor_uT``.
+    not a slip). A step is a jump when it leaves the median step (the drift of a stuck tip being
+    dragged along) by more than ``jump_sigma`` robust standard deviations of the steps, and by
+    at least ``jump_floor_uT`` (a floor for quantized, nearly noise-free streams).
     """
     z_uT = np.asarray(z_uT, float)
     contact = np.asarray(contact, bool)
@@ -42,9 +50,12 @@ def detect_slips(z_uT: np.ndarray, contact: np.ndarray, jump_sigma: float = 10.0
         return np.zeros(0, dtype=int)
     steps = np.diff(z_uT)
     both_in_contact = contact[1:] & contact[:-1]
-    sigma = robust_sigma(steps[both_in_contact]) if both_in_contact.any() else float("nan")
+    if not both_in_contact.any():
+        return np.zeros(0, dtype=int)
+    sigma = robust_sigma(steps[both_in_contact])
+    drift = float(np.median(steps[both_in_contact]))
     threshold = max(jump_floor_uT, jump_sigma * sigma) if np.isfinite(sigma) else jump_floor_uT
-    jumps = both_in_contact & (np.abs(steps) > threshold)
+    jumps = both_in_contact & (np.abs(steps - drift) > threshold)
     return np.flatnonzero(jumps) + 1
 
 
@@ -138,3 +149,39 @@ def monotone_breaks(depths_mm: np.ndarray, median_z_uT: np.ndarray,
     breaks = np.zeros_like(breaks_sorted)
     breaks[order] = breaks_sorted
     return breaks
+
+
+def depth_gains(depths_mm: np.ndarray, median_z_uT: np.ndarray) -> np.ndarray:
+    """Growth of the median |z| per mm of depth from the previous trial (µT/mm, NaN for the
+    shallowest trial and next to trials without a median), in the given order."""
+    depths_mm = np.asarray(depths_mm, float)
+    magnitude = np.abs(np.asarray(median_z_uT, float))
+    order = np.argsort(depths_mm)
+    gains_sorted = np.full(depths_mm.size, np.nan)
+    gains_sorted[1:] = np.diff(magnitude[order]) / np.diff(depths_mm[order])
+    gains = np.empty_like(gains_sorted)
+    gains[order] = gains_sorted
+    return gains
+
+
+def stiffening_breaks(depths_mm: np.ndarray, median_z_uT: np.ndarray,
+                      tolerance: float = 0.02) -> np.ndarray:
+    """Which trials show |z| growing faster with depth than below them (bool per trial).
+
+    A trial is flagged when its gain (µT/mm from the previous trial) exceeds the previous gain by
+    more than ``tolerance`` of it; every deeper trial is flagged too (the contact has changed kind
+    and stays so). Needs three consecutive trials with a median z; others are not judged.
+    """
+    depths_mm = np.asarray(depths_mm, float)
+    gains = depth_gains(depths_mm, median_z_uT)
+    order = np.argsort(depths_mm)
+    flagged_sorted = np.zeros(depths_mm.size, bool)
+    for i in range(2, order.size):
+        previous, current = gains[order[i - 1]], gains[order[i]]
+        if np.isfinite(previous) and np.isfinite(current) and previous > 0 \
+                and current > previous * (1.0 + tolerance):
+            flagged_sorted[i:] = True
+            break
+    flagged = np.zeros_like(flagged_sorted)
+    flagged[order] = flagged_sorted
+    return flagged

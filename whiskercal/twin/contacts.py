@@ -8,6 +8,7 @@ several equilibria for one obstacle pose, and this path picks the one the rig re
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -30,7 +31,13 @@ def check_whisker(whisker) -> WhiskerParams:
 
 
 def base_params(whisker: WhiskerParams) -> np.ndarray:
-    """Parameter vector with the root suspension in nondimensional form."""
+    """Parameter vector with the root suspension in nondimensional form (a fresh copy)."""
+    return _base_params(whisker).copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _base_params(whisker: WhiskerParams) -> np.ndarray:
+    # cached: a path through the world solves thousands of times with one whisker
     p = el.new_params()
     ei, length = whisker.bending_stiffness_n_mm2, whisker.length_mm
     p[el.P_STUB] = whisker.root_offset_mm / length
@@ -55,18 +62,24 @@ def free(whisker: WhiskerParams, slipped_past: bool = False) -> Equilibrium:
 
 
 def make_equilibrium(whisker, kind: str, code: int, z, p, sliding=False,
-                     anchor_mm=math.nan) -> Equilibrium:
-    """Convert a nondimensional solution into an `Equilibrium` in mm, N, rad."""
+                     anchor_mm=math.nan, anchor_on=None, slips: int = 0) -> Equilibrium:
+    """Convert a nondimensional solution into an `Equilibrium` in mm, N, rad.
+
+    `anchor_on`: a `Plane` whose surface coordinate of the tip becomes `anchor_mm`.
+    """
     length, force_scale = whisker.length_mm, whisker.force_scale_n
     moment, fx, fy, arc = el.unpack(code, z, p)
     x, y, _, tip_x, tip_y = el.end_state(code, z, p, el.DEFAULT_STEPS)
     force = np.array([fx, fy])
+    tip = np.array([tip_x, tip_y]) * length
+    if anchor_on is not None:
+        anchor_mm = anchor_on.anchor_of(tip)
     return Equilibrium(
         kind=kind, root_rotation_rad=float(p[el.P_CROT] * moment),
         root_shift_mm=p[el.P_CTRANS] * force * length, contact_mm=np.array([x, y]) * length,
         contact_arc_mm=float(arc * length), force_n=force * force_scale,
-        tip_mm=np.array([tip_x, tip_y]) * length, whisker=whisker, sliding=bool(sliding),
-        anchor_mm=float(anchor_mm), solution=(code, np.array(z, dtype=float), p.copy()))
+        tip_mm=tip, whisker=whisker, sliding=bool(sliding), anchor_mm=float(anchor_mm),
+        slips=int(slips), solution=(code, np.array(z, dtype=float), p.copy()))
 
 
 def circle_params(whisker, center_mm, radius_mm: float, side: int) -> np.ndarray:

@@ -11,8 +11,8 @@ Where the numbers come from
   carried by the Adafruit MLX90393 driver (``mlx90393_lsb_lookup``, its RES 0 column). GAIN_SEL 7
   (the driver's "1x") is 0.150 µT/LSB on X/Y and 0.242 on Z. Every RES step doubles it (the
   datasheet's rule; the driver's higher-RES columns repeat it rounded to 1e-3, with one entry,
-  GAIN_SEL 1 RES 3 on X/Y, 0.7 % off), so RES 2 at GAIN_SEL 7 is 0.600 µT/LSB as in
-  docs/protocol.md.
+  GAIN_SEL 1 RES 3 on X/Y, 0.7 % off), so the default GAIN_SEL 5 at RES 2 is 1.000 µT/LSB on
+  X/Y and 1.612 on Z (docs/protocol.md; docs/firmware.md says why these defaults).
 - Conversion time of a three-axis measurement (ms), rows DIG_FILT 0..7, columns OSR 0..3: the
   datasheet table as carried by the same driver (``mlx90393_tconv``).
 - Output range: 16-bit words. RES 0/1 are two's complement; RES 2 is unsigned with zero field at
@@ -20,7 +20,9 @@ Where the numbers come from
   spanning -16384..16383 (the same field range as RES 2 at twice the step).
 - Noise: white, per axis, set so that the default settings reproduce the 5.6 µT standard deviation
   of the real sensor's Y axis at rest (reference numbers). Other OSR/DIG_FILT settings scale it by
-  1/sqrt(number of averaged conversions), 2^OSR·(2 + 2^DIG_FILT), as averaging does.
+  1/sqrt(number of averaged conversions), 2^OSR·(2 + 2^DIG_FILT), as averaging does. It is stated
+  in µT at the chip and does not change with GAIN_SEL or RES: those set only the step it is
+  rounded to (quantization adds step/sqrt(12) in quadrature, 0.29 µT at the default 1.000 µT).
 """
 
 from __future__ import annotations

@@ -23,6 +23,8 @@ from whiskercal.twin.scenes import Plane
 from whiskercal.twin.whisker import Equilibrium
 
 PENETRATION_TOL = 1e-9   # in L: how far a node may sit behind the surface before it counts
+# Below this gap between mu_s and the rest ratio the tip cannot re-stick: it slides steadily.
+STEADY_SLIDE_RATIO = 1e-9
 SHAPE_NODES = 48
 
 
@@ -39,8 +41,9 @@ def plane_params(whisker, plane: Plane, mu_signed: float = 0.0, anchor_mm=None) 
 
 def _forces(z, plane: Plane) -> tuple[float, float]:
     """(normal, tangential) components of the nondimensional force z[1:3]."""
-    force = np.asarray(z[1:3])
-    return float(force @ plane.normal), float(force @ plane.tangent)
+    nx, ny = plane.normal
+    fx, fy = float(z[1]), float(z[2])
+    return fx * nx + fy * ny, fy * nx - fx * ny  # the tangent is the normal turned by +90°
 
 
 def _penetration(code: int, z, p) -> tuple[float, float]:
@@ -89,19 +92,54 @@ def _tip_slide(whisker, plane, z, mu_signed: float):
     return _settle(whisker, plane, el.TIP_LINE, z_new, p, True)
 
 
+def _friction_ratio(force, plane: Plane) -> float:
+    """Signed F_t/F_n of a force (any units) against the plane."""
+    normal = float(force @ plane.normal)
+    return float(force @ plane.tangent) / normal if normal > 0.0 else 0.0
+
+
+def slips_within_step(ratio_start: float, ratio_stuck: float, plane: Plane
+                      ) -> tuple[float, int]:
+    """Friction ratio F_t/F_n at the end of a step that overloads the static cone, and the
+    number of slip events in the step.
+
+    While stuck, the ratio grows almost linearly with the plane's motion over one small step,
+    from `ratio_start` (the previous state) to `ratio_stuck` (the stuck solve at the new pose,
+    beyond ±mu_s). It breaks loose where the line crosses the cone's edge, the tip slides and
+    comes to rest at the rest ratio (`Plane.rest_ratio`), sticks there, and the rest of the
+    step's motion loads it again; every further period of mu_s - rest ratio is one more slip.
+    The count is therefore independent of how finely the path is stepped.
+    """
+    sign = math.copysign(1.0, ratio_stuck)
+    growth = sign * (ratio_stuck - ratio_start)
+    before = max(0.0, plane.mu_static - sign * ratio_start)   # load left before breakaway
+    after = max(0.0, growth - before)                         # load applied after it
+    period = plane.mu_static - plane.rest_ratio
+    extra = int(after // period)
+    return sign * (plane.rest_ratio + after - extra * period), 1 + extra
+
+
 def _stick_or_slip(whisker, plane: Plane, previous: Equilibrium):
-    """From a tip contact: stay stuck to the anchor if the static cone allows, else slide."""
+    """From a tip contact: stay stuck to the anchor if the static cone allows, else slip.
+
+    Returns ((code, z, p) or None, sliding, slips): `sliding` True only for steady sliding on
+    the kinetic edge (mu_s = mu_k, or no stuck solution), `slips` the slip events in the step.
+    """
     p = plane_params(whisker, plane, 0.0, previous.anchor_mm)
     z, ok = solve_kind(el.TIP_POINT, previous.solution[1][:3], p)
     if ok:
         normal, tangential = _forces(z, plane)
         if normal > 0.0 and abs(tangential) <= plane.mu_static * normal:
-            return _settle(whisker, plane, el.TIP_POINT, z, p, False), False
+            return _settle(whisker, plane, el.TIP_POINT, z, p, False), False, 0
+        if normal > 0.0 and plane.mu_static - plane.rest_ratio > STEADY_SLIDE_RATIO:
+            start = _friction_ratio(np.asarray(previous.force_n), plane)
+            ratio, slips = slips_within_step(start, tangential / normal, plane)
+            return _tip_slide(whisker, plane, z, ratio), False, slips
         direction = math.copysign(1.0, tangential)
     else:
         direction = float(plane.motion_sign)
         z = previous.solution[1][:3]
-    return _tip_slide(whisker, plane, z, direction * plane.mu_kinetic), True
+    return _tip_slide(whisker, plane, z, direction * plane.mu_kinetic), True, 1
 
 
 def _at_depth(plane: Plane, depth_mm: float, total_mm: float) -> Plane:
@@ -164,14 +202,13 @@ def _approach(whisker, plane: Plane):
     return state
 
 
-def _report(whisker, plane, state, sliding: bool) -> Equilibrium:
+def _report(whisker, plane, state, sliding: bool, slips: int = 0) -> Equilibrium:
     if state is None:
         return free(whisker)
     code, z, p = state
     kind = "tangential" if code == el.TANGENT_LINE else "tip"
-    tip = np.array(el.end_state(code, z, p, el.DEFAULT_STEPS)[3:]) * whisker.length_mm
     return make_equilibrium(whisker, kind, code, z, p, sliding or code == el.TANGENT_LINE,
-                            plane.anchor_of(tip))
+                            anchor_on=plane, slips=slips)
 
 
 def solve_plane(whisker, plane: Plane, previous: Equilibrium | None = None) -> Equilibrium:
@@ -185,28 +222,40 @@ def solve_plane(whisker, plane: Plane, previous: Equilibrium | None = None) -> E
     previous : Equilibrium, optional
         The state at the previous plane pose; it carries the stick state (`anchor_mm`). Without
         it (or from "free") the plane is pushed in along its normal while sliding steadily in
-        `plane.motion_sign`'s direction, so the tip starts out at kinetic friction.
+        `plane.motion_sign`'s direction, so the tip starts out at kinetic friction. When the
+        warm start finds no equilibrium (near the switch to tangential contact the stuck state
+        can cut into the plane with no tangential state next to it), the solve falls back to
+        the history-free approach.
 
     Returns
     -------
     Equilibrium
-        Kind "tip" (sticking, or `sliding` True when it slid to get here), "tangential", or
-        "free" when the plane does not reach the whisker.
+        Kind "tip" (sticking; `sliding` True only for steady sliding on the kinetic edge;
+        `slips` counts the slip events since `previous`), "tangential", or "free" when the
+        plane does not reach the whisker.
     """
     check_whisker(whisker)
     if not isinstance(plane, Plane):
         raise UsageError(f"expected a Plane, got {type(plane).__name__}.")
     if _from_plane(previous):
-        if previous.kind == "tip":
-            state, sliding = _stick_or_slip(whisker, plane, previous)
-        else:
-            p = plane_params(whisker, plane, plane.motion_sign * plane.mu_kinetic)
-            z, ok = solve_kind(el.TANGENT_LINE, previous.solution[1], p)
-            state, sliding = (_settle(whisker, plane, el.TANGENT_LINE, z, p, True)
-                              if ok else _approach(whisker, plane)), True
+        try:
+            state, sliding, slips = _continue(whisker, plane, previous)
+        except UsageError:
+            state, sliding, slips = None, True, 0
         if state is not None or not _reaches(whisker, plane):
-            return _report(whisker, plane, state, sliding)
+            return _report(whisker, plane, state, sliding, slips)
     return _report(whisker, plane, _approach(whisker, plane), True)
+
+
+def _continue(whisker, plane: Plane, previous: Equilibrium):
+    """One warm-started step from a plane contact: (state or None, sliding, slips)."""
+    if previous.kind == "tip":
+        return _stick_or_slip(whisker, plane, previous)
+    p = plane_params(whisker, plane, plane.motion_sign * plane.mu_kinetic)
+    z, ok = solve_kind(el.TANGENT_LINE, previous.solution[1], p)
+    if not ok:
+        return None, True, 0
+    return _settle(whisker, plane, el.TANGENT_LINE, z, p, True), True, 0
 
 
 def _from_plane(previous: Equilibrium | None) -> bool:

@@ -24,6 +24,10 @@ DEFAULT_PLANE_TILT_RAD = math.radians(20.0)
 # The study's stage moves the plane toward -tangent (the tip is dragged toward +y): with it the
 # defaults slip into tangential contact at 45 mm (docs/twin.md, "Mechanics").
 STUDY_MOTION_SIGN = -1
+# A slip overshoots the kinetic equilibrium almost as far as an undamped spring-mass would: the
+# nitinol wire and the spiral suspension damp the tip's swing little (damping ratio ~0.03 gives
+# exp(-pi*0.03) = 0.91 of the overshoot); `Plane.slip_rebound`, docs/twin.md.
+DEFAULT_SLIP_REBOUND = 0.9
 
 
 def finite_point(name: str, value) -> np.ndarray:
@@ -71,6 +75,11 @@ class Plane:
     motion_sign : int
         +1 when the stage moves the surface toward +tangent, -1 otherwise; a solve without
         history assumes steady sliding in this direction.
+    slip_rebound : float
+        How far a slip overshoots the kinetic equilibrium, 0..1: the tip comes to rest where
+        |F_t|/F_n = mu_k - slip_rebound·(mu_s - mu_k) (`rest_ratio`). 0 is a slip that stops
+        as soon as kinetic friction balances (fully damped); 1 the undamped spring-mass, whose
+        first stop lies as far below mu_k·F_n as the breakaway lay above it.
     """
 
     point_mm: np.ndarray
@@ -79,6 +88,7 @@ class Plane:
     mu_static: float = DEFAULT_MU_STATIC
     mu_kinetic: float = DEFAULT_MU_KINETIC
     motion_sign: int = 1
+    slip_rebound: float = DEFAULT_SLIP_REBOUND
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "point_mm", finite_point("plane point_mm", self.point_mm))
@@ -88,6 +98,14 @@ class Plane:
         if finite_number("mu_static", self.mu_static, 0.0) < self.mu_kinetic:
             raise UsageError("mu_static must be at least mu_kinetic.")
         _check_side(self.motion_sign)
+        if not 0.0 <= finite_number("slip_rebound", self.slip_rebound) <= 1.0:
+            raise UsageError(f"slip_rebound must lie in 0..1, got {self.slip_rebound!r}.")
+
+    @property
+    def rest_ratio(self) -> float:
+        """|F_t|/F_n where a slipping tip comes to rest and sticks again (see `slip_rebound`)."""
+        overshoot = self.slip_rebound * (self.mu_static - self.mu_kinetic)
+        return max(self.mu_kinetic - overshoot, -self.mu_static)
 
     @cached_property
     def normal(self) -> np.ndarray:

@@ -108,7 +108,11 @@ class Equilibrium:
     tip_mm : ndarray, shape (2,)
         The wire's tip.
     sliding : bool
-        True when the contact slid (kinetic friction) to reach this state.
+        True when the contact is sliding now, on the kinetic edge of the friction cone
+        (tangential contact, the history-free approach, or a plane with mu_s = mu_k).
+    slips : int
+        Plane contacts only: slip events since the previous state (the tip broke loose at
+        mu_s, slid and stuck again); the state itself sticks.
     whisker : WhiskerParams
         The whisker this equilibrium belongs to.
     anchor_mm : float
@@ -131,6 +135,7 @@ class Equilibrium:
     sliding: bool = False
     anchor_mm: float = math.nan
     slipped_past: bool = False
+    slips: int = 0
     # Nondimensional unknowns of the solve and its contact-kind code, for warm starts.
     solution: tuple = field(default=(), repr=False, compare=False)
 

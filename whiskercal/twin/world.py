@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Protocol
 
 import numpy as np
@@ -46,17 +47,23 @@ class RigGeometry:
     origin_stage_mm: tuple[float, float] = (40.0, 100.0)
     angle_rad: float = 0.0  # direction of the whisker's +x axis in stage coordinates
 
+    @cached_property
     def _rotation(self) -> np.ndarray:
+        # cached: the world converts the carriage position at every sample
         c, s = math.cos(self.angle_rad), math.sin(self.angle_rad)
         return np.array([[c, -s], [s, c]])
 
+    @cached_property
+    def _origin(self) -> np.ndarray:
+        return np.asarray(self.origin_stage_mm, float)
+
     def to_whisker(self, stage_mm) -> np.ndarray:
         """Stage (machine) coordinates -> whisker frame, mm; works on (..., 2)."""
-        return (np.asarray(stage_mm, float) - self.origin_stage_mm) @ self._rotation()
+        return (np.asarray(stage_mm, float) - self._origin) @ self._rotation
 
     def to_stage(self, whisker_mm) -> np.ndarray:
         """Whisker frame -> stage (machine) coordinates, mm; works on (..., 2)."""
-        return np.asarray(whisker_mm, float) @ self._rotation().T + self.origin_stage_mm
+        return np.asarray(whisker_mm, float) @ self._rotation.T + self._origin
 
 
 @dataclass(frozen=True)
@@ -97,9 +104,8 @@ class PlaneFixture:
 
     def touches(self, points_mm: np.ndarray, tool_mm: np.ndarray) -> bool:
         """True when any of the points (mm) lies inside the plate."""
-        normal = np.array([math.cos(self.normal_rad), math.sin(self.normal_rad)])
-        depth = (tool_mm - points_mm) @ normal
-        along = (points_mm - tool_mm) @ self.tangent()
+        depth = (tool_mm - points_mm) @ self._normal
+        along = (points_mm - tool_mm) @ self._tangent
         inside = (depth >= 0) & (depth <= self.thickness_mm) & (np.abs(along) <= self.half_length_mm)
         return bool(np.any(inside))
 
@@ -107,16 +113,29 @@ class PlaneFixture:
         """The plate as a ``Plane`` (slid by the tool's position along it) moving ``motion_sign``."""
         from whiskercal.twin.scenes import Plane
 
-        normal = np.array([math.cos(self.normal_rad), math.sin(self.normal_rad)])
-        tangent = np.array([-normal[1], normal[0]])
-        friction = {k: v for k, v in (("mu_static", self.mu_static), ("mu_kinetic", self.mu_kinetic))
-                    if v is not None}
-        return Plane(float(normal @ tool_mm) * normal, self.normal_rad, float(tangent @ tool_mm),
-                     motion_sign=motion_sign, **friction)
+        normal, tangent = self._normal, self._tangent
+        offset = normal[0] * tool_mm[0] + normal[1] * tool_mm[1]
+        along = tangent[0] * tool_mm[0] + tangent[1] * tool_mm[1]
+        return Plane(offset * normal, self.normal_rad, along, motion_sign=motion_sign,
+                     **self._friction)
 
     def tangent(self) -> np.ndarray:
         """Unit vector the stage slides the surface along (whisker frame)."""
+        return self._tangent.copy()
+
+    # cached: the world asks at every step of a slide
+    @cached_property
+    def _normal(self) -> np.ndarray:
+        return np.array([math.cos(self.normal_rad), math.sin(self.normal_rad)])
+
+    @cached_property
+    def _tangent(self) -> np.ndarray:
         return np.array([-math.sin(self.normal_rad), math.cos(self.normal_rad)])
+
+    @cached_property
+    def _friction(self) -> dict:
+        return {k: v for k, v in (("mu_static", self.mu_static), ("mu_kinetic", self.mu_kinetic))
+                if v is not None}
 
 
 @dataclass(frozen=True)
@@ -210,11 +229,12 @@ class TruthRecord:
     ``tip_mm`` (2); ``root_rotation_rad``; ``z_true_uT`` (noise-free Y minus static Y);
     ``field_true_uT`` (3, noise-free field in sensor axes); ``kind`` (``free``, ``shaft``,
     ``tip``, ``tangential``, or ``failed`` where the solver gave up and the previous
-    equilibrium was kept).
+    equilibrium was kept); ``slips`` (stick-slip events of the plane's tip since the previous
+    sample).
     """
 
     _COLUMNS = {"t_s": 1, "stage_mm": 2, "tool_mm": 2, "contact_mm": 2, "tip_mm": 2,
-                "root_rotation_rad": 1, "z_true_uT": 1, "field_true_uT": 3}
+                "root_rotation_rad": 1, "z_true_uT": 1, "field_true_uT": 3, "slips": 1}
     _WIDTH = sum(_COLUMNS.values())
 
     def __init__(self, block_rows: int = 65536) -> None:
@@ -318,6 +338,7 @@ class World:
         self._motion_sign = 1
         self._side = 1
         self._failed = False
+        self._slips_since_sample = 0
         self._magnetometers: dict[SensorConfig, object] = {}
         self.solver_failures = 0
 
@@ -376,13 +397,16 @@ class World:
         return self.config.geometry.to_stage(whisker_mm)
 
     # -- physics ----------------------------------------------------------------------------
-    def equilibrium_at(self, t: float):
+    def equilibrium_at(self, t: float, stage_mm: np.ndarray | None = None):
         """The whisker's equilibrium at time ``t`` (call with non-decreasing times).
 
         The tool's path since the last call is followed in steps of at most ``max_step_mm``,
-        each solve warm-started from the previous one, so friction sees the path.
+        each solve warm-started from the previous one, so friction sees the path. ``stage_mm``
+        is the carriage at ``t`` when the caller already has it.
         """
-        tool = self.tool_mm(t)
+        if stage_mm is None:
+            stage_mm = self.stage_true_mm(t)
+        tool = self.config.geometry.to_whisker(stage_mm)
         # the stage may have gone somewhere and back since the last call: step along its path
         travel = max(float(np.hypot(*(tool - self._eq_tool_mm))),
                      self.stage.path_length_mm(self._eq_time_s, t))
@@ -392,7 +416,7 @@ class World:
         steps = max(1, math.ceil(travel / self.config.max_step_mm))
         start_s, previous_tool = self._eq_time_s, self._eq_tool_mm
         for k in range(1, steps + 1):
-            step_tool = self.tool_mm(start_s + (t - start_s) * k / steps)
+            step_tool = tool if k == steps else self.tool_mm(start_s + (t - start_s) * k / steps)
             self._solve_step(step_tool, previous_tool)
             previous_tool = step_tool
         self._eq_time_s, self._eq_tool_mm = t, tool
@@ -401,7 +425,7 @@ class World:
     def _solve_step(self, tool: np.ndarray, previous_tool: np.ndarray) -> None:
         fixture = self.config.fixture
         if isinstance(fixture, PlaneFixture):
-            along = float(fixture.tangent() @ (tool - previous_tool))
+            along = float(fixture._tangent @ (tool - previous_tool))
             if abs(along) > 1e-12:
                 self._motion_sign = 1 if along > 0 else -1
         if not self._equilibrium.in_contact:
@@ -412,6 +436,7 @@ class World:
         obstacle = fixture.obstacle(tool, self._motion_sign, self._side)
         try:
             self._equilibrium = self.physics.solve(obstacle, self._equilibrium)
+            self._slips_since_sample += getattr(self._equilibrium, "slips", 0)
             self._failed = False
         except Exception:  # noqa: BLE001  (a solver failure must not take the rig down)
             # keep the last equilibrium; the truth record marks these samples "failed"
@@ -437,22 +462,31 @@ class World:
         kinds = []
         for index, t in enumerate(times_s):
             self._failed = False
-            equilibrium = self.equilibrium_at(t)
+            stage_mm = self.stage_true_mm(t)
+            equilibrium = self.equilibrium_at(t, stage_mm)
             if self._field_of[0] is not equilibrium:  # standing still: the field is the same
                 self._field_of = (equilibrium, self.physics.field_uT(equilibrium))
             fields[index] = self._field_of[1]
-            rows[index] = self._truth_row(t, equilibrium, fields[index])
+            self._truth_row(rows[index], t, stage_mm, equilibrium, fields[index])
             kinds.append("failed" if self._failed else equilibrium.kind)
         self.truth.extend(rows, kinds)
         params = self._magnetometer(config)
         counts = to_counts(fields, params, self.rng)
         return counts, is_saturated(counts, params)
 
-    def _truth_row(self, t: float, equilibrium, field_uT: np.ndarray) -> np.ndarray:
-        stage_mm = self.stage_true_mm(t)
-        return np.concatenate([[t], stage_mm, self.config.geometry.to_whisker(stage_mm),
-                               np.asarray(equilibrium.contact_mm, float), np.asarray(equilibrium.tip_mm, float),
-                               [equilibrium.root_rotation_rad, field_uT[1] - self._static_uT[1]], field_uT])
+    def _truth_row(self, row: np.ndarray, t: float, stage_mm: np.ndarray, equilibrium,
+                   field_uT: np.ndarray) -> None:
+        """Fill one truth row in place (column order of ``TruthRecord``)."""
+        row[0] = t
+        row[1:3] = stage_mm
+        row[3:5] = self.config.geometry.to_whisker(stage_mm)
+        row[5:7] = equilibrium.contact_mm
+        row[7:9] = equilibrium.tip_mm
+        row[9] = equilibrium.root_rotation_rad
+        row[10] = field_uT[1] - self._static_uT[1]
+        row[11:14] = field_uT
+        row[14] = self._slips_since_sample
+        self._slips_since_sample = 0
 
     @property
     def static_field_uT(self) -> np.ndarray:

@@ -22,18 +22,31 @@ def _degree(value: str) -> int | str:
         raise click.BadParameter("a degree 1..8 or 'auto'") from None
 
 
-def _trace_length_mm(option: float | None, grid) -> float:
-    """--trace-length-mm, else the raw file's rig config, else the twin sensor of the same id."""
-    if option is not None:
-        return option
+def _known_trace_length_mm(grid) -> tuple[float, str] | None:
+    """The trace length (mm) the raw file's rig config records, else the twin sensor's of the
+    same id, with where it came from; None when neither knows it."""
     rig = grid.config.get("rig", {}) if isinstance(grid.config, dict) else {}
     if "trace_length_mm" in rig:
-        return float(rig["trace_length_mm"])
+        return float(rig["trace_length_mm"]), "the raw grid's rig config"
     sensor = _twin_sensor(grid.sensor_id)
     if sensor is not None:
-        return float(sensor.whisker.reach_mm)
-    raise UsageError("the trace length is unknown for this sensor: give --trace-length-mm "
-                     "(arc length from the suspension's centre of rotation to the tip)")
+        return float(sensor.whisker.reach_mm), f"the twin sensor {grid.sensor_id!r}"
+    return None
+
+
+def _trace_length_mm(option: float | None, grid) -> tuple[float, list[str]]:
+    """The trace length (mm) and any warning: --trace-length-mm overrides what the raw file's
+    rig config or the twin sensor of the same id say, and a disagreement is reported."""
+    known = _known_trace_length_mm(grid)
+    if option is None:
+        if known is None:
+            raise UsageError("the trace length is unknown for this sensor: give --trace-length-mm "
+                             "(arc length from the suspension's centre of rotation to the tip)")
+        return known[0], []
+    if known is not None and abs(known[0] - option) > 1e-6:
+        return option, [f"--trace-length-mm {option:g} mm overrides the {known[0]:g} mm of "
+                        f"{known[1]}"]
+    return option, []
 
 
 def _twin_sensor(sensor_id: str):
@@ -69,6 +82,15 @@ def _truth_metrics(grid, calibration) -> tuple[dict, dict | None]:
     return metrics, arrays
 
 
+def _extension_metrics(calibration) -> dict:
+    """How far past the grid the lookup's tips are extrapolated, and what is trusted (mm, µT)."""
+    trusted = calibration.trusted_z_uT
+    return {"extension_max_mm": float(calibration.lookup_report.max_extension_mm),
+            "extension_limit_mm": float(calibration.extension_limit_mm),
+            "extrapolated": bool(calibration.extrapolated),
+            "trusted_z_uT": np.asarray(trusted if trusted is not None else (np.nan, np.nan), float)}
+
+
 def _metrics(calibration) -> dict:
     fit, lookup = calibration.fit, calibration.lookup_report
     return {
@@ -80,11 +102,17 @@ def _metrics(calibration) -> dict:
         "lookup_holdout_rmse_xy_mm": np.asarray(lookup.holdout_rmse_xy_mm),
         "lookup_rmse_by_kind_mm": dict(lookup.rmse_by_kind_mm),
         "points_used": int(calibration.used.sum()), "points_total": int(len(calibration.used)),
+        **_extension_metrics(calibration),
     }
 
 
 def _raw_metrics(grid) -> dict:
     return {"raw_complete": bool(grid.complete), "raw_points_planned": int(len(grid.plan_rod_center_mm))}
+
+
+def _trusted_or_none(trusted) -> list[float] | None:
+    trusted = np.asarray(trusted, float)
+    return None if np.any(np.isnan(trusted)) else trusted.tolist()
 
 
 def _summary(data, elapsed_s: float) -> dict:
@@ -95,6 +123,11 @@ def _summary(data, elapsed_s: float) -> dict:
                "samples": int(len(data.lookup_z_uT)), "interpolant": data.lookup_kind,
                "z_range_uT": [float(data.lookup_z_uT[0]), float(data.lookup_z_uT[-1])],
                "points_used": m["points_used"], "raw_complete": m["raw_complete"],
+               "extension_max_mm": m["extension_max_mm"],
+               "extension_limit_mm": m["extension_limit_mm"],
+               "extrapolated": m["extrapolated"],
+               "trusted_z_uT": _trusted_or_none(m["trusted_z_uT"]),
+               "expected_noise_uT": m["expected_noise_uT"], "warnings": list(m["warnings"]),
                "elapsed_s": elapsed_s}
     for key in ("lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm"):
         if key in m:
@@ -124,6 +157,12 @@ def _summary(data, elapsed_s: float) -> dict:
 @click.option("--entry-radius-mm", type=float, default=None,
               help="Radius about the root where the trace enters the data, mm [default: a third "
               "of the trace length, at least the grid's nearest point].")
+@click.option("--max-extension-mm", type=click.FloatRange(min=0.0), default=None,
+              help="Longest straight extrapolation of a tip past the grid's far edge that is "
+              "trusted, mm [default: 9.5, measured on the twin: docs/model.md].")
+@click.option("--allow-extrapolation", is_flag=True,
+              help="Write the artifact even when some tips lie farther past the grid than "
+              "--max-extension-mm; that z range is marked and the runtime refuses it.")
 @click.option("--no-rod-correction", is_flag=True,
               help="Fit rod centres as they are, without moving them by the rod radius.")
 @click.option("--threshold-uT", "threshold_uT", default=300.0, show_default=True, type=float,
@@ -132,7 +171,8 @@ def _summary(data, elapsed_s: float) -> dict:
 @pass_app
 def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, samples: int,
             tracer: str, interpolant: str, trace_length_mm: float | None,
-            entry_radius_mm: float | None, no_rod_correction: bool, threshold_uT: float,
+            entry_radius_mm: float | None, max_extension_mm: float | None,
+            allow_extrapolation: bool, no_rod_correction: bool, threshold_uT: float,
             as_json: bool) -> None:
     """Fit a raw calibration grid (RAW.h5) and write the calibration artifact.
 
@@ -140,30 +180,53 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     arc length at SAMPLES deflections, and stores the lookup z -> tip with the collision and
     filter settings the runtime uses. On a twin dataset the lookup is also measured against
     the twin's true tips.
+
+    Refuses a grid that stops so far short of the tip that the trace would extrapolate more
+    than --max-extension-mm past it (unless --allow-extrapolation), and warns, with the numbers,
+    when the surface's CV error is far above the noise expected at the grid points.
     """
     from whiskercal.artifacts.calibration import data_from_calibration, write_calibration
     from whiskercal.collect.dataset import read_raw_grid
-    from whiskercal.model.calibrate import CalibrationOptions, calibrate
+    from whiskercal.model.calibrate import MAX_EXTENSION_MM, CalibrationOptions
     from whiskercal.model.collision import CollisionParams
     from whiskercal.model.kalman import KalmanParams
 
     started = time.perf_counter()
     grid = read_raw_grid(raw)
+    length_mm, length_warnings = _trace_length_mm(trace_length_mm, grid)
     options = CalibrationOptions(
         degree=_degree(degree), coordinates=coordinates, samples=samples, tracer=tracer,
-        lookup_kind=interpolant, trace_length_mm=_trace_length_mm(trace_length_mm, grid),
-        entry_radius_mm=entry_radius_mm, correct_rod_radius=not no_rod_correction)
+        lookup_kind=interpolant, trace_length_mm=length_mm,
+        entry_radius_mm=entry_radius_mm, correct_rod_radius=not no_rod_correction,
+        max_extension_mm=MAX_EXTENSION_MM if max_extension_mm is None else max_extension_mm,
+        allow_extrapolation=allow_extrapolation)
     say = (lambda message: click.echo(f"  {message} ...", err=True)) if app.interactive else None
     sem = grid.z_std_uT / np.sqrt(np.maximum(grid.n_samples, 1))
-    calibration = calibrate(grid.rod_center_mm, grid.z_uT, grid.rod_radius_mm, options, sem, say)
+    calibration = _calibrate(grid, options, sem, say)
+    warnings = length_warnings + calibration.warnings
+    evidence = {"expected_noise_uT": calibration.expected_noise_uT,
+                "cv_level_set_shift_mm": calibration.cv_level_set_shift_mm}
     truth_metrics, truth_arrays = _truth_metrics(grid, calibration)
     data = data_from_calibration(
         calibration, sensor_id=grid.sensor_id, rod_radius_mm=grid.rod_radius_mm, tracer=tracer,
         kalman=KalmanParams(), collision=CollisionParams(threshold_uT=threshold_uT),
-        metrics={**_metrics(calibration), **_raw_metrics(grid), **truth_metrics}, truth=truth_arrays,
-        inputs={"raw_grid": grid.sha256}, config=_config(options, raw))
+        metrics={**_metrics(calibration), **evidence, **_raw_metrics(grid), **truth_metrics,
+                 "warnings": warnings},
+        truth=truth_arrays, inputs={"raw_grid": grid.sha256}, config=_config(options, raw))
     write_calibration(out_path, data)
     _report(data, time.perf_counter() - started, out_path, as_json)
+
+
+def _calibrate(grid, options, sem_uT: np.ndarray, say):
+    """``calibrate`` with the refusal of a short grid told how to proceed."""
+    from whiskercal.model.calibrate import calibrate
+    from whiskercal.model.errors import ExtrapolationLimitError
+
+    try:
+        return calibrate(grid.rod_center_mm, grid.z_uT, grid.rod_radius_mm, options, sem_uT, say)
+    except ExtrapolationLimitError as error:
+        raise ExtrapolationLimitError(f"{error}; collect a grid that reaches farther, or pass "
+                                      "--allow-extrapolation to mark that range") from None
 
 
 def _config(options, raw: str) -> dict:
@@ -189,7 +252,12 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
     click.echo(f"lookup    {summary['samples']} samples, {summary['interpolant']}, z "
                f"{summary['z_range_uT'][0]:.0f}..{summary['z_range_uT'][1]:.0f} µT, hold-out "
                f"RMSE {summary['lookup_holdout_rmse_mm']:.5f} mm")
+    click.echo(f"extension up to {summary['extension_max_mm']:.2f} mm past the grid (limit "
+               f"{summary['extension_limit_mm']:.2f} mm)"
+               + (", extrapolated range marked" if summary["extrapolated"] else ""))
     if "lookup_vs_truth_rmse_mm" in summary:
         click.echo(f"truth     lookup vs the twin's true tips: RMSE "
                    f"{summary['lookup_vs_truth_rmse_mm']:.3f} mm, max "
                    f"{summary['lookup_vs_truth_max_mm']:.3f} mm")
+    for warning in summary["warnings"]:
+        click.echo(f"warning   {warning}", err=True)

@@ -42,6 +42,18 @@ def _scalar_metrics(metrics: dict) -> dict:
     return out
 
 
+def _extension_summary(data) -> dict:
+    """How far past the grid the lookup's tips were extrapolated (mm) and which z are trusted (µT);
+    artifacts before schema 1.2 did not record it (None)."""
+    extensions = data.lookup_extension_mm
+    trusted = data.trusted_range_uT()
+    return {"max_mm": None if extensions is None else float(np.max(extensions)),
+            "limit_mm": data.max_extension_mm,
+            "allowed_mm": data.tip_extension_mm,
+            "extrapolated": data.extrapolated,
+            "trusted_z_uT": None if trusted is None else [float(trusted[0]), float(trusted[1])]}
+
+
 def _calibration_summary(path: Path) -> dict:
     from whiskercal.artifacts.calibration import read_calibration
 
@@ -55,6 +67,7 @@ def _calibration_summary(path: Path) -> dict:
         "trace": {"length_mm": data.trace_length_mm, "root_mm": data.root_mm.tolist(),
                   "entry_radius_mm": data.entry_radius_mm, "tracer": data.tracer,
                   "rod_radius_mm": data.rod_radius_mm},
+        "extension": _extension_summary(data),
         "filter": data.filter, "collision": data.collision,
         "target_z_uT": data.target_z_uT,
         "metrics": _scalar_metrics(data.metrics),

@@ -1,0 +1,27 @@
+"""The same raw grid calibrates to bit-identical results in fresh processes."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+
+RAW = Path(__file__).parents[2] / "data" / "twin-paper-75mm" / "raw_grid.h5"
+
+
+def _lookup(path):
+    with h5py.File(path, "r") as handle:
+        return {name: handle[name][()].tobytes() for name in
+                ("lookup/z_uT", "lookup/tip_mm", "lookup/extension_mm", "surface/coefficients")}
+
+
+def test_two_fresh_processes_write_the_same_lookup_and_z_range(tmp_path):
+    outputs = [tmp_path / f"cal-{k}.h5" for k in range(2)]
+    runs = [subprocess.Popen([sys.executable, "-m", "whiskercal", "fit", str(RAW), "--out",
+                              str(out), "--json"], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE) for out in outputs]
+    for process in runs:
+        _, stderr = process.communicate(timeout=120)
+        assert process.returncode == 0, stderr.decode()
+    first, second = (_lookup(out) for out in outputs)
+    assert first == second  # the z range is the lookup's first and last z
