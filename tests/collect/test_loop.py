@@ -11,7 +11,7 @@ from whiskercal.collect.config import load_config
 from whiskercal.collect.dataset import read_raw_grid
 from whiskercal.collect.journal import journal_path
 from whiskercal.collect.plan import build_plan
-from whiskercal.collect.recorder import OverloadError
+from whiskercal.rig.overload import OverloadError
 from whiskercal.collect.run import collect
 from whiskercal.errors import DeviceError, UsageError
 

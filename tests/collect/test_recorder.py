@@ -7,7 +7,8 @@ import pytest
 
 from collect_fakes import FakeSensor, FakeStage, FakeWorld
 from test_loop import small_plan
-from whiskercal.collect.recorder import OverloadError, StreamRecorder
+from whiskercal.collect.recorder import StreamRecorder
+from whiskercal.rig.overload import OverloadError
 from whiskercal.collect.run import collect
 from whiskercal.errors import DeviceError
 from whiskercal.rig.codes import SensorStatus

@@ -223,7 +223,7 @@ def test_resume_refuses_another_config_before_opening_ports(tmp_path):
 
 
 def test_overload_guard_holds_the_stage_and_lifts_the_rod_on_the_twin(tmp_path):
-    from whiskercal.collect.recorder import OverloadError
+    from whiskercal.rig.overload import OverloadError
     from whiskercal.rig.sensor import SensorClient
     from whiskercal.rig.stage import StageClient
 

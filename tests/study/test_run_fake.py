@@ -6,7 +6,7 @@ import pytest
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.dataset import PHASE_SLIDE, StudyWriter, read_study
-from whiskercal.study.recorder import OverloadError
+from whiskercal.rig.overload import OverloadError
 from whiskercal.study.run import NoContactError, StudyRun
 
 from study_fakes import fake_config as _config, fake_rig
@@ -74,7 +74,7 @@ def test_overload_guard_stops_the_run(tmp_path):
     config = _config(tmp_path, "[safety]\noverload_uT = 2800.0\n")
     rig, stage, sensor = fake_rig(config)
     writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor")
-    with pytest.raises(OverloadError, match="overload guard of 2800"):
+    with pytest.raises(OverloadError, match="over the safe limit of 2800"):
         StudyRun(stage, sensor, config, writer).run()
     assert [t.depth_mm for t in read_study(tmp_path / "study.h5").trials] == [5.0]
     assert rig.z_uT(rig.position) == 0.0  # backed off clear of the whisker

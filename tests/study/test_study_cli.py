@@ -102,6 +102,6 @@ def test_overload_on_the_twin_backs_off_and_keeps_the_finished_trials(tmp_path):
     out = tmp_path / "STUDY.h5"
     result = _invoke("optimal-depth", "run", "--stage", "sim://cli-ov/stage?scene=plane",
                      "--sensor", "sim://cli-ov/sensor", "--out", str(out), "--config", str(config))
-    assert result.exit_code == 3 and "beyond the overload guard of 4000 µT" in result.output
+    assert result.exit_code == 3 and "over the safe limit of 4000 µT" in result.output
     assert [t.depth_mm for t in read_study(out).trials] == [5.0, 10.0]
     assert get_world("cli-ov").truth.arrays()["kind"][-1] == "free"  # the whisker was unloaded

@@ -17,7 +17,8 @@ import numpy as np
 from whiskercal.collect.checkpoint import Checkpoint
 from whiskercal.collect.dataset import Baseline, PointRecord
 from whiskercal.collect.plan import GridPlan, Move
-from whiskercal.collect.recorder import OverloadError, StreamRecorder, describe_axes, field_stats
+from whiskercal.collect.recorder import StreamRecorder, field_stats
+from whiskercal.rig.overload import OverloadError, describe_axes
 from whiskercal.errors import DeviceError
 from whiskercal.rig.stage import StageAlarmError
 

@@ -15,22 +15,7 @@ import numpy as np
 
 from whiskercal.collect.dataset import StreamChunk
 from whiskercal.errors import DeviceError
-from whiskercal.rig.codes import SensorStatus
-
-# Samples whose axes are not a measurement; they are recorded but never averaged.
-_INVALID = int(SensorStatus.NO_SENSOR | SensorStatus.MLX_ERROR)
-_SATURATED = int(SensorStatus.SATURATED)
-# Highest |count| an axis holds per RES once the board has removed the RES 2/3 offsets
-# (MLX90393 datasheet: 16-bit output; RES 3 leaves 15 bits). The default settings keep every
-# axis inside its range at rest and over the whole grid (docs/firmware.md), so a saturated axis,
-# Z as much as Y, means the reading is no measurement of the whisker.
-_COUNT_LIMIT = {0: 32767, 1: 32767, 2: 32767, 3: 16383}
-_AXES = "XYZ"
-
-
-class OverloadError(DeviceError):
-    """The whisker is bent past the safe deflection (|z| over the configured limit)."""
-
+from whiskercal.rig.overload import check_overload, saturated_axes, valid_samples
 
 @dataclass
 class Block:
@@ -44,7 +29,7 @@ class Block:
     @property
     def valid(self) -> np.ndarray:
         """Mask of samples whose axes are a measurement."""
-        return (self.status.astype(int) & _INVALID) == 0
+        return valid_samples(self.status)
 
 
 class StreamRecorder:
@@ -66,7 +51,7 @@ class StreamRecorder:
                  resume_from: tuple[float, float] | None = None) -> None:
         self.sensor = sensor
         self.rate_hz = float(rate_hz)
-        self.count_limit = _COUNT_LIMIT[res]
+        self.res = res
         self._resume_from = resume_from
         self._offset_s: float | None = None
         self._parts: list[StreamChunk] = []
@@ -111,17 +96,8 @@ class StreamRecorder:
         return self._offset_s or 0.0
 
     def saturated_axes(self, block: Block) -> str:
-        """Names of the axes ("Y", "XZ", ...) at an end of their output range in a valid sample.
-
-        A sample whose SATURATED status bit is set without any axis at the limit (a board that
-        judges the raw word differently) gives "?", so that it is never taken as unsaturated.
-        """
-        valid = block.valid
-        counts = np.asarray(block.counts)[valid]
-        at_end = (counts >= self.count_limit) | (counts < -self.count_limit)
-        axes = "".join(name for name, hit in zip(_AXES, at_end.any(axis=0)) if hit)
-        flagged = bool(np.any(np.asarray(block.status)[valid].astype(int) & _SATURATED))
-        return axes or ("?" if flagged else "")
+        """Names of the axes at an end of their output range in a valid sample ("" if none)."""
+        return saturated_axes(block.counts, block.status, self.res)
 
     def check_overload(self, block: Block) -> None:
         """Raise ``OverloadError`` when any axis saturates or a sample's |z| exceeds the limit.
@@ -129,17 +105,10 @@ class StreamRecorder:
         Armed once the static reading is known (``static_y_uT``); the static reading itself is
         checked for saturation by the loop, which can say that the settings are at fault.
         """
-        if self.static_y_uT is None or not len(block.t_s):
+        if self.static_y_uT is None:
             return
-        axes = self.saturated_axes(block)
-        if axes:
-            raise OverloadError(f"overload guard: {describe_axes(axes)} saturated, so the reading "
-                                "is no measurement; the rod was backed off")
-        z_uT = block.field_uT[block.valid, 1] - self.static_y_uT
-        worst = float(np.max(np.abs(z_uT))) if len(z_uT) else 0.0
-        if worst > self.overload_z_uT:
-            raise OverloadError(f"overload guard: |z| reached {worst:.0f} µT, over the safe limit of "
-                                f"{self.overload_z_uT:.0f} µT; the rod was backed off")
+        check_overload(block.field_uT, block.counts, block.status, res=self.res,
+                       static_y_uT=self.static_y_uT, limit_uT=self.overload_z_uT, moved="rod")
 
     def take_chunk(self) -> StreamChunk:
         """Every sample kept since the last take, as one chunk (possibly empty)."""
@@ -155,15 +124,6 @@ class StreamRecorder:
         counts = (self.dropped, self.corrupt)
         self.dropped = self.corrupt = 0
         return counts
-
-
-def describe_axes(axes: str) -> str:
-    """``saturated_axes``'s answer in words: "the sensor's Z axis", "the sensor's X and Z axes"."""
-    if axes == "?":
-        return "one of the sensor's axes"
-    if len(axes) == 1:
-        return f"the sensor's {axes} axis"
-    return f"the sensor's {', '.join(axes[:-1])} and {axes[-1]} axes"
 
 
 def field_stats(block: Block) -> tuple[np.ndarray, np.ndarray, int]:

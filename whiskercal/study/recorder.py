@@ -3,7 +3,7 @@
 The recorder reads the sensor between the stage's status polls, so the board's buffer never
 overflows, tags every sample with the phase of the trial (approach, slide, retract), keeps every
 status report with the number of samples received before it (a clock-free alignment of the two
-devices), and guards against overload: a deflection beyond the safe |z| stops the run.
+devices), and applies the overload guard (whiskercal/rig/overload.py) to every sample.
 """
 
 from __future__ import annotations
@@ -12,16 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from whiskercal.errors import DeviceError
+from whiskercal.rig.overload import check_overload
 
-SENSOR_AXIS_Y = 1
-"""The deflection measurement z is the sensor's Y axis (docs/architecture.md)."""
 POLL_PERIOD_S = 0.02
 """Sensor time read between two stage polls (s): ~50 status reports a second."""
-
-
-class OverloadError(DeviceError):
-    """The whisker was bent beyond the safe deflection; the run stopped and backed off."""
 
 
 @dataclass
@@ -48,16 +42,20 @@ class StreamRecorder:
     static_y_uT
         The static (no contact) Y reading, µT.
     overload_uT
-        Stop when |Y - static| exceeds this, µT.
+        Stop when |Y - static| exceeds this, µT (or when an axis saturates).
     clock
         The stage port's clock (s): simulated time on the twin.
+    res
+        The configured MLX90393 resolution code (sets the axes' saturation count).
     """
 
-    def __init__(self, sensor, rate_hz: float, static_y_uT: float, overload_uT: float, clock):
+    def __init__(self, sensor, rate_hz: float, static_y_uT: float, overload_uT: float, clock,
+                 res: int = 2):
         self.sensor = sensor
         self.chunk = max(1, int(round(rate_hz * POLL_PERIOD_S)))
         self.static_y_uT = float(static_y_uT)
         self.overload_uT = float(overload_uT)
+        self.res = res
         self.clock = clock
         self.phase = 0
         self.samples = 0
@@ -88,10 +86,8 @@ class StreamRecorder:
         self.samples += n
         self.dropped += int(block.dropped)
         self.corrupt += int(block.corrupt)
-        worst = float(np.max(np.abs(block.field_uT[:, SENSOR_AXIS_Y] - self.static_y_uT)))
-        if worst > self.overload_uT:
-            raise OverloadError(f"deflection |z| reached {worst:.0f} µT, beyond the overload guard "
-                                f"of {self.overload_uT:.0f} µT; the plane was backed off")
+        check_overload(block.field_uT, block.counts, block.status, res=self.res,
+                       static_y_uT=self.static_y_uT, limit_uT=self.overload_uT, moved="plane")
 
     def on_poll(self, status) -> None:
         """``StageClient.wait_idle`` callback: keep the status, then read the sensor meanwhile."""

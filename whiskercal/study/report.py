@@ -17,7 +17,8 @@ from whiskercal.study.analysis import Criteria, TrialMetrics, TrialSeries, analy
 from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.dataset import PHASE_APPROACH, PHASE_SLIDE, Study, TrialRecord, read_study
 from whiskercal.study.localize import track
-from whiskercal.study.recorder import SENSOR_AXIS_Y, stage_position_per_sample
+from whiskercal.rig.overload import SENSOR_AXIS_Y
+from whiskercal.study.recorder import stage_position_per_sample
 from whiskercal.study.target import NoTargetError, TargetChoice, choose_target
 
 

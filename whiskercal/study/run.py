@@ -30,8 +30,8 @@ from whiskercal.study import truth as truth_module
 from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.dataset import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE, StudyWriter,
                                       TrialRecord)
-from whiskercal.study.recorder import SENSOR_AXIS_Y, OverloadError, StreamRecorder, \
-    stage_position_per_sample
+from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError
+from whiskercal.study.recorder import StreamRecorder, stage_position_per_sample
 
 ProgressCallback = Callable[[Progress], None]
 
@@ -238,7 +238,8 @@ class StudyRun:
         points = self.geometry.trial_waypoints_stage_mm(contact, depth_mm, self.config)
         self._move(points["retracted_start"], float(trials["rapid_speed_mm_s"]), None, PHASE_RETRACT)
         recorder = StreamRecorder(self.sensor, self.rate_hz, self.static_field_uT[SENSOR_AXIS_Y],
-                                  float(self.config["safety"]["overload_uT"]), self.clock)
+                                  float(self.config["safety"]["overload_uT"]), self.clock,
+                                  res=int(self.config["sensor"]["res"]))
         self.sensor.read_available()
         try:
             self._move(points["slide_start"], float(trials["approach_speed_mm_s"]), recorder, PHASE_APPROACH)
