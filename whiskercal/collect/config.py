@@ -21,13 +21,15 @@ DEFAULT_CONFIG_PATH = Path(__file__).with_name("default_grid.toml")
 class RigConfig:
     """Rig geometry: whisker frame origin in stage coordinates (mm), frame angle (deg), rod (mm).
 
-    ``sensor_id`` names the whisker sensor (empty: taken from the device).
+    ``trace_length_mm`` is the whisker's arc length from the centre of rotation to the tip, which
+    `whiskercal fit` traces; ``sensor_id`` names the whisker sensor (empty: taken from the device).
     """
 
     origin_stage_mm: tuple[float, float]
     angle_deg: float
     rod_radius_mm: float
     whisker_reach_mm: float
+    trace_length_mm: float
     sensor_id: str
 
 
