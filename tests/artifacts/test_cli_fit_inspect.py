@@ -184,8 +184,24 @@ def test_fit_warns_of_an_underfitting_surface_with_the_numbers(raw_file, tmp_pat
 def test_fit_reports_a_trace_length_option_that_overrides_the_recorded_one(raw_file, tmp_path):
     summary = json.loads(run("fit", str(raw_file), "--out", str(tmp_path / "cal.h5"),
                              "--trace-length-mm", "68", "--json").output)
-    assert summary["warnings"] == ["--trace-length-mm 68 mm overrides the 70 mm of the raw grid's "
-                                   "rig config"]
+    assert summary["warnings"] == ["the trace length 68 mm of --trace-length-mm overrides the "
+                                   "70 mm of the raw grid's rig config"]
     from whiskercal.artifacts.calibration import read_calibration
 
     assert read_calibration(tmp_path / "cal.h5").trace_length_mm == 68.0
+
+
+def test_fit_reports_a_rig_config_that_disagrees_with_the_twin_sensor(tmp_path):
+    from twin_grid import twin_grid
+    from whiskercal.twin.params import DEFAULT_SENSOR
+
+    grid = twin_grid(noise_uT=1.0, seed=2)
+    raw = write_raw_grid(tmp_path / "raw.h5", grid.rod_center_mm, grid.z_uT, grid.rod_radius_mm,
+                         DEFAULT_SENSOR.sensor_id,
+                         config={"rig": {"rod_radius_mm": grid.rod_radius_mm,
+                                         "trace_length_mm": 77.0}})
+    summary = json.loads(run("fit", str(raw), "--out", str(tmp_path / "cal.h5"), "--json").output)
+    expected = (f"the trace length 77 mm of the raw grid's rig config overrides the "
+                f"{DEFAULT_SENSOR.whisker.reach_mm:g} mm of the twin sensor "
+                f"'{DEFAULT_SENSOR.sensor_id}'")
+    assert expected in summary["warnings"]

@@ -22,31 +22,30 @@ def _degree(value: str) -> int | str:
         raise click.BadParameter("a degree 1..8 or 'auto'") from None
 
 
-def _known_trace_length_mm(grid) -> tuple[float, str] | None:
-    """The trace length (mm) the raw file's rig config records, else the twin sensor's of the
-    same id, with where it came from; None when neither knows it."""
+def _recorded_trace_lengths_mm(grid) -> list[tuple[float, str]]:
+    """Every trace length (mm) known for this grid, most authoritative first, with its source:
+    the raw file's rig config, then the twin sensor of the same id."""
+    found = []
     rig = grid.config.get("rig", {}) if isinstance(grid.config, dict) else {}
     if "trace_length_mm" in rig:
-        return float(rig["trace_length_mm"]), "the raw grid's rig config"
+        found.append((float(rig["trace_length_mm"]), "the raw grid's rig config"))
     sensor = _twin_sensor(grid.sensor_id)
     if sensor is not None:
-        return float(sensor.whisker.reach_mm), f"the twin sensor {grid.sensor_id!r}"
-    return None
+        found.append((float(sensor.whisker.reach_mm), f"the twin sensor {grid.sensor_id!r}"))
+    return found
 
 
 def _trace_length_mm(option: float | None, grid) -> tuple[float, list[str]]:
-    """The trace length (mm) and any warning: --trace-length-mm overrides what the raw file's
-    rig config or the twin sensor of the same id say, and a disagreement is reported."""
-    known = _known_trace_length_mm(grid)
-    if option is None:
-        if known is None:
-            raise UsageError("the trace length is unknown for this sensor: give --trace-length-mm "
-                             "(arc length from the suspension's centre of rotation to the tip)")
-        return known[0], []
-    if known is not None and abs(known[0] - option) > 1e-6:
-        return option, [f"--trace-length-mm {option:g} mm overrides the {known[0]:g} mm of "
-                        f"{known[1]}"]
-    return option, []
+    """The trace length (mm) and any warning: --trace-length-mm, else the raw file's rig config,
+    else the twin sensor of the same id; each source that disagrees with the one used is named."""
+    known = _recorded_trace_lengths_mm(grid)
+    if option is None and not known:
+        raise UsageError("the trace length is unknown for this sensor: give --trace-length-mm "
+                         "(arc length from the suspension's centre of rotation to the tip)")
+    used, source = (option, "--trace-length-mm") if option is not None else known[0]
+    warnings = [f"the trace length {used:g} mm of {source} overrides the {value:g} mm of {where}"
+                for value, where in known if abs(value - used) > 1e-6]
+    return used, warnings
 
 
 def _twin_sensor(sensor_id: str):
