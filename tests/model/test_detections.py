@@ -10,7 +10,8 @@ from analytic import bent_tip_mm, bent_z, paper_grid_mm, rigid_z
 from twin_grid import twin_grid
 from whiskercal.model import trace as trace_module
 from whiskercal.model.calibrate import MAX_EXTENSION_MM, CalibrationOptions, calibrate
-from whiskercal.model.diagnostics import UNDERFIT_FACTOR, expected_noise_uT, underfit_warning
+from whiskercal.model.diagnostics import (UNDERFIT_FACTOR, UNDERFIT_SHIFT_MM, expected_noise_uT,
+                                          underfit_warning)
 from whiskercal.model.errors import ExtrapolationLimitError, TraceDriftError, ZOutOfRangeError
 from whiskercal.model.surface import fit_surface
 from whiskercal.model.trace import Domain, LevelSetProblem, drift_tolerance_mm, trace_paper
@@ -116,7 +117,9 @@ def test_allowed_extrapolation_marks_the_range_and_the_lookup_refuses_it(grid):
 # --- 3. under-fitting ------------------------------------------------------------------------
 
 def test_underfit_warning_names_the_numbers():
-    assert underfit_warning(0.99 * UNDERFIT_FACTOR, 1.0, 0.01, 5) is None
+    assert underfit_warning(0.99 * UNDERFIT_FACTOR, 1.0, 0.25, 5) is None
+    # far above the noise, but the level sets move by less than the shift that matters
+    assert underfit_warning(40.0, 2.0, 0.9 * UNDERFIT_SHIFT_MM, 5) is None
     message = underfit_warning(40.0, 2.0, 0.25, 5)
     assert "CV RMSE 40.0 µT is 20.0 times the 2.00 µT noise" in message and "0.250 mm" in message
     assert "a higher degree" in message
@@ -134,7 +137,7 @@ def test_calibrate_warns_when_the_surface_underfits_the_noise(degree, warned):
                             np.full(len(points), noise_uT))
     assert calibration.expected_noise_uT == pytest.approx(noise_uT)
     ratio = calibration.fit.cv_rmse_uT / noise_uT
-    assert (ratio > UNDERFIT_FACTOR) == warned
+    assert (ratio > UNDERFIT_FACTOR and calibration.cv_level_set_shift_mm > UNDERFIT_SHIFT_MM) == warned
     assert any("under-fits" in w for w in calibration.warnings) == warned
 
 
