@@ -183,7 +183,7 @@ def test_stick_slip_does_not_depend_on_the_path_step():
 
 def test_equal_coefficients_slide_steadily_on_the_kinetic_edge():
     rows = _slide_record(30.0, STEP_MM, 1.0, mu_static=0.22, mu_kinetic=0.22)
-    assert np.all(rows[1:, 4] == 1.0)
+    assert np.all(rows[1:, 4] == 1.0) and np.all(rows[:, 3] == 0)  # sliding, never a stick-slip
     np.testing.assert_allclose(rows[:, 2] / rows[:, 1], 0.22, rtol=1e-9)
 
 
@@ -211,3 +211,16 @@ def test_warm_push_in_through_the_switch_to_tangential_never_fails(step_mm, moti
         assert np.all(previous.shape_mm(201)[1:] @ plane.normal >= plane.offset_mm - 1e-4)
     switch = kinds.index("tangential")
     assert set(kinds[:switch]) == {"tip"} and set(kinds[switch:]) == {"tangential"}
+
+
+def test_a_long_step_holds_as_many_slips_as_periods_of_load():
+    from whiskercal.twin.plane import slips_within_step
+
+    plane = plane_for_depth(WHISKER, 30.0)            # mu_s 0.30, rest ratio 0.148
+    period = plane.mu_static - plane.rest_ratio
+    # loaded from 0.2 by 0.5: 0.1 to break loose, then 0.4 = two more periods and 0.096 over
+    ratio, slips = slips_within_step(0.2, 0.7, plane)
+    assert slips == 3 and ratio == pytest.approx(plane.rest_ratio + 0.4 - 2 * period)
+    assert slips_within_step(-0.2, -0.7, plane) == (pytest.approx(-ratio), 3)
+    # just over the edge: one slip, at rest
+    assert slips_within_step(0.29, 0.3001, plane) == (pytest.approx(plane.rest_ratio + 1e-4), 1)

@@ -82,3 +82,28 @@ def test_a_slide_saws_as_the_mechanics_do():
     assert np.all(np.sign(z_steps[slipped]) == jump_sign)
     assert np.all(np.sign(z_steps[~slipped]) == -jump_sign)
     assert np.min(np.abs(z_steps[slipped])) > 1.5 * np.max(np.abs(z_steps[~slipped]))
+
+
+def test_the_fixture_passes_its_friction_to_the_plane():
+    from whiskercal.twin.world import PlaneFixture
+
+    tool = np.array([60.0, -20.0])
+    default = PlaneFixture().obstacle(tool, -1)
+    custom = PlaneFixture(mu_static=0.4, slip_rebound=0.0).obstacle(tool, -1)
+    assert (default.mu_static, default.slip_rebound) == (0.30, 0.9)
+    assert (custom.mu_static, custom.mu_kinetic, custom.slip_rebound) == (0.4, 0.22, 0.0)
+    assert custom.motion_sign == -1
+    # the surface passes through the tool point; sliding is measured along the tangent
+    assert custom.normal @ tool == pytest.approx(custom.offset_mm)
+    assert custom.slide_mm == pytest.approx(PlaneFixture().tangent() @ tool)
+
+
+def test_the_end_to_end_benchmark_measures_the_slides():
+    from whiskercal.bench.twin_speed import world_study_scene
+
+    result = world_study_scene(depths_mm=(20.0,), travel_mm=3.0, name="bench-plane-test")
+    # 3 mm at 10 mm/s plus the acceleration ramps; 300 samples a simulated second
+    assert 0.3 <= result["world_slides_simulated_s"] < 0.5
+    assert result["world_samples"] == pytest.approx(300 * result["world_total_simulated_s"], rel=0.02)
+    assert result["world_solver_failures"] == 0
+    assert result["world_slides_realtime_factor"] > 0 and result["world_total_cpu_s"] > 0

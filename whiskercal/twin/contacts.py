@@ -62,10 +62,12 @@ def free(whisker: WhiskerParams, slipped_past: bool = False) -> Equilibrium:
 
 
 def make_equilibrium(whisker, kind: str, code: int, z, p, sliding=False,
-                     anchor_mm=math.nan, anchor_on=None, slips: int = 0) -> Equilibrium:
+                     anchor_mm=math.nan, anchor_on=None, slips: int = 0,
+                     stuck_step=None) -> Equilibrium:
     """Convert a nondimensional solution into an `Equilibrium` in mm, N, rad.
 
-    `anchor_on`: a `Plane` whose surface coordinate of the tip becomes `anchor_mm`.
+    `anchor_on`: a `Plane` whose surface coordinate of the tip becomes `anchor_mm`; `slips` and
+    `stuck_step` pass through (see `Equilibrium`).
     """
     length, force_scale = whisker.length_mm, whisker.force_scale_n
     moment, fx, fy, arc = el.unpack(code, z, p)
@@ -79,7 +81,8 @@ def make_equilibrium(whisker, kind: str, code: int, z, p, sliding=False,
         root_shift_mm=p[el.P_CTRANS] * force * length, contact_mm=np.array([x, y]) * length,
         contact_arc_mm=float(arc * length), force_n=force * force_scale,
         tip_mm=tip, whisker=whisker, sliding=bool(sliding), anchor_mm=float(anchor_mm),
-        slips=int(slips), solution=(code, np.array(z, dtype=float), p.copy()))
+        slips=int(slips), solution=(code, np.array(z, dtype=float), p.copy()),
+        stuck_step=stuck_step)
 
 
 def circle_params(whisker, center_mm, radius_mm: float, side: int) -> np.ndarray:

@@ -119,14 +119,32 @@ def slips_within_step(ratio_start: float, ratio_stuck: float, plane: Plane
     return sign * (plane.rest_ratio + after - extra * period), 1 + extra
 
 
+def _stuck_solve(previous: Equilibrium, p: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The tip held at the previous anchor, from the last step's trend when there is one."""
+    start = previous.solution[1][:3]
+    if previous.stuck_step is not None:
+        z, ok = solve_kind(el.TIP_POINT, start + previous.stuck_step, p)
+        if ok:
+            return z, ok
+    return solve_kind(el.TIP_POINT, start, p)
+
+
+def _stuck_step(previous: Equilibrium | None, state) -> np.ndarray | None:
+    """Change of the unknowns over a step that stayed stuck at the same anchor, else None."""
+    if previous is None or state is None or state[0] != el.TIP_POINT:
+        return None
+    return state[1] - previous.solution[1][:3]
+
+
 def _stick_or_slip(whisker, plane: Plane, previous: Equilibrium):
     """From a tip contact: stay stuck to the anchor if the static cone allows, else slip.
 
     Returns ((code, z, p) or None, sliding, slips): `sliding` True only for steady sliding on
-    the kinetic edge (mu_s = mu_k, or no stuck solution), `slips` the slip events in the step.
+    the kinetic edge (mu_s = mu_k, or no stuck solution), `slips` the stick-slip events in the
+    step (a stuck tip breaking loose and sticking again).
     """
     p = plane_params(whisker, plane, 0.0, previous.anchor_mm)
-    z, ok = solve_kind(el.TIP_POINT, previous.solution[1][:3], p)
+    z, ok = _stuck_solve(previous, p)
     if ok:
         normal, tangential = _forces(z, plane)
         if normal > 0.0 and abs(tangential) <= plane.mu_static * normal:
@@ -139,13 +157,15 @@ def _stick_or_slip(whisker, plane: Plane, previous: Equilibrium):
     else:
         direction = float(plane.motion_sign)
         z = previous.solution[1][:3]
-    return _tip_slide(whisker, plane, z, direction * plane.mu_kinetic), True, 1
+    # steady sliding on the kinetic edge: no stick, so no slip events either
+    return _tip_slide(whisker, plane, z, direction * plane.mu_kinetic), True, 0
 
 
 def _at_depth(plane: Plane, depth_mm: float, total_mm: float) -> Plane:
     """`plane` moved back along its normal so that it is `depth_mm` past first touch."""
     return Plane(plane.point_mm - (total_mm - depth_mm) * plane.normal, plane.normal_rad,
-                 plane.slide_mm, plane.mu_static, plane.mu_kinetic, plane.motion_sign)
+                 plane.slide_mm, plane.mu_static, plane.mu_kinetic, plane.motion_sign,
+                 plane.slip_rebound)
 
 
 def _first_guesses(plane: Plane, mu_signed: float):
@@ -202,13 +222,14 @@ def _approach(whisker, plane: Plane):
     return state
 
 
-def _report(whisker, plane, state, sliding: bool, slips: int = 0) -> Equilibrium:
+def _report(whisker, plane, state, sliding: bool, slips: int = 0,
+            previous: Equilibrium | None = None) -> Equilibrium:
     if state is None:
         return free(whisker)
     code, z, p = state
     kind = "tangential" if code == el.TANGENT_LINE else "tip"
     return make_equilibrium(whisker, kind, code, z, p, sliding or code == el.TANGENT_LINE,
-                            anchor_on=plane, slips=slips)
+                            anchor_on=plane, slips=slips, stuck_step=_stuck_step(previous, state))
 
 
 def solve_plane(whisker, plane: Plane, previous: Equilibrium | None = None) -> Equilibrium:
@@ -243,7 +264,7 @@ def solve_plane(whisker, plane: Plane, previous: Equilibrium | None = None) -> E
         except UsageError:
             state, sliding, slips = None, True, 0
         if state is not None or not _reaches(whisker, plane):
-            return _report(whisker, plane, state, sliding, slips)
+            return _report(whisker, plane, state, sliding, slips, previous)
     return _report(whisker, plane, _approach(whisker, plane), True)
 
 

@@ -138,6 +138,9 @@ class Equilibrium:
     slips: int = 0
     # Nondimensional unknowns of the solve and its contact-kind code, for warm starts.
     solution: tuple = field(default=(), repr=False, compare=False)
+    # Plane contacts that stuck: how the unknowns changed over the last step (a predictor that
+    # saves the next stuck solve one Newton iteration).
+    stuck_step: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def in_contact(self) -> bool:

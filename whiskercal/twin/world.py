@@ -99,6 +99,7 @@ class PlaneFixture:
     normal_rad: float = DEFAULT_PLANE_NORMAL_RAD
     mu_static: float | None = None
     mu_kinetic: float | None = None
+    slip_rebound: float | None = None  # None: the mechanics' defaults (twin.scenes)
     half_length_mm: float = 60.0
     thickness_mm: float = 10.0
 
@@ -134,8 +135,9 @@ class PlaneFixture:
 
     @cached_property
     def _friction(self) -> dict:
-        return {k: v for k, v in (("mu_static", self.mu_static), ("mu_kinetic", self.mu_kinetic))
-                if v is not None}
+        given = (("mu_static", self.mu_static), ("mu_kinetic", self.mu_kinetic),
+                 ("slip_rebound", self.slip_rebound))
+        return {name: value for name, value in given if value is not None}
 
 
 @dataclass(frozen=True)
