@@ -69,6 +69,10 @@ def test_paper_trace_at_a_coarse_step_is_refused_not_silent(calibration, grid):
         if entry["status"] == "ok":
             assert entry["error_vs_reference_mm"] < 0.2  # what passes the drift check is close
     assert result["silent_failures"] == 0
+    assert result["detected"] == result["statuses"]["TraceDriftError"] >= 2
+    summary = stability._detections(result)
+    assert summary["detected_by"]["TraceDriftError"] == result["detected"]
+    assert summary["silent"] == 0
 
 
 def test_a_grid_cut_short_of_the_tip_is_refused(grid):
@@ -79,6 +83,7 @@ def test_a_grid_cut_short_of_the_tip_is_refused(grid):
     assert full["status"] == "ok" and full["error_vs_truth_mm"] < 0.5
     assert [e["status"] for e in short] == ["ExtrapolationLimitError"] * 2
     assert result["silent_failures"] == 0
+    assert result["detected"] == 2
 
 
 def test_noise_raises_the_cross_validated_error_with_the_tip_error(grid):
@@ -114,6 +119,12 @@ def test_level_set_tip_breaks_down_for_a_stiff_suspension():
     assert stiff["status"] != "ok"
     assert stiff["silent"] == (stiff["status"] == "breaks down")
     assert result["valid_ratio_range"] == [default["setting"], default["setting"]]
+    # not a run-time detection: the map records it as a documented limit of the method
+    limit = result["documented_limit"]
+    assert limit["kind"] == "documented limit" and limit["detected_at_runtime"] is False
+    assert limit["valid_ratio_range"] == result["valid_ratio_range"]
+    assert stiff["documented_limit"] == (stiff["status"] == "breaks down")
+    assert not default["documented_limit"]
 
 
 @pytest.mark.slow
@@ -125,3 +136,9 @@ def test_bench_only_stability_writes_the_map(tmp_path):
     assert set(payload["probes"]) == {"z_range", "domain", "vanishing_gradient", "paper_step",
                                       "noise", "kalman", "plane_slip", "stiffness_ratio"}
     assert (tmp_path / "stability.png").read_bytes().startswith(b"\x89PNG")
+    detections = payload["supports"]["detections"]
+    assert detections["paper_step"]["detected_by"] == {"TraceDriftError": 1}
+    assert detections["domain"]["detected_by"] == {"ExtrapolationLimitError": 1}
+    assert detections["paper_step"]["silent"] == detections["domain"]["silent"] == 0
+    limits = payload["supports"]["documented_limits"]
+    assert limits["stiffness_ratio"]["detected_at_runtime"] is False

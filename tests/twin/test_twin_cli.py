@@ -1,6 +1,7 @@
 """`whiskercal twin cantilever` and `whiskercal twin validate`."""
 
 import json
+import math
 
 import pytest
 from click.testing import CliRunner
@@ -91,3 +92,28 @@ def test_plane_study_bad_depths_are_one_line():
     assert result.exit_code == 2
     expected = "error: --depths must be numbers separated by commas, got 'a,b'."
     assert result.output.strip() == expected
+
+
+def test_validate_reports_the_stick_slip_checks():
+    payload = json.loads(run("twin", "validate", "--json").output)
+    stick_slip = [c for c in payload["checks"] if c["name"].startswith("stick-slip")]
+    assert len(stick_slip) == 3
+    assert all(c["value"] <= c["limit"] for c in stick_slip)
+    events = int(stick_slip[0]["detail"].split()[0])
+    assert events >= 10  # a 10 mm slide at 20 mm depth slips many times
+
+
+def test_stick_slip_check_fails_when_a_slip_does_not_come_to_rest(monkeypatch):
+    # a twin whose slips stop on the kinetic edge instead of at the rest ratio must fail
+    from whiskercal.twin import plane as plane_module
+    from whiskercal.twin import validation
+
+    def slip_to_kinetic_edge(ratio_start, ratio_stuck, plane):
+        return math.copysign(plane.mu_kinetic, ratio_stuck), 1
+
+    monkeypatch.setattr(plane_module, "slips_within_step", slip_to_kinetic_edge)
+    checks = {c.name: c for c in validation.check_stick_slip(n_steps=600)}
+    rest = checks["stick-slip: after each slip |Ft|/Fn sits at the rest ratio"]
+    assert not rest.ok
+    assert rest.value > 0.05  # mu_k sits 0.072 above the default rest ratio
+

@@ -8,15 +8,21 @@ tests pin. Probes:
 
 - ``z_range``: both tracers and the lookup for z from beyond the data's low end to beyond its
   high end (:class:`ZOutOfRangeError`, :class:`DomainExitError`);
-- ``domain``: grids cut short of the tip (reach 72 .. 40 mm): the trace must extrapolate;
+- ``domain``: grids cut short of the tip (reach 72 .. 40 mm): the trace must extrapolate, and
+  past 9.5 mm beyond the grid it stops (:class:`ExtrapolationLimitError`);
 - ``vanishing_gradient``: a surface whose level set z = 0 is a ridge of zero gradient;
-- ``paper_step``: the paper's fixed-step trace at steps up to 10 mm;
+- ``paper_step``: the paper's fixed-step trace at steps up to 20 mm; a step too coarse for the
+  surface drifts off the level set (:class:`TraceDriftError`);
 - ``noise``: the averaged reading's noise from 1 to 300 µT, the whole calibration;
 - ``kalman``: degenerate windows (identical tips, one tip, NaN) and an outlier;
 - ``plane_slip``: the flat-plane study's slip into tangential contact, flagged by
   :func:`whiskercal.study.analysis.analyse_trial` from the data alone;
 - ``stiffness_ratio``: the suspension-to-wire stiffness ratio k_θ·L/EI at which the level-set
   approximation of the tip (a contact at the tip reads like a contact on the shaft) breaks down.
+  Nothing in a calibration can see this, so the map records it as a **documented limit** of the
+  method (``documented_limit``; docs/bench.md), not as a run-time detection.
+
+Each probe also counts its ``detected`` settings; ``supports["detections"]`` sums them per probe.
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ from whiskercal.model.trace import trace_fast, trace_paper
 from whiskercal.twin import truth
 
 SILENT_LIMIT_MM = 2.0  # the paper's error bound of the flat-plane study
+RETURNED = ("ok", "tip", "breaks down")  # statuses under which a number came back
 STIFFNESS_RATIO_FACTORS = (0.2, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0, 5.0)
 
 
@@ -65,7 +72,13 @@ def _summary(entries: list[dict]) -> dict:
     statuses: dict[str, int] = {}
     for entry in entries:
         statuses[entry["status"]] = statuses.get(entry["status"], 0) + 1
-    return {"statuses": statuses, "silent_failures": sum(e["silent"] for e in entries)}
+    return {"statuses": statuses, "detected": sum(detected(e) for e in entries),
+            "silent_failures": sum(e["silent"] for e in entries)}
+
+
+def detected(entry: dict) -> bool:
+    """Did the method itself report this setting's failure (an exception or an analysis flag)?"""
+    return entry["status"] not in RETURNED
 
 
 def z_range_probe(calibration, sensor, n: int = 25) -> dict:
@@ -215,15 +228,37 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
     result = {"benchmark": "stability", "quick": quick, "machine": machine_info(),
               "silent_limit_mm": SILENT_LIMIT_MM, "probes": {}}
     for name, probe in probes.items():
-        result["probes"][name] = probe()
+        result["probes"][name] = _with_summary(probe())
         say({"probe": name})
     result["supports"] = _supports(result["probes"])
     return result
+
+
+def _with_summary(probe):
+    """A probe's result with its status counts, detections and silent failures."""
+    if isinstance(probe, dict) and "entries" in probe and "statuses" not in probe:
+        probe.update(_summary(probe["entries"]))
+    return probe
+
+
+def _detections(probe: dict) -> dict:
+    """Detected and silent settings of one probe, over all its methods, by status."""
+    entries = probe.get("entries") or [e for sub in probe.values() if isinstance(sub, dict)
+                                       for e in sub.get("entries", [])]
+    by_status: dict[str, int] = {}
+    for entry in entries:
+        if detected(entry):
+            by_status[entry["status"]] = by_status.get(entry["status"], 0) + 1
+    return {"detected": sum(by_status.values()), "detected_by": by_status,
+            "silent": sum(bool(e.get("silent")) for e in entries)}
 
 
 def _supports(probes: dict) -> dict:
     ratio = probes["stiffness_ratio"]
     return {"level_set_valid_ratio_range": ratio.get("valid_ratio_range"),
             "default_ratio": ratio.get("default_ratio"),
+            "documented_limits": {"stiffness_ratio": ratio.get("documented_limit")},
+            "detections": {name: _detections(probe) for name, probe in probes.items()
+                           if isinstance(probe, dict)},
             "silent_failures": {name: probe.get("silent_failures", 0) for name, probe in probes.items()
                                 if isinstance(probe, dict)}}

@@ -2,7 +2,9 @@
 
 Filled circles are numbers that came back (their error against the truth or the reference);
 crosses at the bottom of a panel are detected failures (an exception or an analysis flag),
-labelled with the exception's name; red rings mark silent failures (a number, but a wrong one).
+labelled with the exception's name; red rings mark silent failures (a number, but a wrong one);
+orange rings mark a documented limit of the method (wrong numbers that no run-time check can see,
+measured here and stated in docs/bench.md).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 
 from whiskercal.bench.pareto import _pyplot
+from whiskercal.bench.stability import RETURNED
 
 PANELS = (
     ("z_range", "fast", "tracer (fast): z beyond the data", "z (µT)", "error_vs_truth_mm"),
@@ -33,8 +36,6 @@ def _entries(probes: dict, name: str, sub: str | None) -> list[dict]:
     return probe.get("entries", []) if isinstance(probe, dict) else []
 
 
-RETURNED = ("ok", "tip", "breaks down")  # a number came back (right or wrong)
-
 
 def _value(entry: dict, y_key: str | None) -> float:
     value = entry.get(y_key, np.nan) if y_key else np.nan
@@ -47,10 +48,13 @@ def _panel(ax, entries: list[dict], title: str, x_label: str, y_key: str | None)
     if ok:
         ax.plot([e["setting"] for e in ok], [_value(e, y_key) for e in ok], "o", color="C0",
                 ms=4, label="returned a value")
-    silent = [e for e in entries if e.get("silent")]
-    if y_key is not None and silent:
-        ax.plot([e["setting"] for e in silent], [_value(e, y_key) for e in silent], "o",
-                mfc="none", mec="red", ms=10, label="silent failure")
+    silent = [e for e in entries if e.get("silent") and not e.get("documented_limit")]
+    documented = [e for e in entries if e.get("documented_limit")]
+    for group, color, label in ((silent, "red", "silent failure"),
+                                (documented, "darkorange", "documented limit (not detected)")):
+        if y_key is not None and group:
+            ax.plot([e["setting"] for e in group], [_value(e, y_key) for e in group], "o",
+                    mfc="none", mec=color, ms=10, label=label)
     for e in failed:
         ax.plot(e["setting"], _value(e, y_key), "x", color="C3", ms=8)
         ax.annotate(e["status"].replace("Error", ""), (e["setting"], _value(e, y_key)), fontsize=6,
@@ -59,7 +63,7 @@ def _panel(ax, entries: list[dict], title: str, x_label: str, y_key: str | None)
     ax.set_xlabel(x_label, fontsize=8)
     ax.set_ylabel(y_key or "", fontsize=7)
     ax.grid(True, alpha=0.3)
-    if ok or silent:
+    if ok or silent or documented:
         ax.legend(fontsize=6)
 
 
@@ -83,7 +87,8 @@ def draw_stability(result: dict, path: str | Path) -> Path:
         if name == "vanishing_gradient":
             ax.set_xscale("symlog", linthresh=1e-6)
     _kalman_table(axes.flat[-1], probes.get("kalman", []))
-    fig.suptitle("whiskercal stability map: values returned, failures detected (x), silent failures (red)")
+    fig.suptitle("whiskercal stability map: values returned, failures detected (x), "
+                 "silent failures (red), documented limits (orange)")
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -24,21 +24,13 @@ BREAKDOWN_MM = 2.0
 TRUTH_SAMPLES = 61
 
 
-def _solve(whisker, plane, previous):
-    """Warm-started plane solve; a cold one when the warm start finds no equilibrium (the twin's
-    stick-slip continuation can lose a deep push-in that a solve without history still finds)."""
-    try:
-        return mechanics.solve_plane(whisker, plane, previous)
-    except WhiskercalError:
-        return mechanics.solve_plane(whisker, plane, None)
-
-
 def _push_in(whisker, depth_mm: float, sensor) -> tuple[np.ndarray, np.ndarray, object]:
     """z (µT) while the plane is pushed from first contact to ``depth_mm``, and the last state."""
     depths = np.arange(PUSH_STEP_MM, depth_mm + 1e-9, PUSH_STEP_MM)
     z, previous = [], None
     for depth in depths:
-        previous = _solve(whisker, mechanics.plane_for_depth(whisker, depth), previous)
+        plane = mechanics.plane_for_depth(whisker, depth)
+        previous = mechanics.solve_plane(whisker, plane, previous)
         z.append(truth.z_of_equilibrium(sensor, previous))
     return depths, np.asarray(z), previous
 
@@ -50,7 +42,7 @@ def _slide(sensor, depth_mm: float, previous, n: int, rng) -> dict:
     z, tips, kinds = [], [], []
     for k in range(n):
         moved = replace(plane, slide_mm=plane.motion_sign * k * SLIDE_STEP_MM)
-        previous = _solve(whisker, moved, previous)
+        previous = mechanics.solve_plane(whisker, moved, previous)
         z.append(truth.z_of_equilibrium(sensor, previous))
         tips.append(previous.tip_mm)
         kinds.append(previous.kind)
@@ -141,9 +133,23 @@ def stiffness_ratio_probe(factors=(0.2, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0, 5.0)
     entries = [_ratio_entry(float(f), seed) for f in factors]
     valid = [e["setting"] for e in entries if e["status"] == "ok"]
     for e in entries:
-        # the calibration itself cannot see this error: only the twin's truth shows it
+        # the calibration itself cannot see this error: only the twin's truth shows it, so it
+        # is a documented limit of the method rather than a runtime detection
         e["silent"] = e["status"] == "breaks down"
+        e["documented_limit"] = e["silent"]
+    valid_range = [min(valid), max(valid)] if valid else None
     return {"setting_unit": "k_theta*L/EI", "default_ratio": stiffness_ratio(DEFAULT_SENSOR.whisker),
-            "breakdown_mm": BREAKDOWN_MM,
-            "valid_ratio_range": [min(valid), max(valid)] if valid else None,
+            "breakdown_mm": BREAKDOWN_MM, "valid_ratio_range": valid_range,
+            "documented_limit": documented_limit(valid_range),
             "entries": entries, "silent_failures": sum(e["silent"] for e in entries)}
+
+
+def documented_limit(valid_range) -> dict:
+    """The stiffness ratio's limit as the map records it: measured here, documented in
+    docs/bench.md, and not detected at run time (nothing in a calibration sees it)."""
+    return {"kind": "documented limit", "detected_at_runtime": False,
+            "valid_ratio_range": valid_range, "breakdown_mm": BREAKDOWN_MM,
+            "statement": ("the level-set tip stays within the breakdown error of the true tip "
+                          "only for k_theta*L/EI inside valid_ratio_range (as finely as swept); "
+                          "outside it the calibration succeeds and the tip is wrong"),
+            "documented_in": "docs/bench.md"}

@@ -4,7 +4,11 @@
 - the root-spring limit: a very stiff wire on a soft root turns rigidly about the root;
 - equilibrium residuals: each solution re-integrated by scipy's adaptive ODE solver from the
   root (moment balance at the suspension, force balance, contact geometry);
-- the friction cone along a slide: inside it while sticking, on its edge while sliding.
+- the friction cone on the first, history-free step of a slide (on its kinetic edge) and
+  along a slide (inside it while sticking);
+- stick-slip along a finely stepped slide: every reported state sticks inside the cone; before
+  each slip event the tip held at its anchor reaches mu_s, after it the ratio sits at the rest
+  ratio (`Plane.rest_ratio`) plus only the load the rest of that step adds.
 
 Each check returns a `Check` (value against its limit); `run_all()` returns them all.
 """
@@ -161,7 +165,11 @@ def check_residuals(whisker: WhiskerParams | None = None) -> list[Check]:
 
 def check_friction_cone(whisker: WhiskerParams | None = None, depth_mm: float = 40.0,
                         n_steps: int = 300, step_mm: float = 0.05) -> list[Check]:
-    """Slide the plane: |F_t|/F_n <= mu_s while sticking and = mu_k while sliding."""
+    """Slide the plane: |F_t|/F_n <= mu_s while sticking and = mu_k while sliding.
+
+    With stick-slip the only steady sliding is the first, history-free step (the approach
+    slides on the kinetic edge); `check_stick_slip` covers the slip events.
+    """
     whisker = whisker or WhiskerParams()
     plane = plane_for_depth(whisker, depth_mm)
     previous, stick_excess, slide_error, n_slips = None, -math.inf, 0.0, 0
@@ -177,10 +185,68 @@ def check_friction_cone(whisker: WhiskerParams | None = None, depth_mm: float = 
         previous = eq
     return [Check("sticking: |Ft|/Fn - mu_s (must be <= 0)", stick_excess, 0.0),
             Check("sliding: | |Ft|/Fn - mu_k |", slide_error if n_slips else math.inf, 1e-9,
-                  f"{n_slips} of {n_steps} steps slid")]
+                  f"{n_slips} of {n_steps} steps slid steadily (the history-free first step)")]
+
+
+def _ratio(eq: Equilibrium, plane: Plane) -> float:
+    """|F_t|/F_n of a contact force against the plane."""
+    return abs(float(eq.force_n @ plane.tangent)) / float(eq.force_n @ plane.normal)
+
+
+def _held_ratio(whisker: WhiskerParams, plane: Plane, previous: Equilibrium) -> float:
+    """|F_t|/F_n with the tip held at the previous anchor: the same step under a cone so wide
+    (mu_s = 100) that it cannot slip."""
+    return _ratio(solve_plane(whisker, replace(plane, mu_static=100.0), previous), plane)
+
+
+def _slide_slips(whisker, depth_mm: float, n_steps: int, step_mm: float):
+    """Walk a slide; yield (plane, state, previous state) per step."""
+    base, previous = plane_for_depth(whisker, depth_mm), None
+    for i in range(n_steps):
+        plane = replace(base, slide_mm=base.motion_sign * i * step_mm)
+        eq = solve_plane(whisker, plane, previous)
+        yield plane, eq, previous
+        previous = eq
+
+
+def check_stick_slip(whisker: WhiskerParams | None = None, depth_mm: float = 20.0,
+                     n_steps: int = 2000, step_mm: float = 0.005) -> list[Check]:
+    """A 10 mm slide in 5 µm steps: the cone, breakaway at mu_s and rest after each slip.
+
+    Three values: the largest |F_t|/F_n - mu_s of any state after the first (<= 0: every state
+    sticks inside the cone); at each slip event the largest mu_s - |F_t|/F_n of the tip held at
+    its anchor (<= 0: the load reached mu_s before the slip); and the largest distance of the
+    ratio after the slip from the rest ratio plus the load that the rest of the step adds after
+    breakaway (the held ratio's excess over mu_s; a fine step keeps it small).
+    """
+    whisker = whisker or WhiskerParams()
+    outside, short_of_breakaway, off_rest, events = -math.inf, -math.inf, 0.0, 0
+    largest_carried = 0.0
+    for plane, eq, previous in _slide_slips(whisker, depth_mm, n_steps, step_mm):
+        if previous is None:
+            continue  # the history-free first step slides on the kinetic edge
+        ratio = _ratio(eq, plane)
+        outside = max(outside, ratio - plane.mu_static)
+        if eq.slips:
+            events += eq.slips
+            held = _held_ratio(whisker, plane, previous)
+            short_of_breakaway = max(short_of_breakaway, plane.mu_static - held)
+            # load applied after breakaway, less one full period per further slip in the step
+            period = plane.mu_static - plane.rest_ratio
+            carried = held - plane.mu_static - (eq.slips - 1) * period
+            largest_carried = max(largest_carried, carried)
+            off_rest = max(off_rest, abs(ratio - plane.rest_ratio - carried))
+    detail = (f"{events} slip events in {n_steps} steps of {step_mm * 1e3:g} µm at {depth_mm:g} mm;"
+              f" load carried past a slip <= {largest_carried:.4f}")
+    return [Check("stick-slip: every state inside the cone, |Ft|/Fn - mu_s (<= 0)", outside,
+                  0.0, detail),
+            Check("stick-slip: before each slip the held tip reaches mu_s, mu_s - |Ft|/Fn (<= 0)",
+                  short_of_breakaway if events else math.inf, 0.0, detail),
+            Check("stick-slip: after each slip |Ft|/Fn sits at the rest ratio",
+                  off_rest if events else math.inf, 1e-6, detail)]
 
 
 def run_all() -> list[Check]:
     """Every mechanics check, in the order `whiskercal twin validate` prints them."""
     return [check_cantilever(), check_root_spring_limit(), *check_residuals(),
-            *check_friction_cone()]
+            *check_friction_cone(), *check_stick_slip()]
