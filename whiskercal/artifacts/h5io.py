@@ -13,6 +13,7 @@ import numpy as np
 
 from whiskercal import __version__
 from whiskercal.errors import ArtifactError
+from whiskercal.jsontools import jsonable
 
 
 def sha256_file(path: str | Path, chunk_bytes: int = 1 << 20) -> str:
@@ -42,17 +43,7 @@ def write_provenance(group: h5py.Group, *, schema: str, schema_version: str, sen
     group.attrs["whiskercal_version"] = __version__
     group.attrs["sensor_id"] = sensor_id
     group.attrs["inputs_sha256"] = json.dumps(dict(inputs or {}), sort_keys=True)
-    group.attrs["config"] = json.dumps(dict(config or {}), sort_keys=True, default=_json_default)
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serializable: {type(value).__name__}")
+    group.attrs["config"] = json.dumps(dict(config or {}), sort_keys=True, default=jsonable)
 
 
 def read_json_attr(group: h5py.Group, name: str, default: Any = None) -> Any:

@@ -8,7 +8,8 @@ from dataclasses import dataclass
 from typing import Any, NoReturn
 
 import click
-import numpy as np
+
+from whiskercal.jsontools import jsonable
 
 
 @dataclass
@@ -32,17 +33,9 @@ def abort(message: str, code: int = 1) -> NoReturn:
     sys.exit(code)
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serializable: {type(value).__name__}")
-
-
 def echo_json(payload: Any) -> None:
     """Print one JSON document on stdout (numpy values converted)."""
-    click.echo(json.dumps(payload, default=_jsonable, indent=2, sort_keys=False))
+    click.echo(json.dumps(payload, default=jsonable, indent=2, sort_keys=False))
 
 
 pass_app = click.make_pass_decorator(App, ensure=True)

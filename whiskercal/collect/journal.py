@@ -18,9 +18,8 @@ import zlib
 from pathlib import Path
 from typing import Any, Iterator
 
-import numpy as np
-
 from whiskercal.errors import ArtifactError
+from whiskercal.jsontools import jsonable
 
 
 def journal_path(h5_path: str | Path) -> Path:
@@ -29,17 +28,9 @@ def journal_path(h5_path: str | Path) -> Path:
     return h5_path.with_name(h5_path.name + ".journal")
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serializable: {type(value).__name__}")
-
-
 def encode_line(record: dict[str, Any]) -> bytes:
     """One journal line for a record (JSON with its CRC-32 in front)."""
-    body = json.dumps(record, default=_jsonable, separators=(",", ":")).encode()
+    body = json.dumps(record, default=jsonable, separators=(",", ":")).encode()
     return b"%08x " % zlib.crc32(body) + body + b"\n"
 
 
