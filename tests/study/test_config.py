@@ -17,7 +17,7 @@ def test_defaults_are_the_papers_study():
 
 
 @pytest.mark.parametrize("text, message", [
-    ("[trials]\nspeed = 3\n", "unknown configuration key 'trials.speed'"),
+    ("[trials]\nspeed = 3\n", r"\[trials\]: unknown setting 'speed'"),
     ("[trials]\ndepths_mm = [10.0, 5.0]\n", "positive and increasing"),
     ("[safety]\noverload_uT = 100.0\n", "must exceed contact.threshold_uT"),
     ("trials = 3\n", "must be a table"),

@@ -76,7 +76,7 @@ def test_report_names_missing_trials_in_one_line(tmp_path, twin_study, twin_cali
 @pytest.mark.parametrize("args, code, message", [
     (["optimal-depth", "report", "nowhere.h5", "--artifact", "nowhere-cal.h5"], 4, "no such file"),
     (["optimal-depth", "run", "--stage", "sim://x/stage", "--sensor", "sim://x/sensor",
-      "--out", "o.h5", "--config", "missing.toml"], 2, "no such configuration file"),
+      "--out", "o.h5", "--config", "missing.toml"], 2, "no such config file"),
 ])
 def test_bad_inputs_end_with_one_line(tmp_path, monkeypatch, args, code, message):
     monkeypatch.chdir(tmp_path)

@@ -6,13 +6,12 @@ a typo never silently falls back to a default.
 
 from __future__ import annotations
 
-import copy
-import tomllib
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
 
 from whiskercal.errors import UsageError
+from whiskercal.tomlconfig import merge_overrides, read_toml
 
 DEFAULT_CONFIG_PATH = Path(__file__).with_name("default_grid.toml")
 
@@ -119,7 +118,7 @@ class CollectConfig:
 
     def replace(self, **sections: dict[str, Any]) -> "CollectConfig":
         """A copy with some keys changed, e.g. ``replace(acquisition={"samples_per_point": 5})``."""
-        return config_from_dict(_merge(self.to_dict(), sections, "config"))
+        return config_from_dict(merge_overrides(self.to_dict(), sections, "config"))
 
 
 def _lists(value: Any) -> Any:
@@ -134,20 +133,6 @@ _SECTIONS = {f.name: f.type for f in fields(CollectConfig)}
 _SECTION_TYPES = {"rig": RigConfig, "grid": GridConfig, "approach": ApproachConfig,
                   "motion": MotionConfig, "acquisition": AcquisitionConfig,
                   "sensor": SensorSettings, "safety": SafetyConfig}
-
-
-def _merge(base: dict[str, Any], override: dict[str, Any], where: str) -> dict[str, Any]:
-    merged = copy.deepcopy(base)
-    for key, value in override.items():
-        if key not in merged:
-            raise UsageError(f"{where}: unknown setting {key!r} (known: {', '.join(sorted(merged))})")
-        if isinstance(merged[key], dict):
-            if not isinstance(value, dict):
-                raise UsageError(f"{where}: {key!r} must be a table")
-            merged[key] = _merge(merged[key], value, f"{where} [{key}]")
-        else:
-            merged[key] = value
-    return merged
 
 
 def _section(cls: type, values: dict[str, Any], name: str) -> Any:
@@ -219,16 +204,7 @@ def load_config(path: str | Path | None = None) -> CollectConfig:
     UsageError
         When the file is missing, not TOML, has unknown keys or values of the wrong type.
     """
-    with open(DEFAULT_CONFIG_PATH, "rb") as handle:
-        values = tomllib.load(handle)
+    values = read_toml(DEFAULT_CONFIG_PATH)
     if path is not None:
-        path = Path(path)
-        try:
-            with open(path, "rb") as handle:
-                override = tomllib.load(handle)
-        except FileNotFoundError:
-            raise UsageError(f"{path}: no such config file") from None
-        except tomllib.TOMLDecodeError as error:
-            raise UsageError(f"{path}: not valid TOML ({error})") from None
-        values = _merge(values, override, str(path))
+        values = merge_overrides(values, read_toml(path), str(path))
     return config_from_dict(values)

@@ -12,7 +12,6 @@ through ``R^T (S + fixture_offset - origin)``, where R is that rotation.
 
 from __future__ import annotations
 
-import copy
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
@@ -22,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from whiskercal.errors import UsageError
+from whiskercal.tomlconfig import merge_overrides, read_toml
 
 DEFAULTS_RESOURCE = "default_study.toml"
 
@@ -30,22 +30,6 @@ def default_config() -> dict[str, Any]:
     """The documented defaults as a nested dict."""
     text = resources.files("whiskercal.study").joinpath(DEFAULTS_RESOURCE).read_text("utf-8")
     return tomllib.loads(text)
-
-
-def _merge(base: dict, override: dict, where: str = "") -> dict:
-    """Defaults updated by a user's keys; keys that the defaults do not know are refused."""
-    merged = copy.deepcopy(base)
-    for key, value in override.items():
-        name = f"{where}{key}"
-        if key not in base:
-            raise UsageError(f"unknown configuration key {name!r}")
-        if isinstance(base[key], dict):
-            if not isinstance(value, dict):
-                raise UsageError(f"configuration key {name!r} must be a table")
-            merged[key] = _merge(base[key], value, f"{name}.")
-        else:
-            merged[key] = value
-    return merged
 
 
 def load_config(path: str | Path | None = None) -> dict[str, Any]:
@@ -58,13 +42,7 @@ def load_config(path: str | Path | None = None) -> dict[str, Any]:
     """
     config = default_config()
     if path is not None:
-        try:
-            user = tomllib.loads(Path(path).read_text("utf-8"))
-        except FileNotFoundError:
-            raise UsageError(f"{path}: no such configuration file") from None
-        except tomllib.TOMLDecodeError as error:
-            raise UsageError(f"{path}: not valid TOML ({error})") from None
-        config = _merge(config, user)
+        config = merge_overrides(config, read_toml(path), str(path))
     _validate(config)
     return config
 
