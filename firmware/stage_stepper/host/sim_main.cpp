@@ -14,22 +14,7 @@
 #include "../serial.h"
 #include "../stage.h"
 #include "fake_board.h"
-
-static double real_seconds() {
-    timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void flush_tx() {
-    size_t sent = 0;
-    while (sent < board.tx.size()) {
-        ssize_t n = write(STDOUT_FILENO, board.tx.data() + sent, board.tx.size() - sent);
-        if (n <= 0) std::exit(0);  // the reader went away
-        sent += (size_t)n;
-    }
-    board.tx.clear();
-}
+#include "host_pipe.h"
 
 // Feeds what stdin holds to the receive path; false at end of input.
 static bool pump_input() {
@@ -64,18 +49,18 @@ int main(int argc, char** argv) {
         return 2;
     }
     stage_init();
-    flush_tx();
-    const double start = real_seconds();
+    host_flush_to_stdout(board.tx);
+    const double start = host_real_seconds();
     double simulated_us = 0.0;
     while (pump_input()) {
-        double target_us = (real_seconds() - start) * speed * 1e6;
+        double target_us = (host_real_seconds() - start) * speed * 1e6;
         if (target_us > simulated_us) {
             fake_run(target_us - simulated_us);
             simulated_us = target_us;
         } else {
             fake_run(0.0);  // still answer what just arrived
         }
-        flush_tx();
+        host_flush_to_stdout(board.tx);
         usleep(100);
     }
     return 0;

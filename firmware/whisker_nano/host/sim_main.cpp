@@ -13,22 +13,7 @@
 #include "../wn_command.h"
 #include "../wn_sampler.h"
 #include "fake_board.h"
-
-static double real_seconds() {
-    timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void flush_tx() {
-    size_t sent = 0;
-    while (sent < board.tx.size()) {
-        ssize_t n = write(STDOUT_FILENO, board.tx.data() + sent, board.tx.size() - sent);
-        if (n <= 0) std::exit(0);  // the reader went away
-        sent += (size_t)n;
-    }
-    board.tx.clear();
-}
+#include "host_pipe.h"
 
 // Reads what stdin holds without waiting; returns false at end of input.
 static bool pump_input(command_reader& reader, sampler_state& sampler) {
@@ -55,11 +40,11 @@ int main(int argc, char** argv) {
     command_reader reader;
     sampler_init(sampler);
     command_reader_init(reader);
-    const double start = real_seconds();
+    const double start = host_real_seconds();
     const double static_y = board.field_uT[1];
     uint64_t simulated_us = 0;
     while (pump_input(reader, sampler)) {
-        uint64_t target_us = (uint64_t)((real_seconds() - start) * speed * 1e6);
+        uint64_t target_us = (uint64_t)((host_real_seconds() - start) * speed * 1e6);
         // The board's loop polls every ~20 µs: step the simulated clock as finely.
         for (; simulated_us < target_us; simulated_us += 20) {
             board.now_us = (uint32_t)simulated_us;
@@ -67,7 +52,7 @@ int main(int argc, char** argv) {
             board.field_uT[1] = static_y + 50.0 * std::sin(2.0 * M_PI * simulated_us * 1e-6);
             sampler_poll(sampler, board.now_us);
         }
-        flush_tx();
+        host_flush_to_stdout(board.tx);
         usleep(100);
     }
     return 0;
