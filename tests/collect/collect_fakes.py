@@ -217,6 +217,12 @@ class FakeSensor:
     def stop(self) -> None:
         self.streaming = False
 
+    def read_available(self) -> SampleBlock:
+        """Nothing is ever buffered here: every read makes its samples on the spot."""
+        empty = np.zeros(0)
+        return SampleBlock(seq=empty.astype(int), t_s=empty, counts=np.zeros((0, 3), int),
+                           field_uT=np.zeros((0, 3)), status=np.zeros(0, np.uint8), dropped=0, corrupt=0)
+
     def read(self, n: int, timeout_s: float = 1.0) -> SampleBlock:
         if not self.streaming:
             raise DeviceError("not streaming")

@@ -236,3 +236,35 @@ def test_overload_guard_holds_the_stage_and_lifts_the_rod_on_the_twin(tmp_path):
     assert truth["kind"][-1] == "free"  # whisker released
     assert truth["tool_mm"][-1][1] >= plan.config.approach.safe_y_mm - 0.05
     assert stage.status().idle  # unlocked and usable again
+
+
+def _serve_ptys(*args: str):
+    """Start `whiskercal sim serve --json` and return the process and its pty paths."""
+    process = subprocess.Popen([sys.executable, "-m", "whiskercal", "sim", "serve", "--json", *args],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    text = ""
+    while not text.startswith("{") or not text.rstrip().endswith("}"):
+        line = process.stdout.readline()
+        assert line, f"sim serve ended early: {process.stderr.read()}"
+        text += line
+    return process, json.loads(text)
+
+
+@pytest.mark.slow
+def test_collect_over_sim_serve_ptys_like_real_ports(tmp_path):
+    # the boards behind pseudo-terminals, as a real rig's /dev/ttyUSB* would be: no sim:// and
+    # no ground truth, the world paced at 10x real time (the host keeps up with the stream)
+    process, ports = _serve_ptys("--seed", "4", "--speed", "10", "--duration", "120")
+    try:
+        config = fast_config(tmp_path, SMALL)
+        planned = len(build_plan(load_config(config)))
+        result = run_cli("--stage", ports["stage"], "--sensor", ports["sensor"],
+                         "--out", str(tmp_path / "raw.h5"), "--config", str(config), "--json")
+    finally:
+        process.terminate()
+        process.wait(5)
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["points"] == planned
+    grid = read_raw_grid(tmp_path / "raw.h5")
+    assert grid.complete and grid.truth is None and len(grid.z_uT) == planned
+    assert np.all(grid.z_uT < 0)  # every point pushes the whisker to -y

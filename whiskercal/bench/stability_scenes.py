@@ -138,7 +138,8 @@ def stiffness_ratio_probe(factors=(0.2, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0, 5.0)
         e["silent"] = e["status"] == "breaks down"
         e["documented_limit"] = e["silent"]
     valid_range = [min(valid), max(valid)] if valid else None
-    return {"setting_unit": "k_theta*L/EI", "default_ratio": stiffness_ratio(DEFAULT_SENSOR.whisker),
+    return {"setting_unit": "k_theta*L/EI",
+            "default_ratio": stiffness_ratio(DEFAULT_SENSOR.whisker),
             "breakdown_mm": BREAKDOWN_MM, "valid_ratio_range": valid_range,
             "documented_limit": documented_limit(valid_range),
             "entries": entries, "silent_failures": sum(e["silent"] for e in entries)}

@@ -176,6 +176,7 @@ class Collector:
 
     def _static_reading(self) -> Baseline:
         acq = self.config.acquisition
+        self.recorder.drain(guard=False)
         if acq.settle_s > 0:
             self.recorder.read_for(acq.settle_s, guard=False)
         block = self.recorder.read(acq.baseline_samples, guard=False)
@@ -203,6 +204,7 @@ class Collector:
         encoder = self._check_encoder(status, index)
         acq = self.config.acquisition
         try:
+            self.recorder.drain()
             if acq.settle_s > 0:
                 self.recorder.read_for(acq.settle_s)
             block = self.recorder.read(acq.samples_per_point, label=index)

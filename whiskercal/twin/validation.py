@@ -236,8 +236,8 @@ def check_stick_slip(whisker: WhiskerParams | None = None, depth_mm: float = 20.
             carried = held - plane.mu_static - (eq.slips - 1) * period
             largest_carried = max(largest_carried, carried)
             off_rest = max(off_rest, abs(ratio - plane.rest_ratio - carried))
-    detail = (f"{events} slip events in {n_steps} steps of {step_mm * 1e3:g} µm at {depth_mm:g} mm;"
-              f" load carried past a slip <= {largest_carried:.4f}")
+    detail = (f"{events} slip events in {n_steps} steps of {step_mm * 1e3:g} µm at "
+              f"{depth_mm:g} mm; load carried past a slip <= {largest_carried:.4f}")
     return [Check("stick-slip: every state inside the cone, |Ft|/Fn - mu_s (<= 0)", outside,
                   0.0, detail),
             Check("stick-slip: before each slip the held tip reaches mu_s, mu_s - |Ft|/Fn (<= 0)",
