@@ -205,3 +205,16 @@ def test_fit_reports_a_rig_config_that_disagrees_with_the_twin_sensor(tmp_path):
                 f"{DEFAULT_SENSOR.whisker.reach_mm:g} mm of the twin sensor "
                 f"'{DEFAULT_SENSOR.sensor_id}'")
     assert expected in summary["warnings"]
+
+
+RECORDED_GRID = Path(__file__).parents[2] / "data" / "twin-paper-75mm" / "raw_grid.h5"
+
+
+def test_fit_in_cartesian_degree_8_on_the_recorded_grid(tmp_path):
+    # an entry crossing that fell exactly between the vectorized and the scalar surface's last
+    # bits once made the root finder raise: the recorded grid at these options reproduced it
+    result = run("fit", str(RECORDED_GRID), "--out", str(tmp_path / "c.h5"),
+                 "--coordinates", "cartesian", "--degree", "8", "--json")
+    assert result.exit_code == 0
+    summary = json.loads(result.output)
+    assert summary["degree"] == 8 and summary["lookup_vs_truth_rmse_mm"] < 1.0

@@ -195,7 +195,13 @@ def _first_entry(problem: LevelSetProblem, z_uT: float, root: np.ndarray, radii:
         x, y = root[0] + radius * math.cos(angle), root[1] + radius * math.sin(angle)
         return problem.surface.value_and_gradient(x, y)[0] - z_uT
 
-    angle = brentq(on_circle, angles[k], angles[k + 1], xtol=1e-14)
+    low_residual, high_residual = on_circle(angles[k]), on_circle(angles[k + 1])
+    if low_residual * high_residual < 0:
+        angle = brentq(on_circle, angles[k], angles[k + 1], xtol=1e-14)
+    else:
+        # the scalar and the vectorized surface differ in the last bits: at a crossing this
+        # close to a sample angle, that sample is the entry
+        angle = angles[k] if abs(low_residual) <= abs(high_residual) else angles[k + 1]
     return root + radius * np.array([math.cos(angle), math.sin(angle)])
 
 
