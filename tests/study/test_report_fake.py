@@ -90,7 +90,7 @@ def test_target_goes_into_a_new_artifact_version(tmp_path, fake_study):
         assert handle.attrs["schema_version"] == "1.1.0"
         inputs = json.loads(handle.attrs["inputs_sha256"])
         assert inputs["plane_study"] == h5io.sha256_file(path) and inputs["raw_grid"] == "ab" * 32
-        assert handle["target/z_uT"].attrs["units"] == "uT"
+        assert handle["target/z_uT"].attrs["units"] == "µT"
 
 
 def test_figures_are_written(tmp_path, fake_study):

@@ -70,7 +70,7 @@ def _add_target(handle: h5py.File, choice: TargetChoice, study_sha256: str, inpu
     if TARGET_GROUP in handle:
         del handle[TARGET_GROUP]  # a newer study supersedes the target of the copied version
     group = handle.create_group(TARGET_GROUP)
-    h5io.write_array(group, "z_uT", float(choice.z_uT), "uT")
+    h5io.write_array(group, "z_uT", float(choice.z_uT), "µT")
     h5io.write_array(group, "depth_mm", float(choice.depth_mm), "mm")
     group.attrs["rule"] = choice.rule
     group.attrs["reason"] = choice.reason

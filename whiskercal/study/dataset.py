@@ -48,10 +48,10 @@ class TrialRecord:
 
 
 _UNITS = {
-    "seq": "1", "t_s": "s", "counts": "1", "field_uT": "uT", "status": "1", "phase": "1",
+    "seq": "1", "t_s": "s", "counts": "1", "field_uT": "µT", "status": "1", "phase": "1",
     "sample_index": "1", "mpos_mm": "mm", "enc_mm": "mm", "t_host_s": "s",
     "point_mm": "mm", "normal": "1", "tip_mm": "mm", "contact_mm": "mm", "kind": "1",
-    "z_uT": "uT", "stage_mm": "mm",
+    "z_uT": "µT", "stage_mm": "mm",
 }
 
 
@@ -138,10 +138,10 @@ class StudyWriter:
         """Store the static baseline and the stage position of first contact (distance 0)."""
         def write(handle: h5py.File) -> None:
             group = handle.require_group("header")
-            h5io.write_array(group, "baseline_field_uT", baseline_field_uT, "uT")
-            h5io.write_array(group, "baseline_std_uT", baseline_std_uT, "uT")
+            h5io.write_array(group, "baseline_field_uT", baseline_field_uT, "µT")
+            h5io.write_array(group, "baseline_std_uT", baseline_std_uT, "µT")
             h5io.write_array(group, "first_contact_stage_mm", first_contact_stage_mm, "mm")
-            h5io.write_array(group, "first_contact_z_uT", float(first_contact_z_uT), "uT")
+            h5io.write_array(group, "first_contact_z_uT", float(first_contact_z_uT), "µT")
         self._update(write)
 
     def add_trial(self, record: TrialRecord) -> None:
