@@ -112,3 +112,17 @@ def test_validation_catches_inconsistent_content(tmp_path):
         handle["lookup/z_uT"][...] = z[::-1]
     with pytest.raises(ArtifactError, match="increasing lookup z"):
         read_calibration(path)
+
+
+def test_a_target_on_a_1_2_artifact_ships_as_1_3_and_loads():
+    # calibration-1.3.0-target.h5: the study's target writer applied to the 1.2.0 fixture
+    from whiskercal import runtime
+
+    data = read_calibration(FIXTURES / "calibration-1.3.0-target.h5")
+    older = read_calibration(FIXTURES / "calibration-1.2.0-extrapolated.h5")
+    assert (older.schema_version, data.schema_version) == ("1.2.0", "1.3.0")
+    np.testing.assert_array_equal(data.lookup_z_uT, older.lookup_z_uT)
+    loaded = runtime.load(FIXTURES / "calibration-1.3.0-target.h5")
+    assert loaded.target_z_uT == pytest.approx(data.target_z_uT)
+    assert loaded.trusted_z_range_uT == runtime.load(FIXTURES / "calibration-1.2.0-extrapolated.h5").trusted_z_range_uT
+    assert np.all(np.isfinite(loaded.tip(loaded.target_z_uT)))
