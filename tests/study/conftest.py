@@ -34,19 +34,8 @@ def twin_calibration(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="session")
 def twin_study(tmp_path_factory):
-    """The nine-trial study run on the twin through the serial clients; (path, world)."""
-    from whiskercal.rig import SensorClient, StageClient
-    from whiskercal.study.config import load_config
-    from whiskercal.study.dataset import StudyWriter
-    from whiskercal.study.run import StudyRun
-    from whiskercal.twin import simport
+    """The nine-trial study run on the twin through the serial clients; (path, config)."""
+    from twin_calibration import run_twin_study
 
-    folder = tmp_path_factory.mktemp("study")
-    (folder / "test.toml").write_text(TEST_CONFIG)
-    config = load_config(folder / "test.toml")
-    stage_port = simport.Serial("sim://study-test/stage?scene=plane&seed=7", timeout=1.0)
-    sensor_port = simport.Serial("sim://study-test/sensor", timeout=1.0)
-    writer = StudyWriter(folder / "STUDY.h5", config, "twin")
-    StudyRun(StageClient(stage_port), SensorClient(sensor_port), config, writer,
-             world=sensor_port.world).run()
-    return folder / "STUDY.h5", config
+    path, config, _world = run_twin_study(tmp_path_factory.mktemp("study"), TEST_CONFIG, "study-test", 7)
+    return path, config

@@ -3,14 +3,11 @@
 import numpy as np
 import pytest
 
+from twin_calibration import run_twin_study
 from whiskercal import runtime
-from whiskercal.rig import SensorClient, StageClient
-from whiskercal.study.config import load_config
-from whiskercal.study.dataset import PHASE_SLIDE, StudyWriter, read_study
+from whiskercal.study.dataset import PHASE_SLIDE, read_study
 from whiskercal.study.report import build_report
-from whiskercal.study.run import StudyRun
 from whiskercal.study.truth import match_rows
-from whiskercal.twin import simport
 
 # One trial at the paper's 40 mm, slid at 1 mm/s: the twin's sawtooth (period ~0.1 mm at this
 # depth) spans ~30 samples at 300 Hz. At the study's 10 mm/s it spans ~3 and is not resolved.
@@ -32,15 +29,8 @@ baseline_samples = 60
 
 @pytest.fixture(scope="module")
 def slow_study(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("slips")
-    (folder / "slow.toml").write_text(SLOW_SLIDE)
-    config = load_config(folder / "slow.toml")
-    stage_port = simport.Serial("sim://study-slips/stage?scene=plane&seed=13", timeout=1.0)
-    sensor_port = simport.Serial("sim://study-slips/sensor", timeout=1.0)
-    writer = StudyWriter(folder / "STUDY.h5", config, "twin")
-    StudyRun(StageClient(stage_port), SensorClient(sensor_port), config, writer,
-             world=sensor_port.world).run()
-    return folder / "STUDY.h5", sensor_port.world
+    path, _config, world = run_twin_study(tmp_path_factory.mktemp("slips"), SLOW_SLIDE, "study-slips", 13)
+    return path, world
 
 
 def test_the_detector_finds_the_twins_slips(slow_study, twin_calibration):

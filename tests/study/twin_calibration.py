@@ -52,3 +52,24 @@ def write_twin_calibration(path: Path, sensor=DEFAULT_SENSOR) -> Path:
         inputs={"simulated_grid": "tests/study/twin_calibration.py"}, config={})
     write_calibration(path, data)
     return path
+
+
+def run_twin_study(folder: Path, config_text: str, world: str, seed: int):
+    """Run a study on a fresh twin plane world through the serial clients.
+
+    Returns the study file, its config and the world (for the ground truth).
+    """
+    from whiskercal.rig import SensorClient, StageClient
+    from whiskercal.study.config import load_config
+    from whiskercal.study.dataset import StudyWriter
+    from whiskercal.study.run import StudyRun
+    from whiskercal.twin import simport
+
+    (folder / "study.toml").write_text(config_text)
+    config = load_config(folder / "study.toml")
+    stage_port = simport.Serial(f"sim://{world}/stage?scene=plane&seed={seed}", timeout=1.0)
+    sensor_port = simport.Serial(f"sim://{world}/sensor", timeout=1.0)
+    writer = StudyWriter(folder / "STUDY.h5", config, "twin")
+    StudyRun(StageClient(stage_port), SensorClient(sensor_port), config, writer,
+             world=sensor_port.world).run()
+    return folder / "STUDY.h5", config, sensor_port.world
