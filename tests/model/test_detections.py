@@ -12,6 +12,7 @@ from whiskercal.model import trace as trace_module
 from whiskercal.model.calibrate import MAX_EXTENSION_MM, CalibrationOptions, calibrate
 from whiskercal.model.diagnostics import (UNDERFIT_FACTOR, UNDERFIT_SHIFT_MM, expected_noise_uT,
                                           underfit_warning)
+from whiskercal.model.uncertainty import TIP_SPREAD_WARN_MM
 from whiskercal.model.errors import ExtrapolationLimitError, TraceDriftError, ZOutOfRangeError
 from whiskercal.model.surface import fit_surface
 from whiskercal.model.trace import Domain, LevelSetProblem, drift_tolerance_mm, trace_paper
@@ -148,3 +149,19 @@ def test_calibrating_the_same_grid_twice_is_bit_identical(grid):
     assert first.lookup.z_knots_uT.tobytes() == second.lookup.z_knots_uT.tobytes()
     assert first.lookup.tips_mm.tobytes() == second.lookup.tips_mm.tobytes()
     assert first.surface.coefficients.tobytes() == second.surface.coefficients.tobytes()
+
+
+# --- 6. scatter: a surface that fits noisy data as well as it can, tips still off ------------
+
+def test_scatter_warning_when_the_redrawn_surfaces_move_the_tips():
+    points = paper_grid_mm()
+    rng = np.random.default_rng(11)
+    options = CalibrationOptions(degree=5, trace_length_mm=70.0)
+    clean = calibrate(points, rigid_z(points) + rng.normal(0.0, 1.0, len(points)), 0.0, options)
+    noisy = calibrate(points, rigid_z(points) + rng.normal(0.0, 300.0, len(points)), 0.0, options)
+    assert clean.tip_spread_mm < 0.1 and not any("scatter" in w for w in clean.warnings)
+    assert noisy.tip_spread_mm > TIP_SPREAD_WARN_MM
+    assert any("scatter" in w and f"{noisy.tip_spread_mm:.2f} mm" in w for w in noisy.warnings)
+    # seeded: the same grid gives the same spread
+    assert calibrate(points, rigid_z(points), 0.0, options).tip_spread_mm == \
+        calibrate(points, rigid_z(points), 0.0, options).tip_spread_mm

@@ -86,12 +86,14 @@ def test_a_grid_cut_short_of_the_tip_is_refused(grid):
     assert result["detected"] == 2
 
 
-def test_noise_raises_the_cross_validated_error_with_the_tip_error(grid):
-    entries = stability.noise_probe(grid, (1.0, 300.0))["entries"]
-    quiet, loud = entries
+def test_noisy_grids_are_reported_by_the_fits_scatter_warning(grid):
+    result = stability.noise_probe(grid, (1.0, 300.0))
+    quiet, loud = result["entries"]
     assert loud["cv_rmse_uT"] > 5 * quiet["cv_rmse_uT"]
-    if loud["status"] == "ok":
-        assert loud["error_vs_truth_mm"] > quiet["error_vs_truth_mm"]
+    assert loud["max_error_vs_truth_mm"] > stability.SILENT_LIMIT_MM  # the tips really are off
+    assert quiet["status"] == "ok" and quiet["tip_spread_mm"] < 0.1
+    assert loud["status"] == "ScatterWarning" and loud["tip_spread_mm"] > 0.5
+    assert result["silent_failures"] == 0 and result["detected"] == 1
 
 
 def test_kalman_survives_degenerate_windows_and_damps_an_outlier():

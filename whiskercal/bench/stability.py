@@ -157,7 +157,8 @@ def paper_step_probe(calibration, sensor, steps_mm=(0.01, 0.1, 0.5, 1.0, 2.0, 5.
 
 
 def noise_probe(grid: SimulatedGrid, noise_uT=(1.0, 10.0, 30.0, 100.0, 300.0), seed: int = 0) -> dict:
-    """Whole calibrations with the averaged reading's noise raised: tip error and CV RMSE."""
+    """Whole calibrations with the averaged reading's noise raised: tip error, CV RMSE, and
+    whether the fit's scatter warning (the bootstrapped tip spread) reported it."""
     entries = []
     for noise in noise_uT:
         status, calibration = _status(lambda: calibrate_grid(grid, noisy_z(grid, noise, seed)))
@@ -168,7 +169,9 @@ def noise_probe(grid: SimulatedGrid, noise_uT=(1.0, 10.0, 30.0, 100.0, 300.0), s
             z_true, tips = truth_points(grid.sensor, lookup.z_min_uT, lookup.z_max_uT)
             error = tip_error_mm(lookup(z_true), tips)
             entry.update(cv_rmse_uT=calibration.fit.cv_rmse_uT, error_vs_truth_mm=error["rmse_mm"],
-                         max_error_vs_truth_mm=error["max_mm"])
+                         max_error_vs_truth_mm=error["max_mm"], tip_spread_mm=calibration.tip_spread_mm)
+            if any("scatter" in warning for warning in calibration.warnings):
+                entry["status"] = status = "ScatterWarning"  # fit's own warning: reported
         entry["silent"] = bool(status == "ok" and entry["max_error_vs_truth_mm"] > SILENT_LIMIT_MM)
         entries.append(entry)
     return {"setting_unit": "noise µT", "entries": entries, **_summary(entries)}

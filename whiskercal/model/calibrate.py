@@ -28,6 +28,7 @@ from whiskercal.model.lookup import (LookupReport, TipLookup, bisect_end, build_
                                      traces_ok)
 from whiskercal.model.surface import FitReport, Surface, fit_surface
 from whiskercal.model.trace import Domain, LevelSetProblem, far_edge_radius
+from whiskercal.model.uncertainty import scatter_warning, tip_spread_mm
 
 # Level sets within about a third of the whisker from the root are shaped by the suspension's
 # translation (the rod pushes hard that close), not by the bending that the tip sees; measured
@@ -88,6 +89,7 @@ class Calibration:
     warnings: list[str] = field(default_factory=list)  # sentences with their numbers
     expected_noise_uT: float = float("nan")  # RMS standard error of the used points' mean z
     cv_level_set_shift_mm: float = float("nan")  # the CV RMSE as a level-set shift
+    tip_spread_mm: float = float("nan")  # RMS tip move when the grid's scatter is redrawn
 
 
 def correct_for_rod(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
@@ -163,6 +165,8 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
                               points - rod_center_mm[used], float(options.max_extension_mm))
     _check_extrapolation(calibration, options)
     _check_fit(calibration, None if z_sem_uT is None else z_sem_uT[used])
+    say("redrawing the grid's scatter")
+    _check_scatter(calibration, options.seed)
     return calibration
 
 
@@ -192,6 +196,17 @@ def _check_fit(calibration: Calibration, z_sem_uT: np.ndarray | None) -> None:
                                 calibration.surface.degree)
     if underfit:
         calibration.warnings.insert(0, underfit)
+
+
+def _check_scatter(calibration: Calibration, seed: int) -> None:
+    """Warn when the grid's scatter about the surface moves the traced tips too far."""
+    lookup = calibration.lookup  # its range is the trusted one when part was extrapolated
+    z_range = (lookup.z_min_uT, lookup.z_max_uT)
+    calibration.tip_spread_mm = tip_spread_mm(calibration.problem, calibration.contact_points_mm,
+                                              calibration.fit.rmse_uT, z_range, seed)
+    warning = scatter_warning(calibration.tip_spread_mm, calibration.fit.rmse_uT)
+    if warning:
+        calibration.warnings.append(warning)
 
 
 def trusted_z_range(problem: LevelSetProblem, lookup: TipLookup, report: LookupReport,

@@ -126,7 +126,8 @@ def _summary(data, elapsed_s: float) -> dict:
                "extension_limit_mm": m["extension_limit_mm"],
                "extrapolated": m["extrapolated"],
                "trusted_z_uT": _trusted_or_none(m["trusted_z_uT"]),
-               "expected_noise_uT": m["expected_noise_uT"], "warnings": list(m["warnings"]),
+               "expected_noise_uT": m["expected_noise_uT"],
+               "tip_spread_mm": m.get("tip_spread_mm", float("nan")), "warnings": list(m["warnings"]),
                "elapsed_s": elapsed_s}
     for key in ("lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm"):
         if key in m:
@@ -204,7 +205,8 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     calibration = _calibrate(grid, options, sem, say)
     warnings = length_warnings + calibration.warnings
     evidence = {"expected_noise_uT": calibration.expected_noise_uT,
-                "cv_level_set_shift_mm": calibration.cv_level_set_shift_mm}
+                "cv_level_set_shift_mm": calibration.cv_level_set_shift_mm,
+                "tip_spread_mm": calibration.tip_spread_mm}
     truth_metrics, truth_arrays = _truth_metrics(grid, calibration)
     data = data_from_calibration(
         calibration, sensor_id=grid.sensor_id, rod_radius_mm=grid.rod_radius_mm, tracer=tracer,

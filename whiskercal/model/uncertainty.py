@@ -1,0 +1,78 @@
+"""How far the grid's scatter can move the traced tips: a parametric bootstrap of the surface.
+
+The fit's residuals (measurement noise plus what the polynomial cannot follow) are drawn anew
+around the fitted surface, the surface is refitted and a few tips are traced again; the RMS
+distance of those tips from the calibration's own is the tip uncertainty the data leave. It
+catches what no residual check can: a surface that fits noisy data as well as the data allow
+(CV RMSE near the noise) yet places the tips millimetres off, because a small error in the
+level set's direction near the root grows along the whole arc.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from whiskercal.model.errors import ModelError
+from whiskercal.model.surface import fit_fixed
+from whiskercal.model.trace import LevelSetProblem, trace_fast
+
+BOOTSTRAP_SURFACES = 12
+Z_PROBES = 5
+# Warn above this tip spread (mm): a quarter of a millimetre is half the level-set method's own
+# error against the twin's true tip (0.44 mm RMS), so scatter of that size is no longer small
+# beside it. Measured on the twin's default grid (whiskercal/bench/stability.py, noise probe):
+# 0.06 mm at its 1 µT noise (the spread then comes from the degree-5 fit's 14 µT bias), 0.13 mm
+# at 30 µT, 0.38 mm at 100 µT (tips up to 0.94 mm off the truth), 1.1 mm at 300 µT (2.3 mm off).
+TIP_SPREAD_WARN_MM = 0.25
+
+
+def tip_spread_mm(problem: LevelSetProblem, points_mm: np.ndarray, scatter_uT: float,
+                  z_range_uT: tuple[float, float], seed: int = 0) -> float:
+    """RMS distance (mm) between the calibration's tips and those of refitted surfaces.
+
+    Parameters
+    ----------
+    problem : LevelSetProblem
+        The calibration's level-set problem (its surface is the one refitted).
+    points_mm : ndarray (n, 2)
+        The contact points the surface was fitted to, mm.
+    scatter_uT : float
+        RMS scatter of the points about the surface (the fit's RMSE), µT.
+    z_range_uT : (float, float)
+        The lookup's z range; the tips are probed inside it.
+    seed : int
+        Seed of the redrawn scatter (the result is deterministic).
+    """
+    surface = problem.surface
+    rng = np.random.default_rng(seed)
+    z_probes = np.linspace(*z_range_uT, Z_PROBES + 2)[1:-1]
+    nominal = [trace_fast(problem, z).tip_mm for z in z_probes]
+    fitted = surface(points_mm)
+    squared = []
+    for _ in range(BOOTSTRAP_SURFACES):
+        redrawn = fitted + rng.normal(0.0, scatter_uT, len(fitted))
+        refit, _ = fit_fixed(points_mm, redrawn, surface.degree, surface.coordinates, surface.scaling)
+        perturbed = replace(problem, surface=refit)
+        for z, tip in zip(z_probes, nominal):
+            squared.append(_squared_move(perturbed, z, tip, problem.trace_length_mm))
+    return float(np.sqrt(np.mean(squared)))
+
+
+def _squared_move(problem: LevelSetProblem, z_uT: float, tip_mm: np.ndarray, length_mm: float) -> float:
+    """Squared distance the tip moved; a trace that fails counts as a whole arc length off."""
+    try:
+        return float(np.sum((trace_fast(problem, z_uT).tip_mm - tip_mm) ** 2))
+    except ModelError:
+        return length_mm ** 2
+
+
+def scatter_warning(spread_mm: float, scatter_uT: float,
+                    limit_mm: float = TIP_SPREAD_WARN_MM) -> str | None:
+    """A sentence when the tip spread exceeds ``limit_mm``, else None."""
+    if not spread_mm > limit_mm:
+        return None
+    return (f"the grid's scatter ({scatter_uT:.1f} µT RMS about the surface) moves the traced tips "
+            f"by {spread_mm:.2f} mm RMS (more than {limit_mm:g} mm): average more samples per "
+            "point, check the sensor's noise, or take a denser grid")
