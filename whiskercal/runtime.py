@@ -10,8 +10,9 @@ Loading validates the schema (an unknown major version is refused with a clear m
 never executes code. A calibration written with ``whiskercal fit --allow-extrapolation`` marks
 the z whose tips lie farther past the grid than its limit: they are refused like z outside the
 calibrated range, unless loaded with ``allow_extrapolated=True`` (then each such sample is
-flagged in ``TrackerState.extrapolated``). Evaluation uses only the precomputed lookup: one sample takes about a
-microsecond, a batch runs at tens of millions of samples a second (docs/model.md).
+flagged in ``TrackerState.extrapolated``). Evaluation uses only the precomputed lookup: one
+sample takes about a microsecond, a batch runs at tens of millions of samples a second
+(docs/model.md).
 """
 
 from __future__ import annotations
@@ -25,10 +26,10 @@ from whiskercal.artifacts.calibration import (CalibrationData, collision_params_
                                               kalman_params_of, lookup_of, problem_of,
                                               read_calibration)
 from whiskercal.model.collision import CollisionDetector
-from whiskercal.model.errors import ExtrapolationLimitError, ModelError
+from whiskercal.model.errors import ExtrapolationLimitError
 from whiskercal.model.kalman import ConstantStateKalman
-from whiskercal.model.lookup import OUT_OF_RANGE_POLICIES, TipLookup
-from whiskercal.model.trace import TRACERS
+from whiskercal.model.lookup import TipLookup, check_out_of_range
+from whiskercal.model.trace import get_tracer
 
 
 @dataclass(frozen=True)
@@ -51,7 +52,7 @@ class Tracker:
     """Streaming collision detection, lookup and constant-state Kalman filter, one z at a time."""
 
     def __init__(self, calibration: "Calibration", out_of_range: str = "raise") -> None:
-        _check_policy(out_of_range)
+        check_out_of_range(out_of_range)
         self._calibration = calibration
         self._out_of_range = out_of_range
         self._detector = CollisionDetector(calibration.collision_params)
@@ -66,18 +67,19 @@ class Tracker:
             In contact with z outside the calibrated range under the "raise" policy; the tracker
             stays usable and keeps its filter state.
         """
+        z_uT = float(z_uT)
         was_in_contact = self._detector.contact
-        contact = self._detector.update(float(z_uT))
+        contact = self._detector.update(z_uT)
         if not contact:
             if was_in_contact:
                 self._kalman.reset()
             return TrackerState(False, None, None)
-        x, y = self._calibration.lookup.tip_scalar(float(z_uT), self._out_of_range)
+        x, y = self._calibration.lookup.tip_scalar(z_uT, self._out_of_range)
         if x != x:  # NaN under the "nan" policy
             filtered = self._kalman.state_mm
             return TrackerState(True, None, None if filtered is None else filtered.copy())
         raw = np.array([x, y])
-        flagged = self._calibration._flagged(float(z_uT))
+        flagged = self._calibration._flagged(z_uT)
         return TrackerState(True, raw, self._kalman.update(raw), flagged)
 
 
@@ -122,15 +124,14 @@ class Calibration:
         ``out_of_range``: "raise" (ZOutOfRangeError), "nan" (NaN tips) or "clip" (the nearest
         end of the calibrated range).
         """
-        _check_policy(out_of_range)
         return self.lookup(z_uT, out_of_range)
 
     def extrapolated(self, z_uT) -> np.ndarray:
         """True where z (µT) lies in the calibrated range's part marked as extrapolated."""
         z = np.asarray(z_uT, float)
-        inside = (z >= self.data.lookup_z_uT[0]) & (z <= self.data.lookup_z_uT[-1])
         if not self.data.extrapolated:
             return np.zeros(z.shape, bool)
+        inside = (z >= self.data.lookup_z_uT[0]) & (z <= self.data.lookup_z_uT[-1])
         if self.trusted_z_range_uT is None:
             return inside
         low, high = self.trusted_z_range_uT
@@ -148,32 +149,25 @@ class Calibration:
         return Tracker(self, out_of_range)
 
     def trace(self, z_uT: float, tracer: str = "fast") -> np.ndarray:
-        """The tip traced on the stored surface (slow; for checks, not for the control loop)."""
+        """The tip (2,) mm traced at z (µT) on the stored surface (slow; for checks, not for the
+        control loop)."""
+        trace = get_tracer(tracer)
         if self._problem is None:
             self._problem = problem_of(self.data)
-        if tracer not in TRACERS:
-            raise ModelError(f"unknown tracer {tracer!r}; choose one of {', '.join(TRACERS)}")
-        return TRACERS[tracer](self._problem, float(z_uT)).tip_mm
-
-
-def _check_policy(out_of_range: str) -> None:
-    if out_of_range not in OUT_OF_RANGE_POLICIES:
-        raise ModelError(f"out_of_range must be one of {', '.join(OUT_OF_RANGE_POLICIES)}, "
-                         f"not {out_of_range!r}")
+        return trace(self._problem, float(z_uT)).tip_mm
 
 
 def _lookup(data: CalibrationData, allow_extrapolated: bool) -> TipLookup:
     """The artifact's lookup, narrowed to its trusted range unless extrapolation is allowed."""
-    lookup = lookup_of(data)
     if allow_extrapolated or not data.extrapolated:
-        return lookup
+        return lookup_of(data)
     trusted = data.trusted_range_uT()
     if trusted is None:
         raise ExtrapolationLimitError(
             f"every tip of this calibration lies more than {data.max_extension_mm:g} mm past its "
             "grid (written with --allow-extrapolation): load it with allow_extrapolated=True to "
             "use it anyway")
-    return TipLookup(data.lookup_z_uT, data.lookup_tip_mm, data.lookup_kind, trusted)
+    return lookup_of(data, trusted)
 
 
 def load(path: str | Path, allow_extrapolated: bool = False) -> Calibration:

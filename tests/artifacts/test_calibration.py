@@ -104,6 +104,12 @@ def test_other_schemas_and_broken_files_are_refused(tmp_path):
         read_calibration(tmp_path / "junk.h5")
 
 
+def test_an_unwritable_destination_is_an_artifact_error(tmp_path, data):
+    (tmp_path / "file").write_bytes(b"")
+    with pytest.raises(ArtifactError, match="cannot write the calibration artifact"):
+        write_calibration(tmp_path / "file" / "cal.h5", data)
+
+
 def test_validation_catches_inconsistent_content(tmp_path):
     path = tmp_path / "cal.h5"
     shutil.copy(FIXTURES / "calibration-1.0.0.h5", path)

@@ -9,6 +9,7 @@ from scipy.integrate import solve_bvp
 
 from whiskercal.errors import UsageError
 from whiskercal.twin.mechanics import cantilever_tip
+from whiskercal.twin.validation import bisshopp_drucker_tip
 
 SPEC_TOLERANCE_L = 1e-4
 
@@ -63,6 +64,12 @@ def test_small_loads_follow_beam_theory(alpha):
     x, y = cantilever_tip(alpha)
     assert y == pytest.approx(alpha / 3.0, rel=alpha)  # next term is O(alpha^3)
     assert 1.0 - x == pytest.approx(alpha ** 2 / 15.0, rel=0.05)  # (3/5)·(y²/L)
+
+
+@pytest.mark.parametrize("alpha", [34.0, 42.0, 50.0])
+def test_large_loads_stay_on_the_bent_branch(alpha):
+    # up to the largest accepted load, against Bisshopp & Drucker's closed form
+    assert cantilever_tip(alpha) == pytest.approx(bisshopp_drucker_tip(alpha), abs=SPEC_TOLERANCE_L)
 
 
 def test_no_load_leaves_it_straight():

@@ -31,8 +31,8 @@ from typing import Any
 import h5py
 import numpy as np
 
-from whiskercal.artifacts.h5io import (check_schema, open_h5, read_array, read_json_attr,
-                                       write_array, write_provenance)
+from whiskercal.artifacts.h5io import (as_text, check_schema, open_h5, read_array,
+                                       read_json_attr, write_array, write_provenance)
 from whiskercal.errors import ArtifactError
 
 SCHEMA = "whiskercal.calibration"
@@ -99,20 +99,29 @@ def _nan_to_none(value):
 
 
 def write_calibration(path: str | Path, data: CalibrationData) -> Path:
-    """Write a calibration artifact (version 1.2.0); the file is replaced atomically."""
+    """Write a calibration artifact (version 1.2.0); the file is replaced atomically.
+
+    Raises
+    ------
+    ArtifactError
+        When the file or its directory cannot be written.
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     scratch = path.with_name(path.name + ".partial")
-    with h5py.File(scratch, "w") as handle:
-        write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
-                         sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
-        handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
-        _write_surface(handle.create_group("surface"), data)
-        _write_trace(handle, data)
-        _write_lookup(handle.create_group("lookup"), data)
-        _write_settings(handle, data)
-        _write_metrics(handle.create_group("metrics"), data)
-    scratch.replace(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with h5py.File(scratch, "w") as handle:
+            write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+                             sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
+            handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
+            _write_surface(handle.create_group("surface"), data)
+            _write_trace(handle, data)
+            _write_lookup(handle.create_group("lookup"), data)
+            _write_settings(handle, data)
+            _write_metrics(handle.create_group("metrics"), data)
+        scratch.replace(path)
+    except OSError as error:
+        raise ArtifactError(f"{path}: cannot write the calibration artifact ({error})") from None
     return path
 
 
@@ -204,9 +213,9 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
     surface, trace, lookup = handle["surface"], handle["trace"], handle["lookup"]
     metrics = handle["metrics"] if "metrics" in handle else None
     return CalibrationData(
-        sensor_id=_text(handle.attrs["sensor_id"]),
+        sensor_id=as_text(handle.attrs["sensor_id"]),
         degree=int(surface.attrs["degree"]),
-        coordinates=_text(surface.attrs["coordinates"]),
+        coordinates=as_text(surface.attrs["coordinates"]),
         coefficients=read_array(surface, "coefficients", path),
         exponents=read_array(surface, "exponents", path),
         scale_center=read_array(surface, "scale_center", path),
@@ -221,10 +230,10 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         root_mm=read_array(trace, "root_mm", path),
         root_shift_mm_per_uT=read_array(trace, "root_shift_mm_per_uT", path),
         rod_radius_mm=float(handle.attrs["rod_radius_mm"]),
-        tracer=_text(trace.attrs["tracer"]),
+        tracer=as_text(trace.attrs["tracer"]),
         lookup_z_uT=read_array(lookup, "z_uT", path),
         lookup_tip_mm=read_array(lookup, "tip_mm", path),
-        lookup_kind=_text(lookup.attrs["kind"]),
+        lookup_kind=as_text(lookup.attrs["kind"]),
         filter=_settings(handle["filter"]),
         collision=_settings(handle["collision"]),
         metrics=_read_metrics(metrics) if metrics is not None else {},
@@ -232,8 +241,8 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         inputs=read_json_attr(handle, "inputs_sha256", {}),
         config=read_json_attr(handle, "config", {}),
         target_z_uT=float(handle["target"]["z_uT"][()]) if "target" in handle else None,
-        created=_text(handle.attrs.get("created", "")),
-        whiskercal_version=_text(handle.attrs.get("whiskercal_version", "")),
+        created=as_text(handle.attrs.get("created", "")),
+        whiskercal_version=as_text(handle.attrs.get("whiskercal_version", "")),
         **_read_extrapolation(trace, lookup),
     )
 
@@ -248,10 +257,6 @@ def _read_extrapolation(trace: h5py.Group, lookup: h5py.Group) -> dict[str, Any]
             "extrapolated": bool(lookup.attrs.get("extrapolated", False)),
             "trusted_z_uT": None if np.any(np.isnan(trusted)) else (float(trusted[0]),
                                                                      float(trusted[1]))}
-
-
-def _text(value: Any) -> str:
-    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def _settings(group: h5py.Group) -> dict[str, Any]:
@@ -371,12 +376,13 @@ def problem_of(data: CalibrationData):
         extension_radius_mm=data.extension_radius_mm, tip_extension_mm=data.tip_extension_mm)
 
 
-def lookup_of(data: CalibrationData):
+def lookup_of(data: CalibrationData, trusted_z_uT: tuple[float, float] | None = None):
     """The :class:`~whiskercal.model.lookup.TipLookup` stored in an artifact, over its whole range
-    (extrapolated part included: see :meth:`CalibrationData.trusted_range_uT`)."""
+    (extrapolated part included: see :meth:`CalibrationData.trusted_range_uT`), or narrowed to
+    ``trusted_z_uT`` (µT)."""
     from whiskercal.model.lookup import TipLookup
 
-    return TipLookup(data.lookup_z_uT, data.lookup_tip_mm, data.lookup_kind)
+    return TipLookup(data.lookup_z_uT, data.lookup_tip_mm, data.lookup_kind, trusted_z_uT)
 
 
 def kalman_params_of(data: CalibrationData):

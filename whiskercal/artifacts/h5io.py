@@ -50,20 +50,21 @@ def read_json_attr(group: h5py.Group, name: str, default: Any = None) -> Any:
     """Parse a JSON text attribute (``config``, ``inputs_sha256``, ...)."""
     if name not in group.attrs:
         return default
-    return json.loads(_text(group.attrs[name]))
+    return json.loads(as_text(group.attrs[name]))
 
 
-def _text(value: Any) -> str:
+def as_text(value: Any) -> str:
+    """An attribute's value as text (h5py returns bytes for some string attributes)."""
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def check_schema(group: h5py.Group, schema: str, supported_major: int, path: str | Path = "") -> str:
     """Refuse a file of another schema or an unknown major version; return its version string."""
     where = f"{path}: " if path else ""
-    found = _text(group.attrs.get("schema", ""))
+    found = as_text(group.attrs.get("schema", ""))
     if found != schema:
         raise ArtifactError(f"{where}not a {schema} file (schema attribute is {found or 'missing'!r})")
-    version = _text(group.attrs.get("schema_version", ""))
+    version = as_text(group.attrs.get("schema_version", ""))
     try:
         major = int(version.split(".")[0])
     except ValueError:

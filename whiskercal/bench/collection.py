@@ -60,9 +60,14 @@ def measured_z(grid, samples_per_point: int, baseline_samples: int, seed: int) -
     return averaged - baseline
 
 
-def _grid_errors(grid, z_uT: np.ndarray, degree: int) -> dict:
+def _surface_error_uT(grid, z_uT: np.ndarray, degree: int) -> float:
+    """RMSE (µT) of the surface fitted to ``z_uT`` against the grid's noise-free z."""
     surface, _ = fit_fixed(grid.rod_center_mm, z_uT, degree, "polar")
-    z_error = float(np.sqrt(np.mean((surface(grid.rod_center_mm) - grid.z_true_uT) ** 2)))
+    return float(np.sqrt(np.mean((surface(grid.rod_center_mm) - grid.z_true_uT) ** 2)))
+
+
+def _grid_errors(grid, z_uT: np.ndarray, degree: int) -> dict:
+    z_error = _surface_error_uT(grid, z_uT, degree)
     try:
         lookup = calibrate_grid(grid, z_uT, degree=degree, lookup_kind="cubic").lookup
     except ModelError as error:
@@ -116,9 +121,7 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
 
 def _quick_errors(grid, z_uT: np.ndarray, degree: int) -> dict:
     """Surface error and reading noise only (µT): no calibration, for the quick run."""
-    surface, _ = fit_fixed(grid.rod_center_mm, z_uT, degree, "polar")
-    return {"surface_vs_truth_rmse_uT":
-            float(np.sqrt(np.mean((surface(grid.rod_center_mm) - grid.z_true_uT) ** 2))),
+    return {"surface_vs_truth_rmse_uT": _surface_error_uT(grid, z_uT, degree),
             "z_noise_rms_uT": float(np.sqrt(np.mean((z_uT - grid.z_true_uT) ** 2)))}
 
 

@@ -94,11 +94,9 @@ def _field_speed(quick: bool, progress: Callable | None) -> dict:
 def _model_speed(quick: bool, progress: Callable | None) -> dict:
     if quick:
         return {"skipped": "the model's speed study runs in the full bench only"}
-    try:
-        module = importlib.import_module("whiskercal.bench.model_speed")
-    except ImportError:
-        return {"skipped": "whiskercal.bench.model_speed is not available"}
-    return module.run()
+    from whiskercal.bench import model_speed
+
+    return model_speed.run()
 
 
 COMPARISONS = {c.name: c for c in (

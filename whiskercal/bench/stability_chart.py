@@ -36,7 +36,6 @@ def _entries(probes: dict, name: str, sub: str | None) -> list[dict]:
     return probe.get("entries", []) if isinstance(probe, dict) else []
 
 
-
 def _value(entry: dict, y_key: str | None) -> float:
     value = entry.get(y_key, np.nan) if y_key else np.nan
     return 0.0 if value is None or not np.isfinite(value) else float(value)

@@ -69,12 +69,10 @@ def warm_rod_path(n_steps: int = 600) -> dict:
 
 
 def _field_function():
-    """The magnet's field per equilibrium, or None while the magnet model is unavailable."""
-    try:
-        from whiskercal.twin.magnet import field_uT
-        from whiskercal.twin.params import DEFAULT_SENSOR
-    except ImportError:
-        return None
+    """The default magnet's field (µT) per equilibrium, as the simulated world evaluates it."""
+    from whiskercal.twin.magnet import field_uT
+    from whiskercal.twin.params import DEFAULT_SENSOR
+
     magnet = DEFAULT_SENSOR.magnet
     return lambda eq: field_uT(magnet, eq.root_rotation_rad, eq.root_shift_mm)
 

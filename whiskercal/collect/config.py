@@ -129,7 +129,6 @@ def _lists(value: Any) -> Any:
     return value
 
 
-_SECTIONS = {f.name: f.type for f in fields(CollectConfig)}
 _SECTION_TYPES = {"rig": RigConfig, "grid": GridConfig, "approach": ApproachConfig,
                   "motion": MotionConfig, "acquisition": AcquisitionConfig,
                   "sensor": SensorSettings, "safety": SafetyConfig}
@@ -172,7 +171,7 @@ def _convert(value: Any, type_name: str) -> Any:
 def config_from_dict(values: dict[str, Any]) -> CollectConfig:
     """Build and validate a configuration from complete nested dicts."""
     config = CollectConfig(**{name: _section(_SECTION_TYPES[name], values[name], name)
-                              for name in _SECTIONS})
+                              for name in _SECTION_TYPES})
     _validate(config)
     return config
 
@@ -184,7 +183,7 @@ def _validate(config: CollectConfig) -> None:
         problems.append("grid needs step_mm > 0 and reach_min_mm < reach_max_mm")
     lowest = min(grid.angle_min_near_deg, grid.angle_min_far_deg)
     highest = max(grid.angle_min_near_deg, grid.angle_min_far_deg)
-    if not -90.0 <= lowest and highest < grid.angle_max_deg <= 90.0:
+    if not (-90.0 <= lowest and highest < grid.angle_max_deg <= 90.0):
         problems.append("grid needs -90 <= angle_min_near_deg, angle_min_far_deg < angle_max_deg <= 90")
     if acq.samples_per_point < 1 or acq.baseline_samples < 2 or acq.settle_s < 0:
         problems.append("acquisition needs samples_per_point >= 1, baseline_samples >= 2, settle_s >= 0")

@@ -192,16 +192,6 @@ class RawGridWriter:
         """Points written so far."""
         return int(self._file["points/plan_index"].shape[0])
 
-    @property
-    def taken(self) -> np.ndarray:
-        """Plan indices of the points written so far."""
-        return self._file["points/plan_index"][()]
-
-    @property
-    def fingerprint(self) -> str:
-        """The plan fingerprint recorded at creation."""
-        return str(self._file.attrs.get("plan_fingerprint", ""))
-
     def append_point(self, point: PointRecord, stream: StreamChunk | None = None,
                      truth: Mapping[str, Any] | None = None) -> None:
         """Append one point (its stream samples and twin truth too) and flush."""

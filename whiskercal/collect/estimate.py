@@ -65,8 +65,9 @@ def plan_summary(plan: GridPlan, travel_mm=None, accel_mm_s2: float | None = Non
     """Points, ranges, path length, estimated stage time and limit checks of a plan.
 
     The time counts every move (from machine zero when the run homes) and every dwell, but not
-    the homing cycle itself, whose speed only the stage knows. Travel (mm), acceleration (mm/s²) and maximum rate (mm/min) default to the config; pass
-    the stage's own settings when it is connected. ``start_index`` skips points already taken.
+    the homing cycle itself, whose speed only the stage knows. Travel (mm), acceleration (mm/s²)
+    and maximum rate (mm/min) default to the config; pass the stage's own settings when it is
+    connected. ``start_index`` skips points already taken.
     """
     config = plan.config
     travel_mm = config.safety.travel_mm if travel_mm is None else travel_mm

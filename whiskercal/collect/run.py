@@ -168,7 +168,7 @@ def _session(stage, sensor, out: Path, plan: GridPlan, resume: bool, on_progress
         raise UsageError(f"{out}: the run is already complete; nothing to resume")
     stage_start_s = stage.transport.now_s()
     collector = Collector(stage, sensor, plan, checkpoint, devices,
-                          truth=twin_truth(sensor.transport.port, lambda: _averaging_s(plan)),
+                          truth=twin_truth(sensor.transport.port, _averaging_s(plan)),
                           on_progress=on_progress, stop_requested=stop_requested)
     try:
         complete = collector.run()
@@ -222,7 +222,5 @@ def read_stage_settings(stage_port) -> dict[int, float]:
     try:
         return stage.settings()
     finally:
-        close = getattr(stage.transport.port, "close", None)
-        if close is not None:
-            close()
+        _close_port(stage)
 

@@ -26,9 +26,9 @@ def truth_over_window(record: dict[str, np.ndarray], t_start_s: float, t_end_s: 
     t_s = record["t_s"]
     inside = np.flatnonzero((t_s >= t_start_s) & (t_s <= t_end_s))
     if len(inside) == 0:
-        inside = np.array([len(t_s) - 1]) if len(t_s) else inside
-    if len(inside) == 0:
-        return {}
+        if len(t_s) == 0:
+            return {}
+        inside = np.array([len(t_s) - 1])
     middle = inside[len(inside) // 2]
     fields: dict[str, Any] = {ours: np.asarray(record[theirs][middle], float)
                               for theirs, ours in _SAME.items() if theirs in record}
@@ -37,10 +37,10 @@ def truth_over_window(record: dict[str, np.ndarray], t_start_s: float, t_end_s: 
     return fields
 
 
-def twin_truth(port, window_s: Callable[[], float]) -> Callable[[], dict[str, Any]] | None:
+def twin_truth(port, window_s: float) -> Callable[[], dict[str, Any]] | None:
     """A callable giving the twin's truth for the samples just averaged, or None on a real rig.
 
-    ``window_s()`` says how long (s) the averaging took, counted back from the world's now.
+    ``window_s`` is how long (s) averaging one point takes, counted back from the world's now.
     """
     world = getattr(port, "world", None)
     if world is None or not hasattr(world, "truth") or not hasattr(world, "now_s"):
@@ -50,6 +50,6 @@ def twin_truth(port, window_s: Callable[[], float]) -> Callable[[], dict[str, An
         with world.lock:
             now_s = float(world.now_s)
             record = world.truth.arrays()
-        return truth_over_window(record, now_s - window_s(), now_s)
+        return truth_over_window(record, now_s - window_s, now_s)
 
     return truth_now

@@ -31,8 +31,9 @@ from whiskercal.model.trace import Domain, LevelSetProblem, far_edge_radius
 from whiskercal.model.uncertainty import scatter_warning, tip_spread_mm
 
 # Level sets within about a third of the whisker from the root are shaped by the suspension's
-# translation (the rod pushes hard that close), not by the bending that the tip sees; measured
-# on the twin (docs/model.md): mean tip error 2.5 mm entering at 20 mm, 1.2 mm at 26 mm.
+# translation (the rod pushes hard that close) more than by the bending that the tip sees, on
+# grids that reach that close; on the recorded default grid, which starts at 22.8 mm, entering at
+# 18 or 35 mm instead of 26 mm leaves the tip error about where it is (docs/model.md).
 ENTRY_FRACTION_OF_TRACE = 1.0 / 3.0
 # The fit keeps points from this far inside the entry circle (about one grid step), so the
 # surface is interpolated, not extrapolated, on the entry circle.

@@ -11,17 +11,24 @@ sample, numpy for a batch.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator, PPoly
 
 from whiskercal.model.errors import ModelError, TraceError, ZOutOfRangeError
-from whiskercal.model.trace import TRACERS, LevelSetProblem
+from whiskercal.model.trace import TRACERS, LevelSetProblem, get_tracer
 
 KINDS = ("linear", "cubic", "pchip", "akima", "polynomial")
 POLYNOMIAL_DEGREE = 5  # the authors' characterized model: one 5th-order polynomial per axis
 OUT_OF_RANGE_POLICIES = ("raise", "nan", "clip")
+
+
+def check_out_of_range(policy: str) -> None:
+    """Refuse an ``out_of_range`` policy other than :data:`OUT_OF_RANGE_POLICIES`."""
+    if policy not in OUT_OF_RANGE_POLICIES:
+        raise ModelError(f"out_of_range must be one of {', '.join(OUT_OF_RANGE_POLICIES)}, "
+                         f"not {policy!r}")
 
 
 def piece_table(z_knots_uT: np.ndarray, tips_mm: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
@@ -81,8 +88,7 @@ class TipLookup:
         self._range_name = "the calibrated range"
         if trusted_z_uT is not None:
             self._restrict(*trusted_z_uT)
-        self._breaks = np.asarray(breaks, float)
-        self._break_list = self._breaks.tolist()
+        self._break_list = np.asarray(breaks, float).tolist()
         self._flat_table = np.ascontiguousarray(
             np.concatenate([self._table[:, :, 0], self._table[:, :, 1]], axis=1))
         self._rows = [[tuple(c) for c in piece] for piece in self._table.tolist()]
@@ -116,9 +122,7 @@ class TipLookup:
 
     def __call__(self, z_uT, out_of_range: str = "raise") -> np.ndarray:
         """Tips (..., 2) mm for z (...) µT; ``out_of_range`` is "raise", "nan" or "clip"."""
-        if out_of_range not in OUT_OF_RANGE_POLICIES:
-            raise ModelError(f"out_of_range must be one of {OUT_OF_RANGE_POLICIES}, "
-                             f"not {out_of_range!r}")
+        check_out_of_range(out_of_range)
         z = np.asarray(z_uT, float)
         if z.ndim == 0:
             return np.array(self.tip_scalar(float(z), out_of_range))
@@ -218,10 +222,15 @@ def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "f
     """
     if n_samples < 2:
         raise ModelError("the lookup needs at least 2 samples")
+    trace = get_tracer(tracer)
+    if kind != "auto" and kind not in KINDS:
+        raise ModelError(f"unknown interpolant {kind!r}; choose one of {', '.join(KINDS)} or auto")
+    if kind == "akima" and n_samples < 3:
+        raise ModelError("the akima interpolant needs at least 3 samples")
     low, high = supported_z_range(problem, tracer)
     problem = _with_range(problem, (low, high))
     dense_z = np.linspace(low, high, (n_samples - 1) * (holdout_per_interval + 1) + 1)
-    results = [TRACERS[tracer](problem, float(z)) for z in dense_z]
+    results = [trace(problem, float(z)) for z in dense_z]
     dense_tips = np.array([result.tip_mm for result in results])
     extensions = np.array([result.extension_mm for result in results])
     every = holdout_per_interval + 1
@@ -232,8 +241,6 @@ def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "f
     errors = {k: _holdout_error(TipLookup(z_knots, tips, k), holdout_z, holdout_tips)
               for k in KINDS if k != "akima" or n_samples >= 3}
     chosen = min(errors, key=lambda k: errors[k][0]) if kind == "auto" else kind
-    if chosen not in errors:
-        raise ModelError(f"unknown interpolant {kind!r}; choose one of {', '.join(KINDS)} or auto")
     report = LookupReport(chosen, errors[chosen][0], errors[chosen][1],
                           {k: e[0] for k, e in errors.items()}, holdout_z, holdout_tips,
                           extensions[::every], float(extensions.max()))
@@ -247,6 +254,4 @@ def _holdout_error(lookup: TipLookup, z: np.ndarray, tips: np.ndarray) -> tuple[
 
 
 def _with_range(problem: LevelSetProblem, z_range: tuple[float, float]) -> LevelSetProblem:
-    from dataclasses import replace
-
     return replace(problem, z_range_uT=(float(z_range[0]), float(z_range[1])))

@@ -3,9 +3,9 @@
 The polynomial's two variables are either the whisker-frame coordinates (x, y) in mm
 ("cartesian", the paper's model) or polar coordinates about the frame's origin, (r mm, θ rad)
 ("polar", the default). Deflection is mostly a function of the contact's direction from the
-root, so in polar coordinates z is far smoother: on the twin's 180-point grid a degree-8 fit
-leaves 3.5 µT RMSE in polar coordinates against 60 µT (degree 7) in Cartesian ones, and the
-level sets traced from it land several mm closer to the true tips (docs/model.md).
+root, so in polar coordinates z is far smoother: on the recorded 180-point grid at degree 5 it
+leaves 14.1 µT RMSE against 55.0 µT in Cartesian coordinates, and the lookup traced from it lies
+closer to the twin's true tips (0.44 against 0.67 mm RMSE; docs/model.md).
 
 Either pair is mapped to u, v in [-1, 1] from the data's bounding box, so no raw powers of
 millimetres enter the least squares. The basis is the total-degree Legendre set P_i(u) P_j(v),
@@ -27,7 +27,6 @@ from whiskercal.model.errors import FitError
 
 MAX_DEGREE = 8
 MAX_CONDITION = 1e8  # of the scaled design matrix; beyond it the fit is refused, not trusted
-COORDINATES = ("polar", "cartesian")
 
 
 def to_coordinates(points_mm: np.ndarray, coordinates: str) -> np.ndarray:
@@ -280,16 +279,15 @@ def fit_surface(points_mm: np.ndarray, z_uT: np.ndarray, degree: int | str = 5,
         raise FitError("points must be (n, 2) mm and z (n,) µT of the same length")
     if not (np.all(np.isfinite(points_mm)) and np.all(np.isfinite(z_uT))):
         raise FitError("the grid holds non-finite positions or deflections")
+    if degree != "auto" and not 1 <= int(degree) <= MAX_DEGREE:
+        raise FitError(f"degree must be 1..{MAX_DEGREE} or 'auto', not {degree}")
     degrees, cv_mean, cv_se = cross_validate(points_mm, z_uT, coordinates=coordinates, folds=folds,
                                              seed=seed)
     chosen = choose_degree(degrees, cv_mean, cv_se) if degree == "auto" else int(degree)
-    if not 1 <= chosen <= MAX_DEGREE:
-        raise FitError(f"degree must be 1..{MAX_DEGREE} or 'auto', not {degree}")
     surface, condition = fit_fixed(points_mm, z_uT, chosen, coordinates)
     residual = surface(points_mm) - z_uT
     rmse = float(np.sqrt(np.mean(residual ** 2)))
     r2 = float(1.0 - np.sum(residual ** 2) / np.sum((z_uT - z_uT.mean()) ** 2))
-    cv_at = cv_mean[degrees == chosen]
-    report = FitReport(rmse, r2, float(cv_at[0]) if cv_at.size else float("nan"), condition,
-                       degrees, cv_mean, cv_se)
+    report = FitReport(rmse, r2, float(cv_mean[degrees == chosen][0]), condition, degrees, cv_mean,
+                       cv_se)
     return surface, report

@@ -2,7 +2,7 @@
 
 The root is singular: every level set meets there, and the grid starts well away from it (the
 rod cannot touch the shaft next to the suspension), so the polynomial near the root is pure
-extrapolation. Both tracers therefore share their two ends:
+extrapolation. Both tracers therefore share how they start and end:
 
 1. the **entry point**: on the circle of radius ``entry_radius_mm`` about the root, the point
    where f = z (a bracketed root search over the circle's arc inside the calibrated domain; the
@@ -32,8 +32,8 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import ConvexHull
 
-from whiskercal.model.errors import (DomainExitError, NonConvergenceError, TraceDriftError,
-                                     VanishingGradientError, ZOutOfRangeError)
+from whiskercal.model.errors import (DomainExitError, ModelError, NonConvergenceError,
+                                     TraceDriftError, VanishingGradientError, ZOutOfRangeError)
 from whiskercal.model.ode import integrate
 from whiskercal.model.surface import Surface
 
@@ -434,7 +434,15 @@ def trace_fast(problem: LevelSetProblem, z_uT: float, rtol: float = 1e-10, atol_
 TRACERS = {"fast": trace_fast, "paper": trace_paper}
 
 
+def get_tracer(name: str):
+    """The tracer called ``name`` (a key of :data:`TRACERS`), or one clear error."""
+    try:
+        return TRACERS[name]
+    except KeyError:
+        raise ModelError(f"unknown tracer {name!r}; choose one of {', '.join(TRACERS)}") from None
+
+
 def trace_many(problem: LevelSetProblem, z_uT: np.ndarray, tracer: str = "fast") -> np.ndarray:
     """Tips (n, 2) mm for several z with one tracer; raises on the first failure."""
-    trace = TRACERS[tracer]
+    trace = get_tracer(tracer)
     return np.array([trace(problem, float(z)).tip_mm for z in np.atleast_1d(z_uT)])

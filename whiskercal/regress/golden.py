@@ -145,9 +145,9 @@ def read_golden(dataset: Dataset, required: bool = True) -> Golden | None:
         _check_golden_schema(document, path)
         quantities = {name: entry["value"] for name, entry in document["quantities"].items()}
         classes = {name: entry["tolerance"] for name, entry in document["quantities"].items()}
-    except (json.JSONDecodeError, KeyError, TypeError, AttributeError) as error:
+    except (ValueError, KeyError, TypeError, AttributeError) as error:  # ValueError: not JSON or not UTF-8
         raise ArtifactError(f"{path}: not a valid golden results file ({error})") from None
-    unknown = sorted({c for c in classes.values()} - set(CLASSES))
+    unknown = sorted(set(classes.values()) - set(CLASSES))
     if unknown:
         raise ArtifactError(f"{path}: unknown tolerance class(es) {', '.join(unknown)}")
     meta = {k: v for k, v in document.items() if k not in ("quantities", "pipeline", "inputs")}

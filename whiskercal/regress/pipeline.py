@@ -27,6 +27,7 @@ from whiskercal.regress.golden import Dataset
 class StageFailedError(WhiskercalError):
     """A stage of the pipeline failed on a recorded dataset (its message names both)."""
 
+
 # Fit metrics kept as golden quantities (the artifact's /metrics attributes).
 FIT_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
                "points_used", "points_total", "lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm",
@@ -148,9 +149,9 @@ def study_quantities(report: dict) -> dict[str, Any]:
 def _runtime_quantities(artifact: Path, workdir: Path, report) -> dict[str, Any]:
     """Write the target into a copy of the artifact and read it back as a robot would."""
     from whiskercal import runtime
-    from whiskercal.study.artifact_target import write_target
+    from whiskercal.study.artifact_target import target_artifact_path, write_target
 
-    with_target = write_target(artifact, workdir / f"{artifact.stem}-target.h5", report.choice,
+    with_target = write_target(artifact, target_artifact_path(artifact, workdir), report.choice,
                                report.study.sha256)
     calibration = runtime.load(with_target)
     tip = calibration.tip(calibration.target_z_uT)

@@ -128,7 +128,11 @@ def _bench(bench_dir: Path | None) -> Section | None:
     index = bench_dir / "bench.json"
     if not index.is_file():
         raise UsageError(f"{bench_dir} holds no bench.json: run `whiskercal bench --out {bench_dir}`")
-    bench = json.loads(index.read_text())
+    try:
+        bench = json.loads(index.read_text(encoding="utf-8"))
+    except ValueError as error:
+        raise UsageError(f"{index} is not a readable bench result ({error}): run "
+                         f"`whiskercal bench --out {bench_dir}` again") from None
     body = paragraph(f"measured {bench.get('created')} on {bench.get('machine', {}).get('processor')} "
                      f"({bench.get('machine', {}).get('cpu_count')} cores), quick={bench.get('quick')}")
     for name, entry in bench.get("comparisons", {}).items():

@@ -51,9 +51,9 @@ def figure(png: bytes, caption: str) -> str:
             f"<figcaption>{esc(caption)}</figcaption></figure>")
 
 
-def table(rows: Sequence[dict], columns: Sequence[str], headers: Sequence[str] | None = None) -> str:
-    """An HTML table of ``rows`` (dicts) showing ``columns``."""
-    head = "".join(f"<th>{esc(h)}</th>" for h in (headers or columns))
+def table(rows: Sequence[dict], columns: Sequence[str]) -> str:
+    """An HTML table of ``rows`` (dicts) showing ``columns``, headed by the column names."""
+    head = "".join(f"<th>{esc(column)}</th>" for column in columns)
     body = []
     for row in rows:
         cells = []

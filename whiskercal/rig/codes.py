@@ -56,8 +56,3 @@ def describe(kind: str, code: int) -> str:
     texts = {"STAGE_ERROR": STAGE_ERROR_TEXT, "STAGE_ALARM": STAGE_ALARM_TEXT,
              "SENSOR_ERROR": SENSOR_ERROR_TEXT, "SENSOR_STATUS": SENSOR_STATUS_TEXT}[kind]
     return texts.get(code, f"unknown code {code} (not in protocol_codes.def)")
-
-
-def status_text(status: int) -> list[str]:
-    """The human texts of every bit set in a sample's status byte."""
-    return [text for bit, text in SENSOR_STATUS_TEXT.items() if status & bit]

@@ -27,8 +27,6 @@ def open_port(port, baud: int = BAUD) -> serial.SerialBase:
     """Return an open pyserial object for a name/URL, or the object itself when already open."""
     if not isinstance(port, (str, bytes)):
         return port
-    import whiskercal.twin.simport  # noqa: F401  (registers the sim:// scheme with pyserial)
-
     try:
         return serial.serial_for_url(port, baudrate=baud, timeout=1.0)
     except (serial.SerialException, OSError, ValueError) as error:

@@ -7,9 +7,10 @@ error of an estimate is its distance to the plane's line, as in the paper; on th
 measured against the true tip.
 
 Slips and tangential contact are detected from the data alone, never from the twin's truth
-(whiskercal.study.detect): slips are jumps of z; tangential contact shows as the whisker
-a kink of z(depth) during the push-in, as tip estimates that leave the plane's line (the lookup assumes
-a contact at the tip), or, across trials, as a median |z| that stops growing with depth.
+(whiskercal.study.detect): slips are jumps of z; tangential contact shows as a kink of z(depth)
+during the push-in, as tip estimates that leave the plane's line (the lookup assumes a contact at
+the tip), or, across trials, as a median |z| that stops growing with depth or grows faster than
+below (the contact stiffened).
 """
 
 from __future__ import annotations
@@ -260,10 +261,10 @@ def _flag_stiffening(rows: list[TrialMetrics], depths: np.ndarray, medians: np.n
     """Mark the trials where |z| grows faster with depth than below them as tangential."""
     gains = depth_gains(depths, medians)
     flagged = stiffening_breaks(depths, medians, criteria.stiffening_tolerance)
-    for i, row in enumerate(rows):
-        if not flagged[i]:
+    first = int(np.argmax(flagged))  # flagged trials are this one and every deeper one
+    for row, stiffened in zip(rows, flagged):
+        if not stiffened:
             continue
-        first = int(np.argmax(flagged))
         row.tangential = True
         row.failing = True
         row.reasons.append(

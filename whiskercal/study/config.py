@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from whiskercal.collect.plan import rotation
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import merge_overrides, read_toml
 
@@ -98,13 +99,9 @@ class PlaneGeometry:
         """Unit direction (whisker frame) of the slide, along the plane."""
         return self.slide_sign * np.array([np.sin(self.tilt_rad), -np.cos(self.tilt_rad)])
 
-    def _rotation(self) -> np.ndarray:
-        c, s = np.cos(self.angle_rad), np.sin(self.angle_rad)
-        return np.array([[c, -s], [s, c]])
-
     def to_stage_vector(self, vector_whisker: np.ndarray) -> np.ndarray:
         """A direction or displacement (whisker frame) in stage coordinates."""
-        return self._rotation() @ np.asarray(vector_whisker, float)
+        return rotation(self.angle_rad) @ np.asarray(vector_whisker, float)
 
     def contact_guess_stage_mm(self) -> np.ndarray:
         """Stage position at which the plane would pass through the undeflected tip."""
@@ -114,7 +111,7 @@ class PlaneGeometry:
     def plane_line_whisker(self, stage_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The plane's line in the whisker frame for stage positions (n, 2): points and normals."""
         stage_mm = np.atleast_2d(np.asarray(stage_mm, float))
-        points = (stage_mm + self.fixture_offset_mm - self.origin_stage_mm) @ self._rotation()
+        points = (stage_mm + self.fixture_offset_mm - self.origin_stage_mm) @ rotation(self.angle_rad)
         normals = np.tile(self.push_whisker, (stage_mm.shape[0], 1))
         return points, normals
 

@@ -37,7 +37,8 @@ def error_distribution(series: list[TrialSeries], rows: list[TrialMetrics], path
     failing = {row.depth_mm for row in rows if row.failing}
     positions = np.arange(len(series), dtype=float)
     for offset, which, color in ((-0.18, "raw", "tab:gray"), (0.18, "filtered", "tab:blue")):
-        data = [_errors(s, which) if _errors(s, which).size else np.array([np.nan]) for s in series]
+        data = [errors if errors.size else np.array([np.nan])
+                for errors in (_errors(s, which) for s in series)]
         parts = ax.boxplot(data, positions=positions + offset, widths=0.3, showfliers=False,
                            patch_artist=True)
         for box in parts["boxes"]:

@@ -121,13 +121,21 @@ class StreamRecorder:
                 "phase": np.asarray(polls["phase"], np.int8)}
 
 
+def measured_positions_mm(stage: dict[str, np.ndarray]) -> np.ndarray:
+    """The stage's position at each status poll (M, 2) mm.
+
+    The encoder position where the stage reports one (it measures where the stage is), else the
+    commanded machine position.
+    """
+    return stage["enc_mm"] if np.all(np.isfinite(stage["enc_mm"])) else stage["mpos_mm"]
+
+
 def stage_position_per_sample(stage: dict[str, np.ndarray], n_samples: int) -> np.ndarray:
     """The stage position (mm) at each sample, interpolated between status polls.
 
-    The encoder position is used where the stage reports one (it measures where the stage is),
-    else the commanded machine position. Samples before the first poll take its position.
+    Positions as :func:`measured_positions_mm`; samples before the first poll take its position.
     """
-    positions = stage["enc_mm"] if np.all(np.isfinite(stage["enc_mm"])) else stage["mpos_mm"]
+    positions = measured_positions_mm(stage)
     if positions.shape[0] == 0:
         return np.full((n_samples, 2), np.nan)
     index = stage["sample_index"].astype(float)

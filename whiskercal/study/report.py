@@ -18,7 +18,7 @@ from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.dataset import PHASE_APPROACH, PHASE_SLIDE, Study, TrialRecord, read_study
 from whiskercal.study.localize import track
 from whiskercal.rig.overload import SENSOR_AXIS_Y
-from whiskercal.study.recorder import stage_position_per_sample
+from whiskercal.study.recorder import measured_positions_mm, stage_position_per_sample
 from whiskercal.study.target import NoTargetError, TargetChoice, choose_target
 
 
@@ -73,9 +73,7 @@ def check_complete(study: Study) -> None:
 
 def slid_mm(trial: TrialRecord) -> float:
     """How far the stage moved during the slide (mm), from its status reports."""
-    stage = trial.stage
-    positions = stage["enc_mm"] if np.all(np.isfinite(stage["enc_mm"])) else stage["mpos_mm"]
-    sliding = positions[stage["phase"] == PHASE_SLIDE]
+    sliding = measured_positions_mm(trial.stage)[trial.stage["phase"] == PHASE_SLIDE]
     if sliding.shape[0] < 2:
         return 0.0
     return float(np.max(np.linalg.norm(sliding - sliding[0], axis=1)))
@@ -141,9 +139,7 @@ def build_report(study_path: str | Path, calibration, criteria: Criteria = Crite
         Analyse a study that lacks planned trials instead of refusing it.
     """
     study = read_study(study_path)
-    if not allow_missing:
-        check_complete(study)
-    elif not study.trials:
+    if not allow_missing or not study.trials:
         check_complete(study)
     threshold = float(study.config.get("contact", {}).get("threshold_uT", 300.0))
     series, unmapped = [], {}

@@ -31,7 +31,7 @@ from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.dataset import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE, StudyWriter,
                                       TrialRecord)
 from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError
-from whiskercal.study.recorder import StreamRecorder, stage_position_per_sample
+from whiskercal.study.recorder import POLL_PERIOD_S, StreamRecorder, stage_position_per_sample
 
 ProgressCallback = Callable[[Progress], None]
 
@@ -83,6 +83,7 @@ class StudyRun:
         self.clock = getattr(getattr(stage, "transport", None), "now_s", None) or (lambda: 0.0)
         self.static_field_uT = np.full(3, np.nan)
         self.rate_hz = float(config["sensor"]["rate_hz"])
+        self._poll_samples = max(1, int(self.rate_hz * POLL_PERIOD_S))
 
     # -- the whole run -------------------------------------------------------------------------
     def run(self) -> RunSummary:
@@ -186,7 +187,7 @@ class StudyRun:
     def _drain(self, status) -> None:
         """Between polls when nothing is recorded: read and discard, so the buffer never fills."""
         if not status.idle:
-            self.sensor.read(max(1, int(self.rate_hz * 0.02)), timeout_s=1.0)
+            self.sensor.read(self._poll_samples, timeout_s=1.0)
         self.sensor.read_available()
 
     def _mean_field(self, samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -271,7 +272,7 @@ class StudyRun:
 
     def _drain_quietly(self) -> None:
         try:
-            self.sensor.read(max(1, int(self.rate_hz * 0.02)), timeout_s=1.0)
+            self.sensor.read(self._poll_samples, timeout_s=1.0)
         except DeviceError:
             pass
 

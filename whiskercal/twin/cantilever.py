@@ -35,10 +35,14 @@ def cantilever_tip(alpha: float, steps: int = el.DEFAULT_STEPS) -> tuple[float, 
     if not (0.0 <= alpha <= ALPHA_MAX):
         raise UsageError(f"alpha must be in [0, {ALPHA_MAX:g}], got {alpha!r}.")
     p = el.new_params()  # stub 0, compliances 0: a rigid root at the origin
-    z = np.zeros(1)
+    z = before = np.zeros(1)
     for load in np.linspace(0.0, alpha, max(1, math.ceil(alpha / ALPHA_STEP)) + 1)[1:]:
         p[el.P_FY] = load
-        z, converged, _ = el.newton(el.CANTILEVER, z, p, steps, 1e-12, 50)
+        # start from the trend of the last two loads: from the last solution alone, Newton
+        # jumps to another branch of the elastica beyond alpha ~ 33
+        start = 2.0 * z - before
+        before = z
+        z, converged, _ = el.newton(el.CANTILEVER, start, p, steps, 1e-12, 50)
         if not converged:
             raise UsageError(f"the cantilever solve did not converge at alpha = {load:g}.")
     _, _, _, tip_x, tip_y = el.end_state(el.CANTILEVER, z, p, steps)

@@ -206,13 +206,13 @@ def solve_circle(whisker: WhiskerParams, circle: Circle, previous: Equilibrium |
     check_whisker(whisker)
     if not isinstance(circle, Circle):
         raise UsageError(f"expected a Circle, got {type(circle).__name__}.")
-    p = circle_params(whisker, circle.center_mm, circle.radius_mm, circle.side)
     if not _swept_into_wire(whisker, circle):
         return free(whisker)  # frictionless: with nothing in the way the wire springs back
     if previous is not None and previous.slipped_past:
         return previous
     if previous is not None and previous.solution and previous.solution[0] in (
             el.SHAFT_CIRCLE, el.TIP_CIRCLE):
+        p = circle_params(whisker, circle.center_mm, circle.radius_mm, circle.side)
         code, z = _circle_step(previous.solution[0], previous.solution[1], p)
         if z is not None:
             return make_equilibrium(whisker, _kind_name(code), code, z, p)
@@ -234,10 +234,4 @@ def solve_rod(whisker: WhiskerParams, rod_center_mm, rod_radius_mm: float,
     The rod comes from the whisker's +y side (``side=+1``) and pushes toward -y; see
     `solve_circle` for the rest.
     """
-    try:
-        radius = float(rod_radius_mm)
-    except (TypeError, ValueError):
-        radius = math.nan
-    if not math.isfinite(radius) or radius < 0:
-        raise UsageError(f"rod radius must be a finite number >= 0 mm, got {rod_radius_mm!r}.")
-    return solve_circle(whisker, Circle(rod_center_mm, radius, side), previous)
+    return solve_circle(whisker, Circle(rod_center_mm, rod_radius_mm, side), previous)

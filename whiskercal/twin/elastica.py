@@ -30,8 +30,6 @@ TIP_POINT = 3      # tip held at a point (sticking, or a polygon's corner)      
 TIP_LINE = 4       # tip on a line with tangential force = mu_signed·normal      (3 unknowns)
 TANGENT_LINE = 5   # shaft tangent to a line at s_c, lying along it to the tip    (4 unknowns)
 
-N_UNKNOWNS = np.array([1, 4, 3, 3, 3, 4])
-
 # Indices into the parameter vector p.
 P_STUB, P_CROT, P_CTRANS = 0, 1, 2
 P_CX, P_CY, P_RADIUS, P_SIDE = 3, 4, 5, 6

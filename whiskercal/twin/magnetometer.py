@@ -33,7 +33,6 @@ import numpy as np
 
 from whiskercal.errors import UsageError
 from whiskercal.rig import mlx90393
-from whiskercal.rig.mlx90393 import I2C_EXCHANGE_MS
 
 # The sensitivity and conversion-time tables and the I2C exchange time are the host's
 # (whiskercal/rig/mlx90393.py): the twin's chip and the host must convert counts alike.
@@ -129,7 +128,7 @@ class MagnetometerParams:
 
     def sample_time_ms(self) -> float:
         """Conversion plus the I2C exchange that triggers and reads it, ms."""
-        return self.conversion_time_ms() + I2C_EXCHANGE_MS
+        return mlx90393.sample_time_ms(self.osr, self.filt)
 
     def fits_rate(self) -> bool:
         """True when a conversion and its I2C exchange finish within one sample period."""

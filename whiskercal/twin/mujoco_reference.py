@@ -119,9 +119,8 @@ def suspended_tip(whisker, load_n: float) -> ReferenceTip:
     Parameters
     ----------
     whisker : RodSpec or WhiskerParams
-        Any object with ``length_mm``, ``root_offset_mm``, ``bending_stiffness_n_mm2`` or
-        ``bending_stiffness_n_mm2``, and the root stiffnesses (rotational in N·mm/rad,
-        translational in N/mm; None or missing means rigid).
+        Any object with ``length_mm``, ``root_offset_mm``, ``bending_stiffness_n_mm2`` and the
+        root stiffnesses (rotational in N·mm/rad, translational in N/mm; None means rigid).
     load_n : float
         Load toward +y (N, > 0).
 

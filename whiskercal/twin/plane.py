@@ -12,6 +12,7 @@ contact when s_c returns to L, and the whisker comes free when the normal force 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -60,7 +61,7 @@ def _tangential_from(z, p, arc_guess: float):
     return None
 
 
-def _settle(whisker, plane, code: int, z, p, sliding: bool):
+def _settle(whisker, plane, code: int, z, p):
     """Check a tip/tangential state for penetration, loss of contact and the way back.
 
     Returns (code, z, p) of the state to report, or None when the whisker comes free.
@@ -89,7 +90,7 @@ def _tip_slide(whisker, plane, z, mu_signed: float):
     z_new, ok = solve_kind(el.TIP_LINE, z, p)
     if not ok:
         return None
-    return _settle(whisker, plane, el.TIP_LINE, z_new, p, True)
+    return _settle(whisker, plane, el.TIP_LINE, z_new, p)
 
 
 def _friction_ratio(force, plane: Plane) -> float:
@@ -148,7 +149,7 @@ def _stick_or_slip(whisker, plane: Plane, previous: Equilibrium):
     if ok:
         normal, tangential = _forces(z, plane)
         if normal > 0.0 and abs(tangential) <= plane.mu_static * normal:
-            return _settle(whisker, plane, el.TIP_POINT, z, p, False), False, 0
+            return _settle(whisker, plane, el.TIP_POINT, z, p), False, 0
         if normal > 0.0 and plane.mu_static - plane.rest_ratio > STEADY_SLIDE_RATIO:
             start = _friction_ratio(np.asarray(previous.force_n), plane)
             ratio, slips = slips_within_step(start, tangential / normal, plane)
@@ -163,9 +164,7 @@ def _stick_or_slip(whisker, plane: Plane, previous: Equilibrium):
 
 def _at_depth(plane: Plane, depth_mm: float, total_mm: float) -> Plane:
     """`plane` moved back along its normal so that it is `depth_mm` past first touch."""
-    return Plane(plane.point_mm - (total_mm - depth_mm) * plane.normal, plane.normal_rad,
-                 plane.slide_mm, plane.mu_static, plane.mu_kinetic, plane.motion_sign,
-                 plane.slip_rebound)
+    return replace(plane, point_mm=plane.point_mm - (total_mm - depth_mm) * plane.normal)
 
 
 def _first_guesses(plane: Plane, mu_signed: float):
@@ -192,7 +191,7 @@ def _push(whisker, plane: Plane, state, depth_from: float, depth_to: float, tota
     for guess in guesses:
         z_new, ok = solve_kind(code, guess, p)
         if ok and (state is not None or _forces(z_new, plane)[0] > 0.0):
-            settled = _settle(whisker, shifted, code, z_new, p, True)
+            settled = _settle(whisker, shifted, code, z_new, p)
             return ("ok", settled) if settled is not None else ("free", None)
     if halvings == 0:
         return "fail", None
@@ -276,7 +275,7 @@ def _continue(whisker, plane: Plane, previous: Equilibrium):
     z, ok = solve_kind(el.TANGENT_LINE, previous.solution[1], p)
     if not ok:
         return None, True, 0
-    return _settle(whisker, plane, el.TANGENT_LINE, z, p, True), True, 0
+    return _settle(whisker, plane, el.TANGENT_LINE, z, p), True, 0
 
 
 def _from_plane(previous: Equilibrium | None) -> bool:

@@ -9,6 +9,7 @@ edge) the other candidates are tried from the same starting state and the physic
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -183,4 +184,4 @@ def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
     code, index, z = state
     p = _params(whisker, polygon, code, index)
     eq = make_equilibrium(whisker, "shaft" if code == el.SHAFT_CIRCLE else "tip", code, z, p)
-    return Equilibrium(**{**eq.__dict__, "solution": eq.solution + (index,)})
+    return replace(eq, solution=eq.solution + (index,))  # the corner/edge, for warm starts

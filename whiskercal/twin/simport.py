@@ -281,7 +281,7 @@ class PtyBridge:
             return
         try:
             written = os.write(self._ends[kind][0], data)
-        except (BlockingIOError, OSError):
+        except OSError:
             written = 0
         self.dropped_bytes += len(data) - written  # a full pty buffer loses bytes, as a UART would
 

@@ -171,21 +171,17 @@ def check_friction_cone(whisker: WhiskerParams | None = None, depth_mm: float = 
     slides on the kinetic edge); `check_stick_slip` covers the slip events.
     """
     whisker = whisker or WhiskerParams()
-    plane = plane_for_depth(whisker, depth_mm)
-    previous, stick_excess, slide_error, n_slips = None, -math.inf, 0.0, 0
-    for i in range(n_steps):
-        plane = replace(plane, slide_mm=plane.motion_sign * i * step_mm)
-        eq = solve_plane(whisker, plane, previous)
-        ratio = abs(eq.force_n @ plane.tangent) / (eq.force_n @ plane.normal)
+    stick_excess, slide_error, n_sliding = -math.inf, 0.0, 0
+    for plane, eq, _ in _slide(whisker, depth_mm, n_steps, step_mm):
+        ratio = _ratio(eq, plane)
         if eq.sliding:
-            n_slips += 1
+            n_sliding += 1
             slide_error = max(slide_error, abs(ratio - plane.mu_kinetic))
         else:
             stick_excess = max(stick_excess, ratio - plane.mu_static)
-        previous = eq
     return [Check("sticking: |Ft|/Fn - mu_s (must be <= 0)", stick_excess, 0.0),
-            Check("sliding: | |Ft|/Fn - mu_k |", slide_error if n_slips else math.inf, 1e-9,
-                  f"{n_slips} of {n_steps} steps slid steadily (the history-free first step)")]
+            Check("sliding: | |Ft|/Fn - mu_k |", slide_error if n_sliding else math.inf, 1e-9,
+                  f"{n_sliding} of {n_steps} steps slid steadily (the history-free first step)")]
 
 
 def _ratio(eq: Equilibrium, plane: Plane) -> float:
@@ -199,7 +195,7 @@ def _held_ratio(whisker: WhiskerParams, plane: Plane, previous: Equilibrium) -> 
     return _ratio(solve_plane(whisker, replace(plane, mu_static=100.0), previous), plane)
 
 
-def _slide_slips(whisker, depth_mm: float, n_steps: int, step_mm: float):
+def _slide(whisker, depth_mm: float, n_steps: int, step_mm: float):
     """Walk a slide; yield (plane, state, previous state) per step."""
     base, previous = plane_for_depth(whisker, depth_mm), None
     for i in range(n_steps):
@@ -222,7 +218,7 @@ def check_stick_slip(whisker: WhiskerParams | None = None, depth_mm: float = 20.
     whisker = whisker or WhiskerParams()
     outside, short_of_breakaway, off_rest, events = -math.inf, -math.inf, 0.0, 0
     largest_carried = 0.0
-    for plane, eq, previous in _slide_slips(whisker, depth_mm, n_steps, step_mm):
+    for plane, eq, previous in _slide(whisker, depth_mm, n_steps, step_mm):
         if previous is None:
             continue  # the history-free first step slides on the kinetic edge
         ratio = _ratio(eq, plane)

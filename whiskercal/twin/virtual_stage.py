@@ -350,8 +350,6 @@ class VirtualStage:
             raise GcodeError(3)
         if value < 0:
             raise GcodeError(4)
-        if self.state(t) not in ("Idle", "Alarm"):
-            raise GcodeError(8)
         self.mech.settings[number] = value
         self._send("ok", t)
 

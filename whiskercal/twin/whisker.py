@@ -81,10 +81,6 @@ class WhiskerParams:
         return self.bending_stiffness_n_mm2 / self.length_mm ** 2
 
 
-def _nan2() -> np.ndarray:
-    return np.full(2, np.nan)
-
-
 @dataclass(frozen=True)
 class Equilibrium:
     """A static equilibrium of the whisker (whisker frame, mm, N, rad).

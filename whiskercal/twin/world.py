@@ -27,12 +27,13 @@ from whiskercal.twin.clock import SimClock
 from whiskercal.twin.stage import StageFaults, StageMechanics
 from whiskercal.twin.virtual_sensor import SensorFaults, VirtualSensor
 from whiskercal.twin.virtual_stage import VirtualStage
+from whiskercal.twin.whisker import EQUILIBRIUM_KINDS
 
 DEFAULT_ROD_RADIUS_MM = 1.5
 # Plane fixture's outward normal in the whisker frame: back toward the root, tilted 20° to -y
 # (the study's plane, reference/README.md).
 DEFAULT_PLANE_NORMAL_RAD = math.pi + math.radians(20.0)
-_KINDS = ("free", "shaft", "tip", "tangential", "failed")
+_KINDS = (*EQUILIBRIUM_KINDS, "failed")
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,13 @@ class RodFixture:
     """
 
     radius_mm: float = DEFAULT_ROD_RADIUS_MM
+
+    def __post_init__(self) -> None:
+        # checked here, not at the first solve: the world turns solver errors into "failed"
+        # samples, and a negative radius would never touch at all
+        from whiskercal.twin.scenes import finite_number
+
+        finite_number("rod radius (mm)", self.radius_mm, 0.0)
 
     def obstacle(self, tool_mm: np.ndarray, motion_sign: int, side: int = 1):
         """The rod as a ``Circle`` in the whisker frame, on ``side`` of the whisker."""
@@ -211,8 +219,6 @@ class TwinPhysics:
             return m.free(self.sensor.whisker)
         if isinstance(obstacle, m.Plane):
             return m.solve_plane(self.sensor.whisker, obstacle, previous)
-        if isinstance(obstacle, m.Circle) and obstacle.side == 1:  # the touch rod's own solver
-            return m.solve_rod(self.sensor.whisker, obstacle.center_mm, obstacle.radius_mm, previous)
         return m.solve_shape(self.sensor.whisker, obstacle, previous)
 
     def field_uT(self, equilibrium) -> np.ndarray:
@@ -291,7 +297,13 @@ class TruthRecord:
 
 @dataclass
 class WorldConfig:
-    """Everything that makes a world (see :func:`create_world`)."""
+    """Everything that makes a world (see :func:`create_world`).
+
+    Positions and lengths in mm (``stage_start_mm``: the carriage's physical position at
+    power-up); ``speed`` is simulated seconds per real second (0: as fast as the CPU allows);
+    ``max_step_mm`` the longest move of the end effector between two warm-started solves;
+    ``clock_drift_ppm`` the sensor board's clock error; ``stock`` a plain grbl stage.
+    """
 
     sensor: object = None
     fixture: object = field(default_factory=RodFixture)
@@ -399,16 +411,14 @@ class World:
         return self.config.geometry.to_stage(whisker_mm)
 
     # -- physics ----------------------------------------------------------------------------
-    def equilibrium_at(self, t: float, stage_mm: np.ndarray | None = None):
+    def equilibrium_at(self, t: float, tool_mm: np.ndarray | None = None):
         """The whisker's equilibrium at time ``t`` (call with non-decreasing times).
 
         The tool's path since the last call is followed in steps of at most ``max_step_mm``,
-        each solve warm-started from the previous one, so friction sees the path. ``stage_mm``
-        is the carriage at ``t`` when the caller already has it.
+        each solve warm-started from the previous one, so friction sees the path. ``tool_mm``
+        is the end effector at ``t`` (whisker frame, mm) when the caller already has it.
         """
-        if stage_mm is None:
-            stage_mm = self.stage_true_mm(t)
-        tool = self.config.geometry.to_whisker(stage_mm)
+        tool = self.tool_mm(t) if tool_mm is None else tool_mm
         # the stage may have gone somewhere and back since the last call: step along its path
         travel = max(float(np.hypot(*(tool - self._eq_tool_mm))),
                      self.stage.path_length_mm(self._eq_time_s, t))
@@ -465,23 +475,24 @@ class World:
         for index, t in enumerate(times_s):
             self._failed = False
             stage_mm = self.stage_true_mm(t)
-            equilibrium = self.equilibrium_at(t, stage_mm)
+            tool_mm = self.config.geometry.to_whisker(stage_mm)
+            equilibrium = self.equilibrium_at(t, tool_mm)
             if self._field_of[0] is not equilibrium:  # standing still: the field is the same
                 self._field_of = (equilibrium, self.physics.field_uT(equilibrium))
             fields[index] = self._field_of[1]
-            self._truth_row(rows[index], t, stage_mm, equilibrium, fields[index])
+            self._truth_row(rows[index], t, stage_mm, tool_mm, equilibrium, fields[index])
             kinds.append("failed" if self._failed else equilibrium.kind)
         self.truth.extend(rows, kinds)
         params = self._magnetometer(config)
         counts = to_counts(fields, params, self.rng)
         return counts, is_saturated(counts, params)
 
-    def _truth_row(self, row: np.ndarray, t: float, stage_mm: np.ndarray, equilibrium,
-                   field_uT: np.ndarray) -> None:
+    def _truth_row(self, row: np.ndarray, t: float, stage_mm: np.ndarray, tool_mm: np.ndarray,
+                   equilibrium, field_uT: np.ndarray) -> None:
         """Fill one truth row in place (column order of ``TruthRecord``)."""
         row[0] = t
         row[1:3] = stage_mm
-        row[3:5] = self.config.geometry.to_whisker(stage_mm)
+        row[3:5] = tool_mm
         row[5:7] = equilibrium.contact_mm
         row[7:9] = equilibrium.tip_mm
         row[9] = equilibrium.root_rotation_rad

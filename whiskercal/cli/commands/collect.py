@@ -8,7 +8,7 @@ from contextlib import contextmanager
 
 import click
 
-from whiskercal.cli.app import App, abort, echo_json, pass_app
+from whiskercal.cli.app import App, abort, echo_json, pass_app, time_left
 from whiskercal.errors import UsageError
 
 
@@ -36,10 +36,9 @@ def _progress_printer(app: App):
         return None
 
     def show(progress) -> None:
-        left = progress.remaining_s
-        left_text = "--" if left == float("inf") else f"{int(left // 60)}m{int(left % 60):02d}s"
         click.echo(f"\r  {progress.done}/{progress.total} points  {progress.rate_per_s:.2f} pt/s  "
-                   f"{left_text} left ", err=True, nl=progress.done == progress.total)
+                   f"{time_left(progress.remaining_s)} left ", err=True,
+                   nl=progress.done == progress.total)
     return show
 
 

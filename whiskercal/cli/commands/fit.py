@@ -64,7 +64,8 @@ def _truth_metrics(grid, calibration) -> tuple[dict, dict | None]:
     z_true, tips_true = truth.tip_curve(sensor)
     lookup = calibration.lookup
     inside = (z_true >= lookup.z_min_uT) & (z_true <= lookup.z_max_uT)
-    error = np.linalg.norm(lookup(z_true[inside]) - tips_true[inside], axis=1)
+    tips = lookup(z_true[inside])
+    error = np.linalg.norm(tips - tips_true[inside], axis=1)
     metrics = {"lookup_vs_truth_rmse_mm": float(np.sqrt(np.mean(error ** 2))),
                "lookup_vs_truth_max_mm": float(error.max()),
                "lookup_vs_truth_points": int(inside.sum())}
@@ -77,7 +78,7 @@ def _truth_metrics(grid, calibration) -> tuple[dict, dict | None]:
         metrics["contact_error_uncorrected_mm"] = float(np.mean(before))
         metrics["contact_error_corrected_mm"] = float(np.mean(after))
     arrays = {"z_uT": z_true[inside], "true_tip_mm": tips_true[inside],
-              "lookup_tip_mm": lookup(z_true[inside]), "error_mm": error}
+              "lookup_tip_mm": tips, "error_mm": error}
     return metrics, arrays
 
 

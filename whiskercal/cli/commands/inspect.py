@@ -8,14 +8,11 @@ import click
 import h5py
 import numpy as np
 
+from whiskercal.artifacts.h5io import as_text, open_h5, read_json_attr
 from whiskercal.cli.app import echo_json
 from whiskercal.errors import ArtifactError
 
 _PROVENANCE = ("schema", "schema_version", "created", "whiskercal_version", "sensor_id")
-
-
-def _text(value) -> str:
-    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def _datasets(handle: h5py.File) -> dict[str, dict]:
@@ -25,7 +22,7 @@ def _datasets(handle: h5py.File) -> dict[str, dict]:
     def visit(name: str, item) -> None:
         if isinstance(item, h5py.Dataset):
             found["/" + name] = {"shape": list(item.shape),
-                                 "units": _text(item.attrs.get("units", "?"))}
+                                 "units": as_text(item.attrs.get("units", "?"))}
 
     handle.visititems(visit)
     return found
@@ -87,11 +84,9 @@ def _raw_summary(path: Path) -> dict:
 
 def inspect_file(path: str | Path) -> dict:
     """A JSON-able description of a whiskercal HDF5 file (calibration artifact or raw grid)."""
-    from whiskercal.artifacts.h5io import open_h5, read_json_attr
-
     path = Path(path)
     with open_h5(path) as handle:
-        provenance = {key: _text(handle.attrs[key]) for key in _PROVENANCE if key in handle.attrs}
+        provenance = {key: as_text(handle.attrs[key]) for key in _PROVENANCE if key in handle.attrs}
         inputs = read_json_attr(handle, "inputs_sha256", {})
         datasets = _datasets(handle)
     schema = provenance.get("schema", "")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from whiskercal.cli.app import App, abort, echo_json, pass_app
+from whiskercal.cli.app import App, abort, echo_json, pass_app, time_left
 
 
 @click.group("optimal-depth")
@@ -27,10 +27,8 @@ def _progress_printer(app: App, enabled: bool):
         return None
 
     def show(progress) -> None:
-        left = progress.remaining_s
-        left_text = "--" if left == float("inf") else f"{int(left // 60)}m{int(left % 60):02d}s"
-        click.echo(f"\r  {progress.done}/{progress.total} trials  {left_text} left ", err=True,
-                   nl=progress.done == progress.total)
+        click.echo(f"\r  {progress.done}/{progress.total} trials  {time_left(progress.remaining_s)} "
+                   "left ", err=True, nl=progress.done == progress.total)
     return show
 
 

@@ -1,4 +1,4 @@
-"""``whiskercal version``: versions of the toolchain, its schemas and its libraries."""
+"""``whiskercal version``: versions of the toolchain, Python and the numerical libraries."""
 
 from __future__ import annotations
 
