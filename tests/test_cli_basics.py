@@ -42,3 +42,12 @@ def test_every_command_has_help(path):
 def test_unknown_command_fails():
     result = CliRunner().invoke(cli, ["no-such-command"])
     assert result.exit_code != 0
+
+
+def test_an_output_directory_that_cannot_be_made_is_one_line(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory")
+    result = CliRunner().invoke(cli, ["bench", "--only", "field-speed", "--out", str(blocker / "out")])
+    assert result.exit_code == 2
+    assert result.output.strip() == (f"error: cannot create the directory {blocker / 'out'}: "
+                                     "Not a directory")

@@ -14,6 +14,7 @@ from typing import Sequence
 import numpy as np
 
 from whiskercal.errors import UsageError
+from whiskercal.paths import ensure_dir
 
 
 def pareto_mask(time_s: Sequence[float], error: Sequence[float]) -> np.ndarray:
@@ -113,7 +114,7 @@ def draw_pareto(rows: list[dict], spec: dict, path: str | Path, title: str = "")
         fig.suptitle(title)
     fig.tight_layout()
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    ensure_dir(path.parent)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

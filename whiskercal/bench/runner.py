@@ -23,6 +23,7 @@ from whiskercal.artifacts.h5io import now_iso
 from whiskercal.bench.pareto import draw_pareto, front_rows
 from whiskercal.bench.timing import machine_info
 from whiskercal.errors import UsageError
+from whiskercal.paths import ensure_dir
 
 
 @dataclass(frozen=True)
@@ -189,7 +190,7 @@ def run_bench(out_dir: str | Path, only=None, quick: bool = False,
               progress: Callable | None = None) -> dict:
     """Run the selected comparisons and write ``out_dir``/bench.json; return its content."""
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    ensure_dir(out_dir)
     chosen = select(only)
     bench = {"benchmark": "whiskercal-bench", "created": now_iso(), "whiskercal_version": __version__,
              "quick": quick, "machine": machine_info(), "comparisons": {}}

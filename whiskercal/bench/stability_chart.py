@@ -17,6 +17,7 @@ from matplotlib.ticker import NullFormatter
 
 from whiskercal.bench.pareto import _pyplot
 from whiskercal.bench.stability import RETURNED
+from whiskercal.paths import ensure_dir
 
 PANELS = (
     ("z_range", "fast", "tracer (fast): z beyond the data", "z (µT)", "error_vs_truth_mm"),
@@ -90,7 +91,7 @@ def draw_stability(result: dict, path: str | Path) -> Path:
                  "silent failures (red), documented limits (orange)")
     fig.tight_layout()
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    ensure_dir(path.parent)
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path

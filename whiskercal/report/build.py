@@ -18,6 +18,7 @@ from whiskercal import __version__
 from whiskercal.artifacts.calibration import CalibrationData, read_calibration, surface_of
 from whiskercal.artifacts.h5io import now_iso, sha256_file
 from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.paths import ensure_dir
 from whiskercal.report import figures
 from whiskercal.report.html import Section, figure, key_values, paragraph, render, table
 
@@ -193,7 +194,7 @@ def write_report(out_path: str | Path, cal_path, raw_path=None, study_path=None,
     """Write the report to ``out_path`` (the file is replaced whole)."""
     out_path = Path(out_path)
     page = build_html(cal_path, raw_path, study_path, bench_dir)
-    out_path.parent.mkdir(parents=True, exist_ok=True)
+    ensure_dir(out_path.parent)
     scratch = out_path.with_name(out_path.name + ".partial")
     scratch.write_text(page, encoding="utf-8")
     scratch.replace(out_path)

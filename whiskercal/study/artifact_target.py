@@ -18,6 +18,7 @@ import h5py
 
 from whiskercal.artifacts import h5io
 from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.paths import ensure_dir
 from whiskercal.study.target import TargetChoice
 
 TARGET_GROUP = "target"
@@ -52,7 +53,7 @@ def write_target(calibration_path: str | Path, out_path: str | Path, choice: Tar
     calibration_path, out_path = Path(calibration_path), Path(out_path)
     if out_path.resolve() == calibration_path.resolve():
         raise UsageError("the artifact with the target must be a new file, not the input artifact")
-    out_path.parent.mkdir(parents=True, exist_ok=True)
+    ensure_dir(out_path.parent)
     scratch = out_path.with_name(out_path.name + ".partial")
     shutil.copyfile(calibration_path, scratch)
     input_sha = h5io.sha256_file(calibration_path)

@@ -21,6 +21,7 @@ import numpy as np
 
 from whiskercal.artifacts import h5io
 from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.plane_study"
 SCHEMA_VERSION = "1.0.0"
@@ -96,7 +97,7 @@ class StudyWriter:
             self._create(sensor_id)
 
     def _create(self, sensor_id: str) -> None:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        ensure_dir(self.path.parent)
         with h5py.File(self._scratch(), "w") as handle:
             h5io.write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
                                   sensor_id=sensor_id, config=self.config)

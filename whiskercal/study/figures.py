@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from whiskercal.paths import ensure_dir
 from whiskercal.study.analysis import TrialMetrics, TrialSeries, distance_to_line_mm
 
 
@@ -107,7 +108,7 @@ def z_over_time(series: list[TrialSeries], rows: list[TrialMetrics], path: Path)
 
 
 def _save(fig, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
+    ensure_dir(path.parent)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     import matplotlib.pyplot as plt
