@@ -14,7 +14,7 @@ from typing import Sequence
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.paths import ensure_dir
+from whiskercal.plotting import pyplot, save_png
 
 
 def pareto_mask(time_s: Sequence[float], error: Sequence[float]) -> np.ndarray:
@@ -34,15 +34,6 @@ def front_rows(rows: list[dict], x_key: str, y_key: str) -> list[dict]:
     mask = pareto_mask([r.get(x_key, np.nan) for r in rows], [r.get(y_key, np.nan) for r in rows])
     chosen = [row for row, on in zip(rows, mask) if on]
     return sorted(chosen, key=lambda r: r[x_key])
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _series_name(row: dict, keys: Sequence[str]) -> str:
@@ -103,7 +94,7 @@ def draw_pareto(rows: list[dict], spec: dict, path: str | Path, title: str = "")
     if not drawable:
         raise UsageError(f"nothing to chart for {title or path}: no row has finite time and error")
     panels = _panels(drawable, spec.get("panel"))
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4.2), squeeze=False)
     for ax, (name, members) in zip(axes[0], panels.items()):
         _draw_panel(ax, members, spec)
@@ -112,9 +103,4 @@ def draw_pareto(rows: list[dict], spec: dict, path: str | Path, title: str = "")
         ax.set_ylabel(spec.get("y_label", spec["y"]))
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    ensure_dir(path.parent)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_png(fig, path)

@@ -15,9 +15,8 @@ import numpy as np
 
 from matplotlib.ticker import NullFormatter
 
-from whiskercal.bench.pareto import _pyplot
 from whiskercal.bench.stability import RETURNED
-from whiskercal.paths import ensure_dir
+from whiskercal.plotting import pyplot, save_png
 
 PANELS = (
     ("z_range", "fast", "tracer (fast): z beyond the data", "z (µT)", "error_vs_truth_mm"),
@@ -76,7 +75,7 @@ def _kalman_table(ax, cases: list[dict]) -> None:
 
 def draw_stability(result: dict, path: str | Path) -> Path:
     """Write the stability map of ``stability.run()`` as a PNG."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 4, figsize=(18, 8))
     probes = result["probes"]
     for ax, (name, sub, title, x_label, y_key) in zip(axes.flat, PANELS):
@@ -89,9 +88,4 @@ def draw_stability(result: dict, path: str | Path) -> Path:
     _kalman_table(axes.flat[-1], probes.get("kalman", []))
     fig.suptitle("whiskercal stability map: values returned, failures detected (x), "
                  "silent failures (red), documented limits (orange)")
-    fig.tight_layout()
-    path = Path(path)
-    ensure_dir(path.parent)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=100)

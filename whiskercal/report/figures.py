@@ -13,23 +13,15 @@ import numpy as np
 from whiskercal.artifacts.calibration import CalibrationData, lookup_of, problem_of
 from whiskercal.model.errors import TraceError
 from whiskercal.model.trace import trace_paper
+from whiskercal.plotting import pyplot
 
 TRACED_LEVEL_SETS = 7
 PATH_STEP_MM = 0.05  # fine enough to draw, far coarser than the paper's 1e-3 mm
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def to_png(fig) -> bytes:
     """The figure as PNG bytes; the figure is closed."""
-    plt = _pyplot()
+    plt = pyplot()
     buffer = io.BytesIO()
     fig.tight_layout()
     fig.savefig(buffer, format="png", dpi=100)
@@ -45,7 +37,7 @@ def _hull(ax, data: CalibrationData) -> None:
 def grid_residuals(data: CalibrationData, contact_mm: np.ndarray, residual_uT: np.ndarray,
                    unused_mm: np.ndarray | None = None) -> bytes:
     """The fitted contact points coloured by the residual f - z (µT); unused grid points greyed."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 5))
     if unused_mm is not None and len(unused_mm):
         ax.plot(unused_mm[:, 0], unused_mm[:, 1], "x", color="0.6", ms=5, label="not fitted")
@@ -79,7 +71,7 @@ def _traced_paths(problem, z_values: np.ndarray) -> list[tuple[float, np.ndarray
 
 def level_sets(data: CalibrationData) -> bytes:
     """Contours of f over the domain, level sets traced from the root, and the lookup's tips."""
-    plt = _pyplot()
+    plt = pyplot()
     problem = problem_of(data)
     fig, ax = plt.subplots(figsize=(7, 5.5))
     low, high = data.hull_vertices_mm.min(axis=0) - 5, data.hull_vertices_mm.max(axis=0) + 5
@@ -105,7 +97,7 @@ def level_sets(data: CalibrationData) -> bytes:
 
 def lookup_curve(data: CalibrationData, truth: dict | None) -> bytes:
     """Tip x and y against z: the lookup's samples and interpolant, the twin's truth and the error."""
-    plt = _pyplot()
+    plt = pyplot()
     lookup = lookup_of(data)
     z = np.linspace(lookup.z_min_uT, lookup.z_max_uT, 400)
     tips = lookup(z)

@@ -11,17 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from whiskercal.paths import ensure_dir
+from whiskercal.plotting import pyplot, save_png
 from whiskercal.study.analysis import TrialMetrics, TrialSeries, distance_to_line_mm
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _errors(series: TrialSeries, which: str) -> np.ndarray:
@@ -33,7 +24,7 @@ def _errors(series: TrialSeries, which: str) -> np.ndarray:
 
 def error_distribution(series: list[TrialSeries], rows: list[TrialMetrics], path: Path) -> Path:
     """Box plots of raw and filtered errors per depth; failing depths are labelled."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 4.5))
     failing = {row.depth_mm for row in rows if row.failing}
     positions = np.arange(len(series), dtype=float)
@@ -53,12 +44,12 @@ def error_distribution(series: list[TrialSeries], rows: list[TrialMetrics], path
     ax.set_yscale("log")
     ax.legend()
     ax.set_title("Tip error against the plane per depth")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def estimates_against_plane(series: list[TrialSeries], path: Path) -> Path:
     """Raw and filtered tip estimates over each trial's plane line (whisker frame)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 7))
     colors = plt.cm.viridis(np.linspace(0, 1, max(len(series), 1)))
     for s, color in zip(series, colors):
@@ -72,7 +63,7 @@ def estimates_against_plane(series: list[TrialSeries], path: Path) -> Path:
     ax.set_ylabel("y (mm)")
     ax.legend(fontsize=7, loc="lower left")
     ax.set_title("Estimates (dots raw, lines filtered) against the plane lines (dashed)")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _plane_segment(ax, s: TrialSeries, color) -> None:
@@ -89,7 +80,7 @@ def _plane_segment(ax, s: TrialSeries, color) -> None:
 
 def z_over_time(series: list[TrialSeries], rows: list[TrialMetrics], path: Path) -> Path:
     """z over each slide, slips marked, one panel per trial."""
-    plt = _pyplot()
+    plt = pyplot()
     by_depth = {row.depth_mm: row for row in rows}
     fig, axes = plt.subplots(len(series), 1, figsize=(9, 1.6 * len(series) + 0.6), sharex=True,
                              squeeze=False)
@@ -104,17 +95,10 @@ def z_over_time(series: list[TrialSeries], rows: list[TrialMetrics], path: Path)
         ax.text(0.01, 0.1, f"{label}, {row.n_slips} slips", transform=ax.transAxes, fontsize=8)
     axes[-1, 0].set_xlabel("time in the slide (s)")
     fig.suptitle("Deflection z over each slide (▼ detected slips)")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
-def _save(fig, path: Path) -> Path:
-    ensure_dir(path.parent)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    import matplotlib.pyplot as plt
 
-    plt.close(fig)
-    return path
 
 
 def write_figures(series: list[TrialSeries], rows: list[TrialMetrics], out_dir: Path) -> list[Path]:
