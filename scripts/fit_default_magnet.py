@@ -23,7 +23,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import differential_evolution
 
-from whiskercal.twin.magnet import MagnetParams, exact_field_uT
+from whiskercal.twin.physics.magnet import MagnetParams, exact_field_uT
 from whiskercal.twin.params import DEFAULT_SENSOR
 from whiskercal.twin.truth import tip_contact_sweep
 

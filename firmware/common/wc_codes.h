@@ -1,4 +1,4 @@
-// Protocol codes shared with the host: generated from whiskercal/rig/protocol_codes.def.
+// Protocol codes shared with the host: generated from whiskercal/protocol/protocol_codes.def.
 // Build with -I<repo>/whiskercal/rig so that the one table is compiled in, never copied.
 // Each row X(KIND, NUMBER, NAME, "text") becomes the constant KIND_NAME = NUMBER; the human
 // text stays on the host, which keeps it out of the boards' flash.

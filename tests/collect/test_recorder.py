@@ -11,7 +11,7 @@ from whiskercal.collect.recorder import StreamRecorder
 from whiskercal.rig.overload import OverloadError
 from whiskercal.collect.run import collect
 from whiskercal.errors import DeviceError
-from whiskercal.rig.codes import SensorStatus
+from whiskercal.protocol.codes import SensorStatus
 from whiskercal.rig.sensor import SampleBlock
 
 RATE_HZ = 300

@@ -131,7 +131,7 @@ def open_twin(board: str, query: str = ""):
     """Open the twin's ``stage`` or ``sensor`` board in a fresh world; skip if the twin is absent."""
     serial = pytest.importorskip("serial")
     try:
-        import whiskercal.twin.simport  # noqa: F401  (registers sim://)
+        import whiskercal.twin.devices.simport  # noqa: F401  (registers sim://)
     except ImportError as error:
         pytest.skip(f"the twin's sim:// boards are not available: {error}")
     name = f"conformance{next(_world_names)}x{time.monotonic_ns()}"

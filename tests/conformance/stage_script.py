@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-CODE_TABLE = Path(__file__).resolve().parents[2] / "whiskercal" / "rig" / "protocol_codes.def"
+CODE_TABLE = Path(__file__).resolve().parents[2] / "whiskercal" / "protocol" / "protocol_codes.def"
 BANNER = "Grbl 1.1h ['$' for help]"
 STATUS = re.compile(r"^<(Idle|Run|Hold:[01]|Home|Alarm)((?:\|[A-Za-z]+:[^|>]*)*)>$")
 STAGE_SETTINGS = (20, 22, 100, 101, 110, 111, 120, 121, 130, 131, 200, 201, 202)
@@ -220,7 +220,7 @@ def check_gcode_errors(port) -> None:
 
 
 def table_codes(kind: str) -> set[int]:
-    """Numbers of one KIND in the shared code table (whiskercal/rig/protocol_codes.def)."""
+    """Numbers of one KIND in the shared code table (whiskercal/protocol/protocol_codes.def)."""
     rows = re.findall(r"^X\((\w+),\s*(\d+),", CODE_TABLE.read_text(), re.MULTILINE)
     return {int(number) for row_kind, number in rows if row_kind == kind}
 

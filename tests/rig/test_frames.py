@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from whiskercal.rig.frames import (SAMPLE_FRAME_BYTES, FrameDecoder, Sample, crc16_ccitt_false,
+from whiskercal.protocol.frames import (SAMPLE_FRAME_BYTES, FrameDecoder, Sample, crc16_ccitt_false,
                                    encode_sample, encode_text)
 
 

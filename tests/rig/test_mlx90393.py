@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from whiskercal.rig import mlx90393 as host
-from whiskercal.twin import magnetometer as twin
+from whiskercal.protocol import mlx90393 as host
+from whiskercal.twin.physics import magnetometer as twin
 
 
 def test_sensitivity_protocol_defaults():

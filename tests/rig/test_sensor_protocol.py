@@ -5,7 +5,7 @@ import pytest
 from byte_pairs import expected_protocol
 
 from whiskercal.errors import DeviceError
-from whiskercal.rig.frames import encode_sample, encode_text
+from whiskercal.protocol.frames import encode_sample, encode_text
 from whiskercal.rig.sensor import SensorClient, SensorCommandError
 
 CFG = encode_text("OK rate=300 gain=5 res=2 osr=0 filt=2")

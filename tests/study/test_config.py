@@ -5,7 +5,7 @@ import pytest
 
 from whiskercal.errors import UsageError
 from whiskercal.study.config import PlaneGeometry, load_config
-from whiskercal.twin.scenes import plane_for_depth
+from whiskercal.twin.physics.obstacles import plane_for_depth
 from whiskercal.twin.params import DEFAULT_SENSOR
 
 

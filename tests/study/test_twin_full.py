@@ -9,7 +9,7 @@ from whiskercal.study.config import load_config
 from whiskercal.study.dataset import StudyWriter
 from whiskercal.study.report import build_report
 from whiskercal.study.run import StudyRun
-from whiskercal.twin import simport
+from whiskercal.twin.devices import simport
 
 
 @pytest.mark.slow

@@ -19,7 +19,8 @@ from whiskercal.collect.plan import lattice_points, visiting_order
 from whiskercal.model.calibrate import CalibrationOptions, calibrate
 from whiskercal.model.collision import CollisionParams
 from whiskercal.model.kalman import KalmanParams
-from whiskercal.twin import mechanics, truth
+from whiskercal.twin.physics import mechanics
+from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR
 
 ROD_RADIUS_MM = 1.5
@@ -63,7 +64,7 @@ def run_twin_study(folder: Path, config_text: str, world: str, seed: int):
     from whiskercal.study.config import load_config
     from whiskercal.study.dataset import StudyWriter
     from whiskercal.study.run import StudyRun
-    from whiskercal.twin import simport
+    from whiskercal.twin.devices import simport
 
     (folder / "study.toml").write_text(config_text)
     config = load_config(folder / "study.toml")

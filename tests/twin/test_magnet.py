@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.magnet import (
+from whiskercal.twin.physics.magnet import (
     FieldGrid,
     MagnetParams,
     dipole_field_uT,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.magnetometer import (
+from whiskercal.twin.physics.magnetometer import (
     MagnetometerParams,
     averaged_conversions,
     conversion_time_ms,

@@ -8,8 +8,8 @@ import pytest
 from scipy.integrate import solve_bvp
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.mechanics import cantilever_tip
-from whiskercal.twin.validation import bisshopp_drucker_tip
+from whiskercal.twin.physics.mechanics import cantilever_tip
+from whiskercal.twin.validation.checks import bisshopp_drucker_tip
 
 SPEC_TOLERANCE_L = 1e-4
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.mechanics import (Circle, Polygon, WhiskerParams, free, plane_for_depth,
+from whiskercal.twin.physics.mechanics import (Circle, Polygon, WhiskerParams, free, plane_for_depth,
                                        regular_polygon, solve_plane, solve_rod, solve_shape)
-from whiskercal.twin.validation import equilibrium_residual
+from whiskercal.twin.validation.checks import equilibrium_residual
 
 WHISKER = WhiskerParams()
 L = WHISKER.length_mm
@@ -191,7 +191,7 @@ def test_a_rod_from_below_mirrors_one_from_above():
 
 
 def test_previous_from_another_obstacle_is_only_a_hint():
-    from whiskercal.twin.mechanics import plane_for_depth, solve_plane
+    from whiskercal.twin.physics.mechanics import plane_for_depth, solve_plane
 
     octagon_state = solve_shape(WHISKER, regular_polygon((66.0, 25.0), 30.0, 8, math.pi / 8))
     plane = plane_for_depth(WHISKER, 30.0)

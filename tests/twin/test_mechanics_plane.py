@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.mechanics import Plane, WhiskerParams, plane_for_depth, solve_plane
-from whiskercal.twin.validation import equilibrium_residual
+from whiskercal.twin.physics.mechanics import Plane, WhiskerParams, plane_for_depth, solve_plane
+from whiskercal.twin.validation.checks import equilibrium_residual
 
 WHISKER = WhiskerParams()
 STEP_MM = 10.0 / 300.0  # the study's 10 mm/s at 300 Hz
@@ -214,7 +214,7 @@ def test_warm_push_in_through_the_switch_to_tangential_never_fails(step_mm, moti
 
 
 def test_a_long_step_holds_as_many_slips_as_periods_of_load():
-    from whiskercal.twin.plane import slips_within_step
+    from whiskercal.twin.physics.plane import slips_within_step
 
     plane = plane_for_depth(WHISKER, 30.0)            # mu_s 0.30, rest ratio 0.148
     period = plane.mu_static - plane.rest_ratio

@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from whiskercal.bench.engines import run  # noqa: E402
-from whiskercal.twin.mujoco_reference import cantilever_tip  # noqa: E402
+from whiskercal.twin.engines.mujoco_reference import cantilever_tip  # noqa: E402
 
 
 @pytest.fixture(scope="module")

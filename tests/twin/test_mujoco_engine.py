@@ -15,11 +15,11 @@ import pytest
 pytest.importorskip("mujoco")
 
 from whiskercal.errors import UsageError  # noqa: E402
-from whiskercal.twin.mechanics import solve_rod  # noqa: E402
-from whiskercal.twin.mujoco_engine import MujocoWhisker  # noqa: E402
-from whiskercal.twin.mujoco_model import RodSpec, build_mjcf  # noqa: E402
-from whiskercal.twin.mujoco_reference import cantilever_tip, suspended_tip  # noqa: E402
-from whiskercal.twin.whisker import WhiskerParams  # noqa: E402
+from whiskercal.twin.physics.mechanics import solve_rod  # noqa: E402
+from whiskercal.twin.engines.mujoco_engine import MujocoWhisker  # noqa: E402
+from whiskercal.twin.engines.mujoco_model import RodSpec, build_mjcf  # noqa: E402
+from whiskercal.twin.engines.mujoco_reference import cantilever_tip, suspended_tip  # noqa: E402
+from whiskercal.twin.physics.whisker import WhiskerParams  # noqa: E402
 
 LENGTH_MM = 75.0
 CLAMPED = RodSpec(LENGTH_MM, 0.25, 75_000.0)

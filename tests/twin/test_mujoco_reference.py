@@ -12,8 +12,8 @@ import pytest
 from scipy.integrate import solve_bvp
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.mujoco_model import RodSpec
-from whiskercal.twin.mujoco_reference import cantilever_tip, suspended_tip
+from whiskercal.twin.engines.mujoco_model import RodSpec
+from whiskercal.twin.engines.mujoco_reference import cantilever_tip, suspended_tip
 
 # A whisker with a compliant root, its numbers written out so the test does not follow the
 # twin's defaults as they are tuned.

@@ -9,12 +9,12 @@ from whiskercal.collect.config import load_config as load_collect_config
 from whiskercal.collect.plan import lattice_points
 from whiskercal.errors import UsageError
 from whiskercal.study.config import load_config as load_study_config
-from whiskercal.twin.contacts import solve_rod
-from whiskercal.twin.magnet import field_uT, interpolation_error_uT
-from whiskercal.twin.magnetometer import is_saturated, to_counts, to_uT
+from whiskercal.twin.physics.contacts import solve_rod
+from whiskercal.twin.physics.magnet import field_uT, interpolation_error_uT
+from whiskercal.twin.physics.magnetometer import is_saturated, to_counts, to_uT
 from whiskercal.twin.params import DEFAULT_SENSOR, SECOND_SENSOR, SensorParams, sensor_by_id
-from whiskercal.twin.plane import solve_plane
-from whiskercal.twin.scenes import plane_for_depth
+from whiskercal.twin.physics.plane import solve_plane
+from whiskercal.twin.physics.obstacles import plane_for_depth
 from whiskercal.twin.truth import static_field_uT, tip_contact_sweep
 
 

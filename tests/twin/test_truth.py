@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from whiskercal.errors import UsageError
-from whiskercal.twin import mechanics
-from whiskercal.twin.magnet import field_uT
+from whiskercal.twin.physics import mechanics
+from whiskercal.twin.physics.magnet import field_uT
 from whiskercal.twin.params import DEFAULT_SENSOR, SECOND_SENSOR
 from whiskercal.twin.truth import (
     TIP_ROD_RADIUS_MM,

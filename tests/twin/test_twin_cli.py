@@ -52,7 +52,7 @@ def test_validate_passes_and_reports_every_check():
 
 
 def test_validate_fails_when_a_check_fails(monkeypatch):
-    from whiskercal.twin import validation
+    from whiskercal.twin.validation import checks as validation
 
     failing = validation.Check("a check that fails", 2.0, 1.0)
     monkeypatch.setattr(validation, "run_all", lambda: [failing])
@@ -105,8 +105,8 @@ def test_validate_reports_the_stick_slip_checks():
 
 def test_stick_slip_check_fails_when_a_slip_does_not_come_to_rest(monkeypatch):
     # a twin whose slips stop on the kinetic edge instead of at the rest ratio must fail
-    from whiskercal.twin import plane as plane_module
-    from whiskercal.twin import validation
+    from whiskercal.twin.physics import plane as plane_module
+    from whiskercal.twin.validation import checks as validation
 
     def slip_to_kinetic_edge(ratio_start, ratio_stuck, plane):
         return math.copysign(plane.mu_kinetic, ratio_stuck), 1

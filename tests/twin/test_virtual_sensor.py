@@ -8,7 +8,7 @@ from test_world_standin import RigidWhiskerPhysics
 
 from whiskercal.errors import DeviceError
 from whiskercal.rig.sensor import SensorClient, SensorCommandError
-from whiskercal.twin.virtual_sensor import SensorFaults
+from whiskercal.twin.devices.virtual_sensor import SensorFaults
 from whiskercal.twin.world import create_world
 
 _names = itertools.count()

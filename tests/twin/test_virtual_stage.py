@@ -174,7 +174,7 @@ def test_stock_mode_has_no_encoder_field_or_proto():
 
 
 def _faulty_stage(**faults):
-    from whiskercal.twin.stage import StageFaults
+    from whiskercal.twin.devices.stage import StageFaults
 
     world = _world(stage_faults=StageFaults(**faults))
     stage = StageClient(f"sim://{world.name}/stage")
@@ -212,7 +212,7 @@ def test_missing_encoder_magnet_raises_alarm_11_and_relocks_after_unlock():
 
 
 def test_stock_grbl_does_not_notice_missed_steps():
-    from whiskercal.twin.stage import StageFaults
+    from whiskercal.twin.devices.stage import StageFaults
 
     world = _world(stock=True, stage_faults=StageFaults(missed_steps_at_s=0.5))
     stage = StageClient(f"sim://{world.name}/stage")

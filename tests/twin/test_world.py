@@ -114,7 +114,7 @@ def test_equilibrium_follows_the_path_in_small_steps():
 
 @pytest.mark.slow  # the first use of the real physics builds its field table
 def test_real_physics_rod_contact_matches_a_direct_solve():
-    from whiskercal.twin import mechanics
+    from whiskercal.twin.physics import mechanics
 
     world, stage, sensor = _rig(physics=None)
     sensor.start()
@@ -157,7 +157,7 @@ def test_a_rod_arriving_from_below_pushes_the_whisker_up():
 
 
 def test_a_shape_rides_on_the_end_effector():
-    from whiskercal.twin.scenes import Circle
+    from whiskercal.twin.physics.obstacles import Circle
     from whiskercal.twin.world import ShapeFixture
 
     # a 6 mm disc centred 10 mm to the +y side of the end effector

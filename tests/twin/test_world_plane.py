@@ -10,7 +10,7 @@ import pytest
 import whiskercal.rig  # noqa: F401  (registers sim://)
 from whiskercal.rig.sensor import SensorClient
 from whiskercal.rig.stage import StageClient
-from whiskercal.twin import mechanics
+from whiskercal.twin.physics import mechanics
 from whiskercal.twin.world import create_world, fixture_for_scene
 
 _names = itertools.count()

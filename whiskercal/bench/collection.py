@@ -29,7 +29,7 @@ from whiskercal.model.calibrate import CalibrationOptions
 from whiskercal.model.errors import ModelError
 from whiskercal.model.surface import fit_fixed
 from whiskercal.twin import truth
-from whiskercal.twin.magnetometer import to_counts, to_uT
+from whiskercal.twin.physics.magnetometer import to_counts, to_uT
 
 SAMPLES_PER_POINT = (1, 3, 10, 30, 100)
 SETTLE_S = (0.0, 0.1, 0.3, 1.0)

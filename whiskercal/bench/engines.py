@@ -2,9 +2,9 @@
 
 Engines and their resolutions:
 
-- ``quasi-static``: the shooting elastica (`whiskercal.twin.elastica`), resolution = RK4 steps
+- ``quasi-static``: the shooting elastica (`whiskercal.twin.physics.elastica`), resolution = RK4 steps
   along the wire;
-- ``mujoco-chain`` and ``mujoco-flex``: the MuJoCo engine (`whiskercal.twin.mujoco_engine`),
+- ``mujoco-chain`` and ``mujoco-flex``: the MuJoCo engine (`whiskercal.twin.engines.mujoco_engine`),
   resolution = segments along the wire.
 
 Case sets, each with its own reference:
@@ -36,11 +36,11 @@ from dataclasses import asdict
 
 import numpy as np
 
-from whiskercal.twin import elastica as el
-from whiskercal.twin.contacts import base_params
-from whiskercal.twin.mujoco_model import RodSpec
-from whiskercal.twin.mujoco_reference import cantilever_tip, suspended_tip
-from whiskercal.twin.whisker import WhiskerParams
+from whiskercal.twin.physics import elastica as el
+from whiskercal.twin.physics.contacts import base_params
+from whiskercal.twin.engines.mujoco_model import RodSpec
+from whiskercal.twin.engines.mujoco_reference import cantilever_tip, suspended_tip
+from whiskercal.twin.physics.whisker import WhiskerParams
 
 ALPHAS = (0.5, 1.0, 2.0, 5.0, 10.0)
 SEGMENTS = (10, 20, 40, 80)
@@ -140,7 +140,7 @@ def _with_spec(cases: list[dict], spec: RodSpec) -> list[dict]:
 
 def _rod_cases(whisker: WhiskerParams) -> list[dict]:
     """Touch-rod equilibria from the quasi-static engine, as loads for MuJoCo."""
-    from whiskercal.twin.mechanics import solve_rod
+    from whiskercal.twin.physics.mechanics import solve_rod
 
     cases = []
     for x_mm, push_mm in ROD_POSITIONS_MM:
@@ -162,7 +162,7 @@ def _describe(case: dict) -> dict:
 def _quasi_static_solver(spec: RodSpec, case_set: str, steps: int) -> Callable[[dict], tuple]:
     """A solver of one tip-load case by the shooting elastica at ``steps`` RK4 steps."""
     if case_set == "cantilever":
-        from whiskercal.twin.cantilever import cantilever_tip as shooting_tip
+        from whiskercal.twin.physics.cantilever import cantilever_tip as shooting_tip
 
         def solve(case: dict) -> tuple[np.ndarray, int]:
             return np.asarray(shooting_tip(case["alpha"], steps)) * spec.length_mm, steps
@@ -210,7 +210,7 @@ def _mujoco_rows(case_set: str, cases: list[dict], spec: RodSpec, segments: Sequ
 def _mujoco_row(case_set: str, cases: list[dict], spec: RodSpec, segments: int,
                 representation: str, contact: bool, repeats: int) -> dict:
     """One MuJoCo row: equivalent dead loads, or (``contact``) the rod through MuJoCo contact."""
-    from whiskercal.twin.mujoco_engine import MujocoWhisker
+    from whiskercal.twin.engines.mujoco_engine import MujocoWhisker
 
     started = time.perf_counter()
     radius = cases[0]["rod_radius_mm"] if contact else None

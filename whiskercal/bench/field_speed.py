@@ -20,8 +20,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from whiskercal.twin import magnet as mag
-from whiskercal.twin.magnetometer import to_counts
+from whiskercal.twin.physics import magnet as mag
+from whiskercal.twin.physics.magnetometer import to_counts
 from whiskercal.twin.params import DEFAULT_SENSOR
 
 SEED = 20241121

@@ -43,7 +43,7 @@ def _module_run(module: str, **quick_kwargs) -> Callable[[bool, Callable | None]
 
 def _engines(quick: bool, progress: Callable | None) -> dict:
     from whiskercal.bench import engines
-    from whiskercal.twin.elastica import DEFAULT_STEPS
+    from whiskercal.twin.physics.elastica import DEFAULT_STEPS
 
     options = dict(segments=(10,), rk4_steps=(16, DEFAULT_STEPS), alphas=(1.0, 5.0),
                    representations=("chain",), repeats=1) if quick else {}

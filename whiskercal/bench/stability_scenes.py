@@ -13,7 +13,8 @@ from whiskercal.errors import WhiskercalError
 from whiskercal.model.collision import CollisionParams, detect
 from whiskercal.model.kalman import filter_batch
 from whiskercal.study.analysis import TrialSeries, analyse_trial
-from whiskercal.twin import mechanics, truth
+from whiskercal.twin.physics import mechanics
+from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR
 
 SAMPLE_NOISE_UT = 5.6      # the real sensor's Y noise at rest (reference numbers)

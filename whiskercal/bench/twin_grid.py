@@ -16,7 +16,8 @@ import numpy as np
 from whiskercal.collect.config import GridConfig, load_config
 from whiskercal.collect.plan import lattice_points, visiting_order
 from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrate
-from whiskercal.twin import mechanics, truth
+from whiskercal.twin.physics import mechanics
+from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR, SensorParams
 
 ROD_RADIUS_MM = 1.5

@@ -34,7 +34,7 @@ def _timed(call):
 def first_solve_s() -> float:
     """Import and the first solve (numba loads its cache, or compiles on a fresh install)."""
     start = time.perf_counter()
-    from whiskercal.twin import mechanics
+    from whiskercal.twin.physics import mechanics
 
     whisker = mechanics.WhiskerParams()
     mechanics.solve_plane(whisker, mechanics.plane_for_depth(whisker, 20.0))
@@ -43,7 +43,7 @@ def first_solve_s() -> float:
 
 def cold_solves(n_rods: int = 60) -> dict:
     """Median time of single solves without history: rod, plane, octagon."""
-    from whiskercal.twin import mechanics as m
+    from whiskercal.twin.physics import mechanics as m
 
     whisker, rng = m.WhiskerParams(), np.random.default_rng(SEED)
     centers = np.column_stack([rng.uniform(20.0, 75.0, n_rods), rng.uniform(-30.0, -1.0, n_rods)])
@@ -59,7 +59,7 @@ def cold_solves(n_rods: int = 60) -> dict:
 
 def warm_rod_path(n_steps: int = 600) -> dict:
     """A rod moving down across the calibration area, each solve from the previous one."""
-    from whiskercal.twin import mechanics as m
+    from whiskercal.twin.physics import mechanics as m
 
     whisker, previous, durations = m.WhiskerParams(), None, []
     for y in np.linspace(-0.5, -30.0, n_steps):
@@ -70,7 +70,7 @@ def warm_rod_path(n_steps: int = 600) -> dict:
 
 def _field_function():
     """The default magnet's field (µT) per equilibrium, as the simulated world evaluates it."""
-    from whiskercal.twin.magnet import field_uT
+    from whiskercal.twin.physics.magnet import field_uT
     from whiskercal.twin.params import DEFAULT_SENSOR
 
     magnet = DEFAULT_SENSOR.magnet
@@ -79,7 +79,7 @@ def _field_function():
 
 def study_scene(with_field: bool = True) -> dict:
     """The 9-depth flat-plane study, sample by sample; elapsed time against real time."""
-    from whiskercal.twin import mechanics as m
+    from whiskercal.twin.physics import mechanics as m
 
     whisker = m.WhiskerParams()
     field = _field_function() if with_field else None
@@ -147,7 +147,7 @@ def world_study_scene(depths_mm=STUDY_DEPTHS_MM, travel_mm: float = STUDY_TRAVEL
     load does not change), samples read and solver failures.
     """
     from whiskercal.rig import SensorClient, StageClient
-    from whiskercal.twin import simport
+    from whiskercal.twin.devices import simport
     from whiskercal.twin.world import drop_world
 
     stage_port = simport.Serial(f"sim://{name}/stage?scene=plane&seed={SEED % 1000}", timeout=1.0)

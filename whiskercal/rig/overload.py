@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from whiskercal.errors import DeviceError
-from whiskercal.rig.codes import SensorStatus
+from whiskercal.protocol.codes import SensorStatus
 
 # Samples whose axes are not a measurement at all; the guard skips them.
 INVALID_STATUS = int(SensorStatus.NO_SENSOR | SensorStatus.MLX_ERROR)

@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from whiskercal.errors import DeviceError
-from whiskercal.rig.codes import describe
-from whiskercal.rig.frames import SAMPLE_FRAME_BYTES, FrameDecoder, Sample
-from whiskercal.rig.mlx90393 import lsb_uT
+from whiskercal.protocol.codes import describe
+from whiskercal.protocol.frames import SAMPLE_FRAME_BYTES, FrameDecoder, Sample
+from whiskercal.protocol.sensor_config import SensorConfig
 from whiskercal.rig.transport import DeviceTimeout, Transport, open_port
 
 _CONFIG_FIELD = re.compile(r"(\w+)=(-?\d+)")
@@ -30,22 +30,6 @@ class SensorCommandError(DeviceError):
         self.code = code
         super().__init__(f"sensor on {where} refused {command!r} with ERR:{code}: "
                          f"{describe('SENSOR_ERROR', code)}")
-
-
-@dataclass(frozen=True)
-class SensorConfig:
-    """The board's settings: sample rate in Hz and the MLX90393's GAIN_SEL, RES, OSR, DIG_FILT."""
-
-    rate_hz: int = 300
-    gain: int = 5
-    res: int = 2
-    osr: int = 0
-    filt: int = 2
-
-    @property
-    def lsb_uT(self) -> np.ndarray:
-        """µT per count on (x, y, z)."""
-        return lsb_uT(self.gain, self.res)
 
 
 @dataclass

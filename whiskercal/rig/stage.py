@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.errors import DeviceError
-from whiskercal.rig.codes import describe
+from whiskercal.protocol.codes import describe
 from whiskercal.rig.transport import Transport, open_port
 
 _STATUS = re.compile(r"^<([^|>]+)((?:\|[^|>]*)*)>$")

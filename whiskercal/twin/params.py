@@ -13,9 +13,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.magnet import FieldGrid, MagnetParams
-from whiskercal.twin.magnetometer import MagnetometerParams
-from whiskercal.twin.whisker import WhiskerParams
+from whiskercal.twin.physics.magnet import FieldGrid, MagnetParams
+from whiskercal.twin.physics.magnetometer import MagnetometerParams
+from whiskercal.twin.physics.whisker import WhiskerParams
 
 __all__ = [
     "DEFAULT_SENSOR", "SECOND_SENSOR", "SENSORS", "FieldGrid", "MagnetParams",

@@ -17,10 +17,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from whiskercal.errors import UsageError
-from whiskercal.twin import mechanics
-from whiskercal.twin.magnet import field_uT
+from whiskercal.twin.physics import mechanics
+from whiskercal.twin.physics.magnet import field_uT
 from whiskercal.twin.params import SensorParams
-from whiskercal.twin.whisker import Equilibrium, WhiskerParams
+from whiskercal.twin.physics.whisker import Equilibrium, WhiskerParams
 
 TIP_ROD_RADIUS_MM = 1.0
 # Far enough that the default sensor reads beyond -12000 µT; its root rotation saturates near here.

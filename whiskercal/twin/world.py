@@ -22,12 +22,12 @@ from typing import Protocol
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.rig.sensor import SensorConfig
-from whiskercal.twin.clock import SimClock
-from whiskercal.twin.stage import StageFaults, StageMechanics
-from whiskercal.twin.virtual_sensor import SensorFaults, VirtualSensor
-from whiskercal.twin.virtual_stage import VirtualStage
-from whiskercal.twin.whisker import EQUILIBRIUM_KINDS
+from whiskercal.protocol.sensor_config import SensorConfig
+from whiskercal.twin.devices.clock import SimClock
+from whiskercal.twin.devices.stage import StageFaults, StageMechanics
+from whiskercal.twin.devices.virtual_sensor import SensorFaults, VirtualSensor
+from whiskercal.twin.devices.virtual_stage import VirtualStage
+from whiskercal.twin.physics.whisker import EQUILIBRIUM_KINDS
 
 DEFAULT_ROD_RADIUS_MM = 1.5
 # Plane fixture's outward normal in the whisker frame: back toward the root, tilted 20° to -y
@@ -79,13 +79,13 @@ class RodFixture:
     def __post_init__(self) -> None:
         # checked here, not at the first solve: the world turns solver errors into "failed"
         # samples, and a negative radius would never touch at all
-        from whiskercal.twin.scenes import finite_number
+        from whiskercal.twin.physics.obstacles import finite_number
 
         finite_number("rod radius (mm)", self.radius_mm, 0.0)
 
     def obstacle(self, tool_mm: np.ndarray, motion_sign: int, side: int = 1):
         """The rod as a ``Circle`` in the whisker frame, on ``side`` of the whisker."""
-        from whiskercal.twin.scenes import Circle
+        from whiskercal.twin.physics.obstacles import Circle
 
         return Circle(tool_mm, self.radius_mm, side=side)
 
@@ -120,7 +120,7 @@ class PlaneFixture:
 
     def obstacle(self, tool_mm: np.ndarray, motion_sign: int, side: int = 1):
         """The plate as a ``Plane`` (slid by the tool's position along it) moving ``motion_sign``."""
-        from whiskercal.twin.scenes import Plane
+        from whiskercal.twin.physics.obstacles import Plane
 
         normal, tangent = self._normal, self._tangent
         offset = normal[0] * tool_mm[0] + normal[1] * tool_mm[1]
@@ -166,7 +166,7 @@ class ShapeFixture:
         """The shape moved to the tool's position."""
         from dataclasses import replace
 
-        from whiskercal.twin.scenes import Circle
+        from whiskercal.twin.physics.obstacles import Circle
 
         if isinstance(self.shape, Circle):
             return replace(self.shape, center_mm=self.shape.center_mm + tool_mm)
@@ -203,7 +203,7 @@ class TwinPhysics:
     """The twin's physics for one sensor: whisker mechanics and the magnet's field."""
 
     def __init__(self, sensor) -> None:
-        from whiskercal.twin import mechanics
+        from whiskercal.twin.physics import mechanics
 
         self.sensor = sensor
         self._mechanics = mechanics
@@ -223,7 +223,7 @@ class TwinPhysics:
 
     def field_uT(self, equilibrium) -> np.ndarray:
         """Field of the magnet at the suspension's pose, sensor axes, µT (3,)."""
-        from whiskercal.twin.magnet import field_uT
+        from whiskercal.twin.physics.magnet import field_uT
 
         return np.asarray(field_uT(self.sensor.magnet, equilibrium.root_rotation_rad,
                                    equilibrium.root_shift_mm), dtype=float)
@@ -467,7 +467,7 @@ class World:
     def reading(self, times_s: np.ndarray, config: SensorConfig) -> tuple[np.ndarray, np.ndarray]:
         """Raw counts (n, 3) and saturation flags (n,) the sensor converts at ``times_s``
         (in order) with the board's settings; records the ground truth of each."""
-        from whiskercal.twin.magnetometer import is_saturated, to_counts
+        from whiskercal.twin.physics.magnetometer import is_saturated, to_counts
 
         fields = np.empty((len(times_s), 3))
         rows = np.empty((len(times_s), TruthRecord.width()))

@@ -40,7 +40,7 @@ def serve(app: App, scene: str, seed: int, speed: float, rod_radius: float, stoc
     them to whiskercal commands as device names.
     """
     from whiskercal.errors import UsageError
-    from whiskercal.twin.simport import PtyBridge, world_from_options
+    from whiskercal.twin.devices.simport import PtyBridge, world_from_options
 
     if speed <= 0:
         raise UsageError("--speed must be positive (1 = real time).")

@@ -53,7 +53,7 @@ def cantilever(alpha: float, as_json: bool) -> None:
     Prints x (along the undeformed axis) and y (in the load's direction) as fractions of the
     length L, from the twin's elastica solver.
     """
-    from whiskercal.twin.cantilever import cantilever_tip
+    from whiskercal.twin.physics.cantilever import cantilever_tip
 
     x, y = cantilever_tip(alpha)
     if as_json:
@@ -71,7 +71,7 @@ def validate(as_json: bool) -> None:
     residuals of rod, plane and polygon solves re-integrated by an independent ODE solver, and
     the friction cone along a slide.
     """
-    from whiskercal.twin.validation import run_all
+    from whiskercal.twin.validation.checks import run_all
 
     checks = run_all()
     if as_json:
@@ -121,8 +121,8 @@ def plane_study(depths, k_rot, k_lin, mu_static, mu_kinetic, tilt_deg, motion, a
     import dataclasses
     import math
 
-    from whiskercal.twin.tuning import study_sweep, tangential_onset_mm
-    from whiskercal.twin.whisker import WhiskerParams
+    from whiskercal.twin.validation.tuning import study_sweep, tangential_onset_mm
+    from whiskercal.twin.physics.whisker import WhiskerParams
 
     changes = {"root_rotational_stiffness_n_mm_per_rad": k_rot,
                "root_translational_stiffness_n_per_mm": k_lin}

@@ -86,7 +86,7 @@ class RodSpec:
 
     @classmethod
     def from_whisker(cls, whisker) -> RodSpec:
-        """The RodSpec of a `whiskercal.twin.whisker.WhiskerParams` (same names and units)."""
+        """The RodSpec of a `whiskercal.twin.physics.whisker.WhiskerParams` (same names and units)."""
         return cls(whisker.length_mm, whisker.diameter_mm, whisker.youngs_modulus_n_per_mm2,
                    whisker.root_offset_mm, whisker.root_rotational_stiffness_n_mm_per_rad,
                    whisker.root_translational_stiffness_n_per_mm)

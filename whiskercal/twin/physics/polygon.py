@@ -14,11 +14,11 @@ from dataclasses import replace
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.twin import elastica as el
-from whiskercal.twin.contacts import (PATH_STEP, base_params, check_whisker, circle_params,
+from whiskercal.twin.physics import elastica as el
+from whiskercal.twin.physics.contacts import (PATH_STEP, base_params, check_whisker, circle_params,
                                       free, make_equilibrium, solve_kind)
-from whiskercal.twin.scenes import Polygon
-from whiskercal.twin.whisker import Equilibrium
+from whiskercal.twin.physics.obstacles import Polygon
+from whiskercal.twin.physics.whisker import Equilibrium
 
 SHAPE_NODES = 64
 DEPTH_TOL_L = 1e-6      # how far (in L) the wire may cut into the polygon: round-off

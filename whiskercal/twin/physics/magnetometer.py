@@ -32,10 +32,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.rig import mlx90393
+from whiskercal.protocol import mlx90393
 
 # The sensitivity and conversion-time tables and the I2C exchange time are the host's
-# (whiskercal/rig/mlx90393.py): the twin's chip and the host must convert counts alike.
+# (whiskercal/protocol/mlx90393.py): the twin's chip and the host must convert counts alike.
 # Signed count range after the firmware removes the RES 2/3 output offsets, per RES.
 _COUNT_RANGE = {0: (-32768, 32767), 1: (-32768, 32767), 2: (-32768, 32767), 3: (-16384, 16383)}
 

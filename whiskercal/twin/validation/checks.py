@@ -23,12 +23,12 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import ellipeinc, ellipkinc
 
-from whiskercal.twin.cantilever import cantilever_tip
-from whiskercal.twin.contacts import solve_rod
-from whiskercal.twin.mechanics import solve_shape
-from whiskercal.twin.plane import solve_plane
-from whiskercal.twin.scenes import Circle, Plane, plane_for_depth, regular_polygon
-from whiskercal.twin.whisker import Equilibrium, WhiskerParams
+from whiskercal.twin.physics.cantilever import cantilever_tip
+from whiskercal.twin.physics.contacts import solve_rod
+from whiskercal.twin.physics.mechanics import solve_shape
+from whiskercal.twin.physics.plane import solve_plane
+from whiskercal.twin.physics.obstacles import Circle, Plane, plane_for_depth, regular_polygon
+from whiskercal.twin.physics.whisker import Equilibrium, WhiskerParams
 
 CANTILEVER_ALPHAS = (0.01, 0.1, 0.5, 1.0, 2.0, 3.0, 5.0, 7.5, 10.0, 15.0, 20.0)
 CANTILEVER_LIMIT_L = 1e-4

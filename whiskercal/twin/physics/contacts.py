@@ -14,9 +14,9 @@ import math
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.twin import elastica as el
-from whiskercal.twin.scenes import Circle
-from whiskercal.twin.whisker import Equilibrium, WhiskerParams
+from whiskercal.twin.physics import elastica as el
+from whiskercal.twin.physics.obstacles import Circle
+from whiskercal.twin.physics.whisker import Equilibrium, WhiskerParams
 
 TOLERANCE = 1e-10          # nondimensional residual (L, EI/L², EI/L units)
 MAX_ITER = 30

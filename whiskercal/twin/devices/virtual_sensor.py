@@ -18,11 +18,11 @@ from typing import Callable
 
 import numpy as np
 
-from whiskercal.rig.codes import SensorError, SensorStatus
-from whiskercal.rig.frames import encode_sample, encode_text
-from whiskercal.rig.mlx90393 import sample_time_ms
-from whiskercal.rig.sensor import SensorConfig
-from whiskercal.twin.clock import SerialLine
+from whiskercal.protocol.codes import SensorError, SensorStatus
+from whiskercal.protocol.frames import encode_sample, encode_text
+from whiskercal.protocol.mlx90393 import sample_time_ms
+from whiskercal.protocol.sensor_config import SensorConfig
+from whiskercal.twin.devices.clock import SerialLine
 
 FIRMWARE_ID = "whisker_nano fw=0.1.0 proto=1"
 TX_BUFFER_BYTES = 64

@@ -15,14 +15,14 @@ and for the plane the stick-slip state), and return an `Equilibrium`.
 from __future__ import annotations
 
 from whiskercal.errors import UsageError
-from whiskercal.twin.cantilever import cantilever_tip
-from whiskercal.twin.contacts import free, solve_circle, solve_rod
-from whiskercal.twin.plane import solve_plane
-from whiskercal.twin.polygon import solve_polygon
-from whiskercal.twin.scenes import (DEFAULT_MU_KINETIC, DEFAULT_MU_STATIC,
+from whiskercal.twin.physics.cantilever import cantilever_tip
+from whiskercal.twin.physics.contacts import free, solve_circle, solve_rod
+from whiskercal.twin.physics.plane import solve_plane
+from whiskercal.twin.physics.polygon import solve_polygon
+from whiskercal.twin.physics.obstacles import (DEFAULT_MU_KINETIC, DEFAULT_MU_STATIC,
                                     DEFAULT_PLANE_TILT_RAD, STUDY_MOTION_SIGN, Circle, Plane,
                                     Polygon, plane_for_depth, regular_polygon)
-from whiskercal.twin.whisker import Equilibrium, WhiskerParams
+from whiskercal.twin.physics.whisker import Equilibrium, WhiskerParams
 
 __all__ = [
     "DEFAULT_MU_KINETIC", "DEFAULT_MU_STATIC", "DEFAULT_PLANE_TILT_RAD", "STUDY_MOTION_SIGN",

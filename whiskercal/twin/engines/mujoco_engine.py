@@ -1,7 +1,7 @@
 """The second twin engine: the whisker's statics by settling a MuJoCo model.
 
 It exists to cross-check the quasi-static elastica on the same static cases, with a different
-discretization and solver (see :mod:`whiskercal.twin.mujoco_model` for the two representations,
+discretization and solver (see :mod:`whiskercal.twin.engines.mujoco_model` for the two representations,
 a hinge chain and a 1-D elastic flex). Loads are dead loads (fixed direction) applied at material
 points of the shaft; the model is stepped with MuJoCo's implicit ``discrete`` integrator until a
 step moves it less than a tolerance, which is its static equilibrium.
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from whiskercal.errors import UsageError, WhiskercalError
-from whiskercal.twin.mujoco_model import RodSpec, build_mjcf, settle_settings
+from whiskercal.twin.engines.mujoco_model import RodSpec, build_mjcf, settle_settings
 
 _log = logging.getLogger(__name__)
 

@@ -34,7 +34,7 @@ def parse_code_table(text: str) -> dict[str, list[tuple[int, str, str]]]:
 
 
 def _load_table() -> dict[str, list[tuple[int, str, str]]]:
-    text = resources.files("whiskercal.rig").joinpath("protocol_codes.def").read_text("utf-8")
+    text = resources.files("whiskercal.protocol").joinpath("protocol_codes.def").read_text("utf-8")
     return parse_code_table(text)
 
 

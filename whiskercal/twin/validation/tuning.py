@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from whiskercal.twin.plane import solve_plane
-from whiskercal.twin.scenes import plane_for_depth
-from whiskercal.twin.whisker import WhiskerParams
+from whiskercal.twin.physics.plane import solve_plane
+from whiskercal.twin.physics.obstacles import plane_for_depth
+from whiskercal.twin.physics.whisker import WhiskerParams
 
 
 @dataclass(frozen=True)

@@ -149,6 +149,6 @@ class Equilibrium:
         The first point is the (shifted) centre of rotation, the second the clamp, the rest
         `n - 1` points evenly spaced in arc length along the wire.
         """
-        from whiskercal.twin.elastica import shape_of
+        from whiskercal.twin.physics.elastica import shape_of
 
         return shape_of(self, n)

@@ -17,8 +17,8 @@ from collections import deque
 
 import numpy as np
 
-from whiskercal.twin.clock import SerialLine
-from whiskercal.twin.stage import ENCODER_CHECK_PERIOD_S, WHISKERCAL_SETTINGS, StageMechanics
+from whiskercal.twin.devices.clock import SerialLine
+from whiskercal.twin.devices.stage import ENCODER_CHECK_PERIOD_S, WHISKERCAL_SETTINGS, StageMechanics
 
 BANNER = "Grbl 1.1h ['$' for help]"
 PROTO = "whiskercal-stage-1"

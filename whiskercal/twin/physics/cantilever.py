@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.twin import elastica as el
+from whiskercal.twin.physics import elastica as el
 
 ALPHA_MAX = 50.0
 ALPHA_STEP = 1.0   # load increments of the continuation: the large-load branch needs it

@@ -32,9 +32,6 @@ _WORLD_OPTIONS = ("scene", "rod_radius", "seed", "stock", "corrupt", "drop", "sp
 _STAGE_FAULTS = {"missed_steps": "missed_steps_at_s", "stall": "stall_at_s",
                  "encoder_magnet": "encoder_magnet_at_s", "encoder_bus": "encoder_bus_at_s"}
 
-if "whiskercal.rig" not in serial.protocol_handler_packages:
-    serial.protocol_handler_packages.append("whiskercal.rig")
-
 
 def parse_sim_url(url: str) -> tuple[str, str, dict[str, list[str]]]:
     """``sim://NAME/BOARD?options`` -> (NAME, BOARD, options); raises ``SerialException``."""
@@ -67,8 +64,8 @@ def _faults(options: dict[str, list[str]]) -> list[tuple[str, float, str]]:
 
 def world_from_options(name: str, options: dict[str, list[str]]) -> World:
     """Create the world ``name`` from URL options (see docs/twin.md)."""
-    from whiskercal.twin.stage import StageFaults
-    from whiskercal.twin.virtual_sensor import SensorFaults
+    from whiskercal.twin.devices.stage import StageFaults
+    from whiskercal.twin.devices.virtual_sensor import SensorFaults
 
     def value(key, default):
         """The last value given for ``key``."""

@@ -17,11 +17,11 @@ from dataclasses import replace
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.twin import elastica as el
-from whiskercal.twin.contacts import (PATH_STEP, base_params, check_whisker, free,
+from whiskercal.twin.physics import elastica as el
+from whiskercal.twin.physics.contacts import (PATH_STEP, base_params, check_whisker, free,
                                       make_equilibrium, solve_kind)
-from whiskercal.twin.scenes import Plane
-from whiskercal.twin.whisker import Equilibrium
+from whiskercal.twin.physics.obstacles import Plane
+from whiskercal.twin.physics.whisker import Equilibrium
 
 PENETRATION_TOL = 1e-9   # in L: how far a node may sit behind the surface before it counts
 # Below this gap between mu_s and the rest ratio the tip cannot re-stick: it slides steadily.
