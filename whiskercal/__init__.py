@@ -5,6 +5,9 @@ Units throughout: mm, s, µT, rad, N.
 
 __version__ = "0.1.0"
 
-from whiskercal.sim import register as _register_sim_urls
+import serial as _serial
 
-_register_sim_urls()  # sim://NAME/stage and sim://NAME/sensor open the twin's boards
+# pyserial imports ``whiskercal.sim.protocol_sim`` when a sim:// URL is opened, so the twin's
+# boards answer sim://NAME/stage and sim://NAME/sensor without rig importing the twin.
+if "whiskercal.sim" not in _serial.protocol_handler_packages:
+    _serial.protocol_handler_packages.append("whiskercal.sim")

@@ -1,44 +1,13 @@
-"""``whiskercal twin``: inspect and validate the digital twin.
-
-More subcommands join the group from modules ``whiskercal/cli/commands/_twin_<name>.py`` that
-define a click command named ``command`` (the leading underscore keeps them off the top level).
-"""
+"""``whiskercal twin``: inspect and validate the digital twin."""
 
 from __future__ import annotations
-
-import importlib
-import pkgutil
 
 import click
 
 from whiskercal.cli.app import abort, echo_json
 
-_PREFIX = "_twin_"
 
-
-def _extra_modules() -> dict[str, str]:
-    from whiskercal.cli import commands
-
-    return {info.name[len(_PREFIX):].replace("_", "-"): f"{commands.__name__}.{info.name}"
-            for info in pkgutil.iter_modules(commands.__path__)
-            if info.name.startswith(_PREFIX)}
-
-
-class TwinGroup(click.Group):
-    """The built-in subcommands plus those found in ``_twin_<name>.py`` modules."""
-
-    def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted(set(super().list_commands(ctx)) | set(_extra_modules()))
-
-    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
-        found = super().get_command(ctx, name)
-        if found is not None:
-            return found
-        module = _extra_modules().get(name)
-        return importlib.import_module(module).command if module else None
-
-
-@click.group("twin", cls=TwinGroup)
+@click.group("twin")
 def command() -> None:
     """Inspect and validate the digital twin (whisker mechanics, contacts, scenes)."""
 
