@@ -2,6 +2,7 @@
 
 #include "config.h"
 #include "gcode.h"
+#include "homing.h"
 #include "planner.h"
 #include "report.h"
 #include "serial.h"
@@ -42,9 +43,9 @@ void protocol_realtime() {
         return;
     }
     // Hold and resume before the report, so that "!?" reports the hold it asked for.
-    if ((requests & REALTIME_HOLD) && !system_homing() && stepper_busy()) stepper_hold();
+    if ((requests & REALTIME_HOLD) && !homing_active() && stepper_busy()) stepper_hold();
     if ((requests & REALTIME_RESUME) && stepper_holding()) stepper_resume();
-    if (requests & REALTIME_STATUS) system_report_status();
+    if (requests & REALTIME_STATUS) report_status();
 }
 
 // Adds one received character to the line being assembled.
@@ -113,7 +114,7 @@ void protocol_lines() {
         if (line.ready) {
             // NOTE: a full queue or a homing cycle holds the line, and with it the host's next
             // "ok": that is the flow control of the protocol.
-            if (planner_full() || system_homing()) return;
+            if (planner_full() || homing_active()) return;
             protocol_execute_line();
             continue;
         }
