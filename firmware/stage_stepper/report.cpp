@@ -68,7 +68,8 @@ void report_message(const char* text) {
     serial_print_flash(FLASH_TEXT("]\r\n"));
 }
 
-void report_help() { serial_print_flash(FLASH_TEXT("[HLP:$$ $I $H $X $N=value ? ! ~ ctrl-x]\r\n")); }
+// grbl 1.1's help line, listing only the commands this board answers.
+void report_help() { serial_print_flash(FLASH_TEXT("[HLP:$$ $I $x=val $X $H ~ ! ? ctrl-x]\r\n")); }
 
 void report_build_info() {
     serial_print_flash(FLASH_TEXT("[VER:1.1h." STAGE_FIRMWARE_VERSION ":" STAGE_FIRMWARE_NAME "]\r\n"));

@@ -134,36 +134,38 @@ static uint8_t system_set_setting(const char* line) {
     return settings_set((uint16_t)number, value);
 }
 
+static uint8_t system_unlock() {
+    if (sys.locked) {
+        sys.locked = false;
+        system_resync_encoders();
+        report_message(FLASH_TEXT("Caution: Unlocked"));
+    }
+    return 0;
+}
+
+// The commands that read or change settings, or home, wait for rest (error:8), as in grbl.
+static uint8_t system_execute_at_rest(const char* line) {
+    if (stepper_busy()) return STAGE_ERROR_IDLE_ERROR;
+    if (line[1] >= '0' && line[1] <= '9') return system_set_setting(line);
+    if (line[2] != '\0') return STAGE_ERROR_INVALID_STATEMENT;
+    if (line[1] == '$') {
+        report_settings();
+    } else if (line[1] == 'I') {
+        report_build_info();
+    } else if (line[1] == 'H') {
+        uint8_t error = homing_start();
+        return error ? error : SYSTEM_DEFERRED;
+    } else {
+        return STAGE_ERROR_INVALID_STATEMENT;
+    }
+    return 0;
+}
+
 uint8_t system_execute(const char* line) {
-    bool idle = !stepper_busy();
     if (line[1] == '\0') {
         report_help();
         return 0;
     }
-    if (line[1] == 'I' && line[2] == '\0') {
-        report_build_info();
-        return 0;
-    }
-    if (line[1] == '$' && line[2] == '\0') {
-        if (!idle) return STAGE_ERROR_IDLE_ERROR;
-        report_settings();
-        return 0;
-    }
-    if (line[1] == 'H' && line[2] == '\0') {
-        uint8_t error = homing_start();
-        return error ? error : SYSTEM_DEFERRED;
-    }
-    if (line[1] == 'X' && line[2] == '\0') {
-        if (sys.locked) {
-            sys.locked = false;
-            system_resync_encoders();
-            report_message(FLASH_TEXT("Caution: Unlocked"));
-        }
-        return 0;
-    }
-    if (line[1] >= '0' && line[1] <= '9') {
-        if (!idle) return STAGE_ERROR_IDLE_ERROR;
-        return system_set_setting(line);
-    }
-    return STAGE_ERROR_INVALID_STATEMENT;
+    if (line[1] == 'X' && line[2] == '\0') return system_unlock();
+    return system_execute_at_rest(line);
 }
