@@ -1,6 +1,8 @@
 // The G-code subset of docs/protocol.md: G0, G1, G4, G17, G21, G90, G91, G94 with X, Y, F, P
 // (and N, ignored). Parses one normalized line (upper case, no spaces or comments) against the
 // modal state and returns what to queue; the modal state changes only when the line is valid.
+// Blocks follow grbl 1.1's rules: one command per modal group, G0/G1 without axis words only
+// set the motion mode, and a G4 dwell may share its block with a move (dwell first).
 #ifndef STAGE_GCODE_H
 #define STAGE_GCODE_H
 
@@ -14,6 +16,7 @@ struct gcode_modal {
     float feed_mm_min;     // 0 until an F word was given
 };
 
+// What a line queues: bits of gcode_action.kind.
 enum : uint8_t {
     GCODE_NOTHING = 0,
     GCODE_MOVE = 1,
@@ -21,7 +24,7 @@ enum : uint8_t {
 };
 
 struct gcode_action {
-    uint8_t kind;
+    uint8_t kind;          // GCODE_MOVE | GCODE_DWELL bits
     float target_mm[AXIS_COUNT];
     float feed_mm_min;     // for G0 the axes' maximum rates apply
     float dwell_s;

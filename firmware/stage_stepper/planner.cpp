@@ -17,6 +17,9 @@ void planner_init() {
 }
 
 bool planner_full() { return planner_next(planner_head) == planner_tail; }
+uint8_t planner_free() {
+    return (uint8_t)((planner_tail + PLANNER_BLOCKS - planner_head - 1) % PLANNER_BLOCKS);  // one slot stays empty
+}
 bool planner_empty() { return planner_head == planner_tail; }
 
 planner_block* planner_current() { return planner_empty() ? 0 : &planner_blocks[planner_tail]; }

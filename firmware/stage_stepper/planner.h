@@ -34,6 +34,7 @@ bool planner_add_move(const int32_t target_steps[AXIS_COUNT], float feed_mm_min,
 bool planner_add_dwell(float seconds);
 
 bool planner_full();
+uint8_t planner_free();  // blocks that can still be queued
 bool planner_empty();
 
 // Oldest block, or 0; planner_discard() frees it once the segment generator is done with it.

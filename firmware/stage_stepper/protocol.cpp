@@ -2,6 +2,7 @@
 
 #include "config.h"
 #include "gcode.h"
+#include "homing.h"
 #include "planner.h"
 #include "report.h"
 #include "serial.h"
@@ -21,6 +22,7 @@ struct protocol_line {
 };
 
 static protocol_line protocol_buffer;
+static const uint8_t PROTOCOL_WAIT = 0xFE;  // not an error code: the line waits for the planner
 static gcode_modal protocol_modal;
 
 static void protocol_clear_line() {
@@ -42,9 +44,9 @@ void protocol_realtime() {
         return;
     }
     // Hold and resume before the report, so that "!?" reports the hold it asked for.
-    if ((requests & REALTIME_HOLD) && !system_homing() && stepper_busy()) stepper_hold();
+    if ((requests & REALTIME_HOLD) && !homing_active() && stepper_busy()) stepper_hold();
     if ((requests & REALTIME_RESUME) && stepper_holding()) stepper_resume();
-    if (requests & REALTIME_STATUS) system_report_status();
+    if (requests & REALTIME_STATUS) report_status();
 }
 
 // Adds one received character to the line being assembled.
@@ -69,26 +71,36 @@ static void protocol_take_char(char c) {
     }
 }
 
+// Queues what a valid line asks for; grbl dwells before it moves when a block has both.
+static void protocol_queue(const gcode_action& action) {
+    if (action.kind & GCODE_DWELL) planner_add_dwell(action.dwell_s);
+    if (!(action.kind & GCODE_MOVE)) return;
+    int32_t target[AXIS_COUNT];
+    for (uint8_t axis = 0; axis < AXIS_COUNT; ++axis) {
+        float steps = action.target_mm[axis] * settings.steps_per_mm[axis];
+        target[axis] = (int32_t)(steps < 0.0f ? steps - 0.5f : steps + 0.5f);
+    }
+    planner_add_move(target, action.feed_mm_min, BLOCK_MOVE);
+}
+
 static uint8_t protocol_execute_gcode(const char* text) {
     if (system_locked()) return STAGE_ERROR_SYSTEM_GC_LOCK;
     float position[AXIS_COUNT];
     system_planned_position_mm(position);
+    gcode_modal next = protocol_modal;
     gcode_action action;
-    uint8_t error = gcode_parse(text, protocol_modal, position, action);
+    uint8_t error = gcode_parse(text, next, position, action);
     if (error) return error;
-    if (action.kind == GCODE_DWELL) planner_add_dwell(action.dwell_s);
-    if (action.kind == GCODE_MOVE) {
-        int32_t target[AXIS_COUNT];
-        for (uint8_t axis = 0; axis < AXIS_COUNT; ++axis) {
-            float steps = action.target_mm[axis] * settings.steps_per_mm[axis];
-            target[axis] = (int32_t)(steps < 0.0f ? steps - 0.5f : steps + 0.5f);
-        }
-        planner_add_move(target, action.feed_mm_min, BLOCK_MOVE);
-    }
+    // A dwell with a move takes two planner blocks: the line waits until both fit (rare: it is
+    // parsed again on each pass while exactly one block is free).
+    if (action.kind == (GCODE_DWELL | GCODE_MOVE) && planner_free() < 2) return PROTOCOL_WAIT;
+    protocol_modal = next;
+    protocol_queue(action);
     return 0;
 }
 
-static void protocol_execute_line() {
+// Executes the complete line and answers it; false when it has to wait for the planner.
+static bool protocol_execute_line() {
     protocol_line& line = protocol_buffer;
     uint8_t result = 0;
     if (line.overflowed) {
@@ -98,13 +110,15 @@ static void protocol_execute_line() {
     } else if (line.length > 0) {
         result = protocol_execute_gcode(line.text);
     }
+    if (result == PROTOCOL_WAIT) return false;
     protocol_clear_line();
-    if (result == SYSTEM_DEFERRED) return;
+    if (result == SYSTEM_DEFERRED) return true;
     if (result) {
         report_error(result);
     } else {
         report_ok();
     }
+    return true;
 }
 
 void protocol_lines() {
@@ -113,8 +127,7 @@ void protocol_lines() {
         if (line.ready) {
             // NOTE: a full queue or a homing cycle holds the line, and with it the host's next
             // "ok": that is the flow control of the protocol.
-            if (planner_full() || system_homing()) return;
-            protocol_execute_line();
+            if (planner_full() || homing_active() || !protocol_execute_line()) return;
             continue;
         }
         int16_t c = serial_read();

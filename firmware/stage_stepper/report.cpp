@@ -1,8 +1,12 @@
 #include "report.h"
 
 #include "config.h"
+#include "encoders.h"
+#include "hal.h"
 #include "serial.h"
 #include "settings.h"
+#include "stepper.h"
+#include "system.h"
 
 char* report_format_float(float value, uint8_t decimals, char* out) {
     uint32_t scale = 1;
@@ -64,6 +68,9 @@ void report_message(const char* text) {
     serial_print_flash(FLASH_TEXT("]\r\n"));
 }
 
+// grbl 1.1's help line, listing only the commands this board answers.
+void report_help() { serial_print_flash(FLASH_TEXT("[HLP:$$ $I $x=val $X $H ~ ! ? ctrl-x]\r\n")); }
+
 void report_build_info() {
     serial_print_flash(FLASH_TEXT("[VER:1.1h." STAGE_FIRMWARE_VERSION ":" STAGE_FIRMWARE_NAME "]\r\n"));
     serial_print_flash(FLASH_TEXT("[OPT:,"));
@@ -82,4 +89,37 @@ void report_settings() {
         report_float(settings_get(number), settings_is_integer(number) ? 0 : 3);
         serial_print_flash(FLASH_TEXT("\r\n"));
     }
+}
+
+// x,y with three decimals (mm).
+static void report_xy(float x, float y) {
+    report_float(x, 3);
+    serial_write(',');
+    report_float(y, 3);
+}
+
+static void report_pins() {
+    bool x = hal_limit_pressed(AXIS_X), y = hal_limit_pressed(AXIS_Y);
+    if (!x && !y) return;
+    serial_print_flash(FLASH_TEXT("|Pn:"));
+    if (x) serial_write('X');
+    if (y) serial_write('Y');
+}
+
+void report_status() {
+    float position[AXIS_COUNT];
+    system_position_mm(position);
+    serial_write('<');
+    serial_print(system_state_name());
+    serial_print_flash(FLASH_TEXT("|MPos:"));
+    report_xy(position[AXIS_X], position[AXIS_Y]);
+    serial_print_flash(FLASH_TEXT(",0.000|FS:"));
+    report_uint(stepper_speed_mm_min());
+    serial_print_flash(FLASH_TEXT(",0"));
+    if (settings.encoder_present && encoders_valid()) {
+        serial_print_flash(FLASH_TEXT("|Enc:"));
+        report_xy(encoders_position_mm(AXIS_X), encoders_position_mm(AXIS_Y));
+    }
+    report_pins();
+    serial_print_flash(FLASH_TEXT(">\r\n"));
 }

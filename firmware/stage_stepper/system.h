@@ -1,6 +1,6 @@
-// Machine state of stage_stepper: alarms and the lock, the homing cycle, encoder supervision,
-// the '$' system commands and soft reset. The state reported is derived from these and from
-// the stepper (Idle, Run, Hold:0, Hold:1, Home, Alarm).
+// Machine state of stage_stepper: alarms and the lock, encoder supervision, the '$' system
+// commands and soft reset; the homing cycle itself is homing.cpp. The state reported is derived
+// from these and from the stepper (Idle, Run, Hold:0, Hold:1, Home, Alarm).
 #ifndef STAGE_SYSTEM_H
 #define STAGE_SYSTEM_H
 
@@ -20,11 +20,13 @@ void system_reset();
 // Stops all motion, flushes the queue, locks and pushes ALARM:code.
 void system_alarm(uint8_t code);
 
+// Forgets queued motion at once; the planner continues from where the steppers really are.
+void system_stop_motion();
+
 bool system_locked();        // in Alarm: G-code refused with error:9
-bool system_homing();        // a $H cycle is running; lines wait until it ends
 const char* system_state_name();
 
-// Runs the homing phases, limit and encoder supervision; call from the main loop.
+// Runs the homing cycle, limit and encoder supervision; call from the main loop.
 void system_update(uint32_t now_us);
 
 // Executes a '$' line; returns 0 (answer printed by the caller as ok), a STAGE_ERROR code,
@@ -35,7 +37,5 @@ uint8_t system_execute(const char* line);
 // Position in mm from the step counters, and the queued end of motion in mm.
 void system_position_mm(float out[AXIS_COUNT]);
 void system_planned_position_mm(float out[AXIS_COUNT]);
-
-void system_report_status();
 
 #endif

@@ -12,6 +12,7 @@ from pathlib import Path
 
 CODE_TABLE = Path(__file__).resolve().parents[2] / "whiskercal" / "protocol" / "protocol_codes.def"
 BANNER = "Grbl 1.1h ['$' for help]"
+HELP = "[HLP:$$ $I $x=val $X $H ~ ! ? ctrl-x]"  # grbl 1.1's help line, listing what the stage answers
 STATUS = re.compile(r"^<(Idle|Run|Hold:[01]|Home|Alarm)((?:\|[A-Za-z]+:[^|>]*)*)>$")
 STAGE_SETTINGS = (20, 22, 100, 101, 110, 111, 120, 121, 130, 131, 200, 201, 202)
 
@@ -307,6 +308,59 @@ def check_dwell_runs_in_the_queue(port) -> None:
     assert 0.45 <= port.now_s() - started <= 1.0
 
 
+def check_dwell_needs_its_value_word(port) -> None:
+    link = StageLink(port)
+    link.fresh()
+    assert link.command("G4")[1] == "error:28"      # grbl: the command's value word is missing
+    assert link.command("G4G4P1")[1] == "error:21"  # two commands of modal group 0
+
+
+def check_plane_and_feed_mode_words(port) -> None:
+    """G17 (XY plane) and G94 (feed in mm/min) are grbl 1.1 modal commands: the stage's only modes."""
+    link = StageLink(port)
+    link.fresh()
+    for line in ("G17", "G94", "G17 G21 G90 G94"):
+        assert link.command(line)[1] == "ok", line
+    assert link.command("G17 G17")[1] == "error:21"   # one command per modal group
+    assert link.command("G90 G91")[1] == "error:21"
+    x0, y0 = link.status()[1]["MPos"][:2]
+    assert link.command(f"G17 G94 G1 X{x0 + 5:.3f} F600")[1] == "ok"
+    assert close_to(link.wait_state("Idle", timeout_s=5.0)["MPos"], (x0 + 5, y0), 0.001)
+
+
+def check_dwell_with_a_motion_word(port) -> None:
+    """G4 (group 0) and G0/G1 (group 1) may share a block; grbl dwells first, then moves."""
+    link = StageLink(port)
+    link.fresh()
+    x0, y0 = link.status()[1]["MPos"][:2]
+    started = port.now_s()
+    assert link.command("G0 G4 P0.1")[1] == "ok"  # no axis words: a dwell, and the mode is G0
+    link.wait_state("Idle", timeout_s=3.0, poll_s=0.02)
+    assert port.now_s() - started >= 0.1
+    assert link.command("G1")[1] == "error:22"    # G1 needs a feed rate even without axis words
+    started = port.now_s()
+    assert link.command(f"G4 P1.0 X{x0 + 5:.3f}")[1] == "ok"  # dwell, then a move in mode G0
+    state, fields = link.status()
+    assert state == "Run" and fields["MPos"][:2] == [x0, y0], (state, fields)  # still dwelling
+    fields = link.wait_state("Idle", timeout_s=5.0, poll_s=0.02)
+    assert port.now_s() - started >= 1.0
+    assert close_to(fields["MPos"], (x0 + 5, y0), 0.001), fields
+
+
+def check_help_at_any_time(port) -> None:
+    """``$`` prints the help line and ok in any state; ``$I`` and ``$$`` wait for rest (error:8)."""
+    link = StageLink(port)
+    link.fresh()
+    assert link.command("$") == ([HELP], "ok")
+    x0 = link.status()[1]["MPos"][0]
+    assert link.command(f"G1X{x0 + 60:.3f}F3000")[1] == "ok"
+    link.wait_state("Run", timeout_s=1.0)
+    assert link.command("$") == ([HELP], "ok")
+    assert link.command("$I")[1] == "error:8"
+    assert link.command("$$")[1] == "error:8"
+    link.wait_state("Idle", timeout_s=5.0)
+
+
 def check_fault_alarm(port, code: int, move_mm: float = 80.0) -> None:
     """With a fault injected, a long move (or just waiting) ends in ALARM:code."""
     link = StageLink(port)
@@ -324,4 +378,5 @@ STAGE_CHECKS = [check_reset_prints_banner, check_power_up_lock_refuses_gcode_unt
                 check_soft_limits_refuse_without_moving, check_gcode_errors,
                 check_every_error_is_in_the_code_table, check_feed_hold_and_resume,
                 check_reset_while_moving_alarms, check_settings_list_and_set, check_homing_sets_machine_zero,
-                check_dwell_runs_in_the_queue]
+                check_dwell_runs_in_the_queue, check_dwell_needs_its_value_word,
+                check_plane_and_feed_mode_words, check_dwell_with_a_motion_word, check_help_at_any_time]

@@ -65,11 +65,13 @@ def test_sensor(port, check):
     check(port)
 
 
-# Lines whose answers must be identical on both boards, byte for byte. The '$' lines come first,
-# while the stage is at rest (a moving stage answers them with error:8).
-STAGE_LINES = ("$100=-5", "$100=x", "$Q", "$X", "G21", "G90", "G91", "G90", "G1X1", "G1X1F0", "G0X1Y1",
-               "G0X250", "M3", "G0X1X2", "G0G1X1", "G38.2X1", "1X", "X", "G0Z1", "G1X1F-1", "G4", "G4P-1",
-               "G4P0.1", "")
+# Lines whose answers (and the lines printed before them) must be identical on both boards, byte
+# for byte. The '$' lines come first, while the stage is at rest (a moving stage answers most of
+# them with error:8).
+STAGE_LINES = ("$", "$100=-5", "$100=x", "$Q", "$X", "G21", "G17", "G94", "G17G21G90G94", "G17G17", "G90G91",
+               "G90", "G91", "G90", "G1X1", "G1", "G1X1F0", "G0", "G0X1Y1", "G0X250", "M3", "G0X1X2", "G0G1X1",
+               "G38.2X1", "1X", "X", "G0Z1", "G1X1F-1", "G4", "G4G4P1", "G4P-1", "G4P0.1", "G0G4P0.1",
+               "G4P0.1X11", "")
 
 
 def test_stage_firmware_and_twin_answer_alike():
@@ -84,7 +86,7 @@ def test_stage_firmware_and_twin_answer_alike():
 def _answers(port, lines):
     link = stage_script.StageLink(port)
     link.fresh()
-    return [(line, link.command(line)[1]) for line in lines]
+    return [(line, *link.command(line)) for line in lines]
 
 
 SENSOR_LINES = ("ID", "id", " ID ", "CFG?", "cfg?", "GAIN 3", "GAIN  3", "GAIN 3 4", "GAIN 03", "RATE 0300",

@@ -76,7 +76,8 @@ def test_build_info_and_settings():
 
 @pytest.mark.parametrize("line, code", [
     ("G1 X10 Y10", 22), ("G1 X10 F-5", 4), ("G0 X500", 15), ("G0 Y-1", 15), ("G2 X1", 20),
-    ("G0 G1 X1", 24), ("G0 X1 X2", 25), ("G4", 2), ("G0 Z1", 20), ("G1 X1 F0", 22), ("G1 X1 F100 G0 X2", 24), ("M3", 20), ("G0 X1" + " " * 90, 11),
+    ("G0 G1 X1", 24), ("G0 X1 X2", 25), ("G4", 28), ("G4 G4 P1", 21), ("G90 G91", 21), ("G1", 22),
+    ("G0 Z1", 20), ("G1 X1 F0", 22), ("G1 X1 F100 G0 X2", 24), ("M3", 20), ("G0 X1" + " " * 90, 11),
     ("G0 X", 2), ("12", 1),
 ])
 def test_gcode_errors(line, code):
@@ -94,6 +95,20 @@ def test_modal_moves_g90_g91_g21_and_dwell():
     while not _status(port).startswith("<Idle"):
         pass
     assert "MPos:15.000,20.000,0.000" in _status(port)
+
+
+def test_dwell_comes_before_the_move_of_its_block():
+    world = _world()
+    port = _port(world)
+    _send(port, "$X")
+    assert _send(port, "G17 G21 G90 G94") == ["ok"]
+    started_s = world.now_s
+    assert _send(port, "G0 G4 P0.5 X10") == ["ok"]
+    while world.now_s < started_s + 0.4:
+        assert "MPos:0.000,0.000" in _status(port)  # still dwelling
+    while not _status(port).startswith("<Idle"):
+        pass
+    assert "MPos:10.000,0.000,0.000" in _status(port)
 
 
 def test_move_takes_trapezoid_time_and_little_wall_time():

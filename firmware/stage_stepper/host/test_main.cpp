@@ -121,10 +121,32 @@ TEST(gcode_errors_use_the_code_table) {
     CHECK_EQ(gcode_parse("Z1", modal, at, action), STAGE_ERROR_UNSUPPORTED_COMMAND);
     CHECK_EQ(gcode_parse("10", modal, at, action), STAGE_ERROR_EXPECTED_COMMAND_LETTER);
     CHECK_EQ(gcode_parse("GX", modal, at, action), STAGE_ERROR_BAD_NUMBER_FORMAT);
-    CHECK_EQ(gcode_parse("G4", modal, at, action), STAGE_ERROR_BAD_NUMBER_FORMAT);
-    CHECK_EQ(gcode_parse("G0", modal, at, action), STAGE_ERROR_NO_AXIS_WORDS);
+    CHECK_EQ(gcode_parse("G4", modal, at, action), STAGE_ERROR_VALUE_WORD_MISSING);
+    CHECK_EQ(gcode_parse("G4G4P1", modal, at, action), STAGE_ERROR_MODAL_GROUP_VIOLATION);
+    CHECK_EQ(gcode_parse("G90G91", modal, at, action), STAGE_ERROR_MODAL_GROUP_VIOLATION);
+    CHECK_EQ(gcode_parse("G17G17", modal, at, action), STAGE_ERROR_MODAL_GROUP_VIOLATION);
+    CHECK_EQ(gcode_parse("G1", modal, at, action), STAGE_ERROR_UNDEFINED_FEED_RATE);
     CHECK_EQ(gcode_parse("G4P0.5", modal, at, action), 0);
     CHECK(action.kind == GCODE_DWELL && action.dwell_s == 0.5f);
+}
+
+TEST(gcode_blocks_follow_grbl) {
+    settings_defaults(settings);
+    gcode_modal modal;
+    gcode_init(modal);
+    gcode_action action;
+    float at[2] = {10.0f, 20.0f};
+    CHECK_EQ(gcode_parse("G17", modal, at, action), 0);
+    CHECK_EQ(gcode_parse("G94", modal, at, action), 0);
+    CHECK_EQ(gcode_parse("G17G21G90G94", modal, at, action), 0);
+    CHECK(action.kind == GCODE_NOTHING);
+    CHECK_EQ(gcode_parse("G1F300", modal, at, action), 0);  // no axis words: the mode only
+    CHECK(action.kind == GCODE_NOTHING && modal.motion == 1 && modal.feed_mm_min == 300.0f);
+    CHECK_EQ(gcode_parse("G0G4P0.1", modal, at, action), 0);  // groups 1 and 0: no conflict
+    CHECK(action.kind == GCODE_DWELL && action.dwell_s == 0.1f && modal.motion == 0);
+    CHECK_EQ(gcode_parse("G4P0.2X5", modal, at, action), 0);  // dwell, then a move in the mode
+    CHECK(action.kind == (GCODE_DWELL | GCODE_MOVE) && action.target_mm[0] == 5.0f && action.target_mm[1] == 20.0f);
+    CHECK_EQ(gcode_parse("G4P0.2X500", modal, at, action), STAGE_ERROR_TRAVEL_EXCEEDED);
 }
 
 TEST(soft_limits_refuse_targets_outside_travel) {
@@ -191,8 +213,9 @@ TEST(planner_limits_speed_and_acceleration_per_axis) {
     CHECK(planner_add_move(target, 600.0f, BLOCK_MOVE));  // zero length: nothing queued
     planner_discard();
     CHECK(planner_empty());
+    CHECK_EQ(planner_free(), PLANNER_BLOCKS - 1);
     for (int i = 0; i < PLANNER_BLOCKS - 1; ++i) CHECK(planner_add_dwell(0.1f));
-    CHECK(planner_full() && !planner_add_dwell(0.1f));
+    CHECK(planner_full() && planner_free() == 0 && !planner_add_dwell(0.1f));
 }
 
 // Integrates a whole block segment by segment; returns the duration, s.
@@ -404,6 +427,38 @@ TEST(dwell_is_queued_with_motion) {
     CHECK_STR(state(), "Run");
     fake_run(0.3e6);
     CHECK_STR(state(), "Idle");
+}
+
+TEST(dwell_comes_before_the_move_of_its_block) {
+    unlocked();
+    exchange("G4P0.3X5\n", 200.0);
+    CHECK_STR(state(), "Run");
+    CHECK(fake_position_mm(0) == 50.0);  // still dwelling
+    exchange("", 2000.0);
+    CHECK(contains(exchange("?", 1.0), "<Idle|MPos:5.000,0.000"));
+}
+
+TEST(dwell_with_a_move_waits_for_two_planner_blocks) {
+    unlocked();
+    std::string lines;
+    for (int i = 0; i < PLANNER_BLOCKS - 2; ++i) lines += "G4P1\n";
+    exchange(lines, 50.0);
+    CHECK_EQ(planner_free(), 1);
+    CHECK(!contains(exchange("G4P0.1X5\n", 50.0), "ok"));  // held: only one block is free
+    CHECK(contains(exchange("", 1000.0), "ok"));              // the first dwell ended
+    exchange("", 8000.0);
+    CHECK(contains(exchange("?", 1.0), "<Idle|MPos:5.000,0.000"));
+}
+
+TEST(help_anytime_settings_and_info_at_rest) {
+    unlocked();
+    CHECK_STR(exchange("$\n").c_str(), "[HLP:$$ $I $x=val $X $H ~ ! ? ctrl-x]\r\nok\r\n");
+    exchange("G1X40F3000\n", 100.0);
+    CHECK_STR(state(), "Run");
+    CHECK(contains(exchange("$\n"), "[HLP:"));
+    CHECK(contains(exchange("$I\n"), "error:8"));
+    CHECK(contains(exchange("$$\n"), "error:8"));
+    CHECK(contains(exchange("$Q\n"), "error:8"));  // as in grbl: the rest check comes first
 }
 
 TEST(system_commands_answer) {

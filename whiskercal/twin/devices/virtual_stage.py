@@ -1,9 +1,10 @@
 """The stage firmware of the twin: docs/protocol.md's grbl-style protocol over a simulated line.
 
 It answers exactly what ``firmware/stage_stepper`` answers: the banner, ``ok``/``error:N``,
-pushed ``ALARM:N``, realtime ``?``, ``!``, ``~`` and 0x18, ``$H``, ``$X``, ``$I``, ``$$``,
-``$N=v`` and G0/G1/G4/G90/G91/G21. In ``stock`` mode it behaves like plain grbl 1.1: no
-``Enc:`` field, no ``[PROTO:...]``, no encoder settings or alarms.
+pushed ``ALARM:N``, realtime ``?``, ``!``, ``~`` and 0x18, ``$``, ``$H``, ``$X``, ``$I``, ``$$``,
+``$N=v`` and G0/G1/G4/G17/G21/G90/G91/G94, with grbl 1.1's block rules. In ``stock`` mode it
+behaves like plain grbl 1.1: no ``Enc:`` field, no ``[PROTO:...]``, no encoder settings or
+alarms. Every number it answers with is a named code of the shared table (``rig.codes``).
 
 Time comes from outside: ``receive(data, t)`` and ``advance_to(t)`` are called with
 non-decreasing simulated times; replies go into ``self.line`` with their transmission delay.
@@ -17,10 +18,12 @@ from collections import deque
 
 import numpy as np
 
+from whiskercal.protocol.codes import StageAlarm, StageError
 from whiskercal.twin.devices.clock import SerialLine
 from whiskercal.twin.devices.stage import ENCODER_CHECK_PERIOD_S, WHISKERCAL_SETTINGS, StageMechanics
 
 BANNER = "Grbl 1.1h ['$' for help]"
+HELP = "[HLP:$$ $I $x=val $X $H ~ ! ? ctrl-x]"  # grbl 1.1's help line, with the commands answered here
 PROTO = "whiskercal-stage-1"
 FIRMWARE_VERSION = "0.1.0"
 MAX_LINE_CHARS = 80
@@ -28,14 +31,19 @@ PLANNER_BLOCKS = 15
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
 _TRAVEL_EPS_MM = 1e-6
 _INTEGER_SETTINGS = (20, 22, 200)
+_LOCKED = 0  # ``alarm`` value for the lock after power-up: Alarm state without an ALARM:N
+# The modal groups (grbl 1.1 / RS274NGC numbers) of the G codes this stage knows.
+_NON_MODAL, _MOTION, _PLANE, _DISTANCE, _FEED_MODE, _UNITS = 0, 1, 2, 3, 5, 6
+_G_GROUPS = {4: _NON_MODAL, 0: _MOTION, 1: _MOTION, 17: _PLANE, 90: _DISTANCE, 91: _DISTANCE,
+             94: _FEED_MODE, 21: _UNITS}
 
 
 class GcodeError(Exception):
     """A line refused with ``error:code``."""
 
-    def __init__(self, code: int) -> None:
+    def __init__(self, code: StageError) -> None:
         super().__init__(code)
-        self.code = code
+        self.code = int(code)
 
 
 def parse_words(line: str) -> list[tuple[str, float]]:
@@ -44,12 +52,49 @@ def parse_words(line: str) -> list[tuple[str, float]]:
     words, position = [], 0
     for match in _WORD.finditer(text):
         if match.start() != position:
-            raise GcodeError(1 if not text[position].isalpha() else 2)
+            raise GcodeError(_bad_word(text[position]))
         words.append((match.group(1), float(match.group(2))))
         position = match.end()
     if position != len(text):
-        raise GcodeError(2 if text[position].isalpha() else 1)
+        raise GcodeError(_bad_word(text[position]))
     return words
+
+
+def _bad_word(first: str) -> StageError:
+    # a letter without a number, or something that is not a letter where a word should start
+    return StageError.BAD_NUMBER_FORMAT if first.isalpha() else StageError.EXPECTED_COMMAND_LETTER
+
+
+def read_block(words: list[tuple[str, float]]) -> tuple[dict[int, int], dict[str, float]]:
+    """A block's G codes by modal group and its X, Y, F, P words, checked word by word as grbl does.
+
+    N words (line numbers) are accepted and ignored; any other letter is ``error:20``.
+    """
+    groups: dict[int, int] = {}
+    values: dict[str, float] = {}
+    for letter, value in words:
+        if letter == "G":
+            _g_word(value, groups)
+        elif letter in "XYFP":
+            if letter in values:
+                raise GcodeError(StageError.WORD_REPEATED)
+            if letter in "FP" and value < 0:
+                raise GcodeError(StageError.NEGATIVE_VALUE)
+            values[letter] = value
+        elif letter != "N":
+            raise GcodeError(StageError.UNSUPPORTED_COMMAND)  # M, S, T... and Z: two axes here
+    return groups, values
+
+
+def _g_word(value: float, groups: dict[int, int]) -> None:
+    group = _G_GROUPS.get(int(value)) if value == int(value) else None  # G38.2 and the like: none
+    if group is None:
+        raise GcodeError(StageError.UNSUPPORTED_COMMAND)
+    if group == _MOTION and _MOTION in groups:
+        raise GcodeError(StageError.AXIS_WORDS_CONFLICT)  # grbl checks this before the group
+    if group in groups:
+        raise GcodeError(StageError.MODAL_GROUP_VIOLATION)
+    groups[group] = int(value)
 
 
 class VirtualStage:
@@ -132,10 +177,10 @@ class VirtualStage:
         self._absolute, self._motion, self._feed_mm_min = True, 0, None
         if moving:
             self.homing_until_s = None
-            self._raise_alarm(3, t)
+            self._raise_alarm(StageAlarm.ABORT_CYCLE, t)
         self._send(f"\r\n{BANNER}", t)
         if self.alarm is None and self.mech.settings[22] and power_up:
-            self.alarm = 0  # locked after power-up until $H or $X, as grbl with homing enabled
+            self.alarm = _LOCKED  # locked after power-up until $H or $X, as grbl with homing enabled
         if self.alarm is not None:
             self._send("[MSG:'$H'|'$X' to unlock]", t)
 
@@ -217,9 +262,9 @@ class VirtualStage:
         if not self._encoders_on() or self.alarm is not None:
             return
         if "encoder_bus" in self._faults_done:
-            self._raise_alarm(12, t)
+            self._raise_alarm(StageAlarm.ENCODER_BUS, t)
         elif "encoder_magnet" in self._faults_done:
-            self._raise_alarm(11, t)
+            self._raise_alarm(StageAlarm.ENCODER_MAGNET, t)
 
     def _next_check_s(self) -> float | None:
         # encoder and step counters can only disagree after a slip or a stall
@@ -235,15 +280,15 @@ class VirtualStage:
             return
         disagreement = np.abs(self.mech.encoder_mm(t) - self.mech.machine_mm(t))
         if np.max(disagreement) > self.mech.settings[202]:
-            self._raise_alarm(10, t)
+            self._raise_alarm(StageAlarm.ENCODER_MISMATCH, t)
 
-    def _raise_alarm(self, code: int, t: float) -> None:
+    def _raise_alarm(self, code: StageAlarm, t: float) -> None:
         self.mech.stop_now(t)
         self.homing_until_s = None
         self.hold_stop_s, self._resume_requested = None, False
         self._pending.clear()
-        self.alarm = code
-        self._send(f"ALARM:{code}", t)
+        self.alarm = int(code)
+        self._send(f"ALARM:{self.alarm}", t)
 
     # -- state and status -------------------------------------------------------------------
     def state(self, t: float) -> str:
@@ -279,13 +324,13 @@ class VirtualStage:
 
     def _execute(self, line: str | None, t: float) -> None:
         if line is None:
-            raise GcodeError(11)
+            raise GcodeError(StageError.OVERFLOW)
         text = line.strip()
         if text.startswith("$"):
             self._system_command(text[1:].upper().replace(" ", ""), t)
         elif text:
             if self.alarm is not None:
-                raise GcodeError(9)
+                raise GcodeError(StageError.SYSTEM_GC_LOCK)
             self._gcode(parse_words(text), t)
             self._send("ok", t)
         else:
@@ -295,16 +340,16 @@ class VirtualStage:
         handlers = {"": self._help, "$": self._list_settings, "I": self._build_info,
                     "X": self._unlock, "H": self._home}
         if command not in ("", "X") and self.state(t) not in ("Idle", "Alarm"):
-            raise GcodeError(8)  # as grbl: settings, info and homing wait for the stage to rest
+            raise GcodeError(StageError.IDLE_ERROR)  # as grbl: settings, info and homing wait for the stage to rest
         if command in handlers:
             handlers[command](t)
         elif re.fullmatch(r"\d+=.*", command):
             self._set_setting(command, t)
         else:
-            raise GcodeError(3)
+            raise GcodeError(StageError.INVALID_STATEMENT)
 
     def _help(self, t: float) -> None:
-        self._send("[HLP:$$ $I $N $x=val $X $H ~ ! ? ctrl-x]", t)
+        self._send(HELP, t)
         self._send("ok", t)
 
     def _list_settings(self, t: float) -> None:
@@ -333,7 +378,7 @@ class VirtualStage:
 
     def _home(self, t: float) -> None:
         if not self.mech.settings[22]:
-            raise GcodeError(5)
+            raise GcodeError(StageError.SETTING_DISABLED_HOMING)
         self.alarm = None
         self.hold_stop_s, self._resume_requested = None, False
         self._slipping = False  # homing re-references steps and encoders
@@ -345,56 +390,37 @@ class VirtualStage:
         try:
             value = float(value_text)
         except ValueError:
-            raise GcodeError(2) from None
+            raise GcodeError(StageError.BAD_NUMBER_FORMAT) from None
         if number not in self.mech.settings:
-            raise GcodeError(3)
+            raise GcodeError(StageError.INVALID_STATEMENT)
         if value < 0:
-            raise GcodeError(4)
+            raise GcodeError(StageError.NEGATIVE_VALUE)
         self.mech.settings[number] = value
         self._send("ok", t)
 
     def _gcode(self, words: list[tuple[str, float]], t: float) -> None:
-        """Check a whole block first; modal state changes only when it is accepted."""
-        modal = self._modal_words([value for letter, value in words if letter == "G"])
-        letters = [letter for letter, _ in words if letter != "G"]
-        if len(letters) != len(set(letters)):
-            raise GcodeError(25)
-        values = dict((letter, value) for letter, value in words if letter != "G")
-        if set(values) - set("XYFPN"):
-            raise GcodeError(20)  # M, S, T... and Z: this stage has two axes
-        if values.get("F", 0) < 0:
-            raise GcodeError(4)
+        """Check a whole block first; modal state and the queue change only when it is accepted."""
+        groups, values = read_block(words)
+        motion = groups.get(_MOTION, self._motion)
+        absolute = groups[_DISTANCE] == 90 if _DISTANCE in groups else self._absolute
         feed = (values["F"] or None) if "F" in values else self._feed_mm_min  # F0: undefined
-        motion = modal["motion"] if modal["motion"] is not None else self._motion
-        absolute = modal["absolute"] if modal["absolute"] is not None else self._absolute
-        if modal["dwell"]:
-            self._dwell(values, t)
-        elif "X" in values or "Y" in values:
-            self._move(motion, absolute, feed, values, t)
+        dwell = _NON_MODAL in groups
+        if dwell and "P" not in values:
+            raise GcodeError(StageError.VALUE_WORD_MISSING)
+        axes = "X" in values or "Y" in values
+        # A motion command, or axis words in the modal motion mode; as in grbl, G0 and G1 without
+        # axis words only set the mode, but G1 still needs a feed rate.
+        if (axes or _MOTION in groups) and motion == 1 and feed is None:
+            raise GcodeError(StageError.UNDEFINED_FEED_RATE)
+        target = self._target(absolute, values) if axes else None
+        if dwell:
+            self.mech.queue_dwell(values["P"], t)  # grbl dwells before it moves
+        if target is not None:
+            self.mech.queue_move(target, feed if motion == 1 else None, t)
         self._motion, self._absolute, self._feed_mm_min = motion, absolute, feed
 
-    @staticmethod
-    def _modal_words(codes: list[float]) -> dict:
-        """The block's motion mode, distance mode and dwell (None: unchanged)."""
-        if any(code not in (0, 1, 4, 21, 90, 91) for code in codes):
-            raise GcodeError(20)
-        motions = [int(c) for c in codes if c in (0, 1)]
-        if len(motions) > 1:
-            raise GcodeError(24)
-        distances = [c == 90 for c in codes if c in (90, 91)]
-        return {"motion": motions[0] if motions else None, "dwell": 4 in codes,
-                "absolute": distances[-1] if distances else None}
-
-    def _dwell(self, values: dict, t: float) -> None:
-        if "P" not in values:
-            raise GcodeError(2)  # the dwell's value word is missing
-        if values["P"] < 0:
-            raise GcodeError(4)
-        self.mech.queue_dwell(values["P"], t)
-
-    def _move(self, motion: int, absolute: bool, feed: float | None, values: dict, t: float) -> None:
-        if motion == 1 and feed is None:
-            raise GcodeError(22)
+    def _target(self, absolute: bool, values: dict[str, float]) -> np.ndarray:
+        """Machine target of a move, mm; outside the travel with soft limits on: ``error:15``."""
         start = self.mech.planned_end_mm() - self.mech.home_offset_mm
         offset = np.array([values.get("X", 0.0), values.get("Y", 0.0)])
         target = start + offset if not absolute else np.array(
@@ -402,5 +428,5 @@ class VirtualStage:
         travel = np.array([self.mech.settings[130], self.mech.settings[131]])
         outside = np.any(target < -_TRAVEL_EPS_MM) or np.any(target > travel + _TRAVEL_EPS_MM)
         if self.mech.settings[20] and outside:
-            raise GcodeError(15)
-        self.mech.queue_move(target, feed if motion == 1 else None, t)
+            raise GcodeError(StageError.TRAVEL_EXCEEDED)
+        return target
