@@ -125,7 +125,7 @@ def held_sweep(sensor: SensorParams) -> TipSweep:
                 return tip_contact_sweep(sensor.whisker, _SWEEP_SAMPLES)
             n = int(round((_SWEEP_SAMPLES - 1) * fraction)) + 1
             return tip_contact_sweep(sensor.whisker, n, MAX_TIP_SLOPE_RAD * fraction)
-        except UsageError:
+        except (UsageError, np.linalg.LinAlgError):  # the rod lost the tip, or Newton could not go on
             continue
     raise UsageError(f"sensor {sensor.sensor_id!r}: the rod cannot hold tip contact even to a tip "
                      f"slope of {MAX_TIP_SLOPE_RAD * _SWEEP_FRACTIONS[-1]:.2f} rad.")
