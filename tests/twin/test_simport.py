@@ -111,3 +111,48 @@ def test_sim_serve_refuses_a_bad_fault():
     result = CliRunner().invoke(cli, ["sim", "serve", "--fault", "melt@3", "--duration", "0"])
     assert result.exit_code == 2
     assert "bad fault 'melt@3'" in result.output
+
+
+def _sensor_file(tmp_path, name="my sensor+1.toml"):
+    path = tmp_path / name
+    path.write_text('sensor_id = "lab-url"\n[whisker]\nlength_mm = 90\n', encoding="utf-8")
+    return path
+
+
+def test_sensor_option_takes_a_percent_encoded_file_path(tmp_path):
+    import urllib.parse
+
+    path = _sensor_file(tmp_path)  # a space and a plus: both must be encoded in a URL
+    name = f"simport-test-{next(_names)}"
+    port = serial.serial_for_url(f"sim://{name}/sensor?sensor={urllib.parse.quote(str(path))}", timeout=0.1)
+    assert port.world.sensor.sensor_id == "lab-url"
+    assert port.world.sensor.whisker.length_mm == 90.0
+    port.close()
+
+
+def test_sensor_option_still_takes_a_shipped_id_and_names_a_bad_file(tmp_path):
+    from whiskercal.errors import UsageError
+    from whiskercal.twin.params import SECOND_SENSOR
+
+    port = serial.serial_for_url(f"sim://simport-test-{next(_names)}/sensor?sensor=twin-short-60mm")
+    assert port.world.sensor is SECOND_SENSOR
+    port.close()
+    bad = tmp_path / "bad.toml"
+    bad.write_text('sensor_id = "lab"\n[magnetometer]\ngain = 9\n', encoding="utf-8")
+    with pytest.raises(UsageError, match=r"bad.toml: \[magnetometer\] gain must be an integer in 0..7, got 9"):
+        serial.serial_for_url(f"sim://simport-test-{next(_names)}/sensor?sensor={bad}")
+
+
+def test_sim_serve_takes_a_sensor_file(tmp_path):
+    from click.testing import CliRunner
+
+    from whiskercal.cli import cli
+
+    path = _sensor_file(tmp_path, "lab.toml")
+    result = CliRunner().invoke(cli, ["sim", "serve", "--sensor", str(path), "--duration", "0", "--json"],
+                                catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["sensor_id"] == "lab-url"
+    missing = CliRunner().invoke(cli, ["sim", "serve", "--sensor", str(tmp_path / "no.toml"), "--duration", "0"])
+    assert missing.exit_code == 2
+    assert "no.toml: no such sensor file" in missing.output

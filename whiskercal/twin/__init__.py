@@ -8,7 +8,8 @@ Sub-packages, from the bottom up:
 - ``engines``: the second engine (MuJoCo) that cross-checks ``physics``.
 - ``validation``: checks of ``physics`` against references that do not use its solver, and the
   sweeps behind its defaults.
-- ``params`` (a sensor build), ``truth`` (what the real rig never knows: z for a pose, the
+- ``params`` (a sensor build), ``sensor_file`` (a build as a TOML file or dict), ``describe``
+  (the numbers a builder needs before calibrating), ``truth`` (what the real rig never knows: z for a pose, the
   true tip for a z).
 - ``scenes``: what rides on the stage (rod, plane, shapes), each answering its own contact question.
 - ``world``: one simulated rig: stage, scene, sensor, clock, faults, ground-truth record.

@@ -24,6 +24,8 @@ def command() -> None:
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise and faults.")
 @click.option("--speed", type=float, default=1.0, show_default=True,
               help="Simulated seconds per real second (1 = real time).")
+@click.option("--sensor", default=None, metavar="ID_OR_PATH",
+              help="A shipped sensor id or a .toml sensor file [default: the default sensor].")
 @click.option("--rod-radius", type=float, default=1.5, show_default=True, help="Touch rod radius, mm.")
 @click.option("--stock", is_flag=True, help="Stage behaves like plain grbl 1.1 (no encoders).")
 @click.option("--fault", "faults", multiple=True, metavar="NAME@SECONDS",
@@ -32,8 +34,8 @@ def command() -> None:
               help="Stop after this many real seconds (default: run until Ctrl-C).")
 @click.option("--json", "as_json", is_flag=True, help="Print the pty paths as JSON.")
 @pass_app
-def serve(app: App, scene: str, seed: int, speed: float, rod_radius: float, stock: bool,
-          faults: tuple[str, ...], duration: float | None, as_json: bool) -> None:
+def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod_radius: float,
+          stock: bool, faults: tuple[str, ...], duration: float | None, as_json: bool) -> None:
     """Expose a simulated rig on two pseudo-terminals until Ctrl-C.
 
     Prints the stage's and the sensor's pty paths; open them with any serial tool or pass
@@ -46,13 +48,15 @@ def serve(app: App, scene: str, seed: int, speed: float, rod_radius: float, stoc
         raise UsageError("--speed must be positive (1 = real time).")
     options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
                "stock": ["1" if stock else "0"], "fault": list(faults)}
+    if sensor is not None:
+        options["sensor"] = [sensor]
     try:
         world = world_from_options("serve", options)
     except Exception as error:  # noqa: BLE001  (a bad --fault is the user's to fix)
         raise UsageError(str(error)) from None
     bridge = PtyBridge(world, speed)
     info = {"stage": bridge.paths["stage"], "sensor": bridge.paths["sensor"], "scene": scene,
-            "seed": seed, "speed": speed}
+            "seed": seed, "speed": speed, "sensor_id": world.sensor.sensor_id}
     if as_json:
         echo_json(info)
     else:

@@ -113,3 +113,69 @@ def plane_study(depths, k_rot, k_lin, mu_static, mu_kinetic, tilt_deg, motion, a
                    f"{r.root_rotation_deg:8.2f}  {r.root_shift_mm:8.3f}  {r.force_mn:7.2f}")
     click.echo(f"tangential contact from {onset:g} mm" if not math.isnan(onset)
                else "no tangential contact at these depths")
+
+
+def _describe_lines(d) -> list[str]:
+    """The text form of a `twin.describe.SensorDescription`, units on every number."""
+    sensor, whisker, push = d.sensor, d.sensor.whisker, d.push
+    lines = [
+        f"sensor {sensor.sensor_id}: {whisker.length_mm:g} mm x {whisker.diameter_mm:g} mm wire, "
+        f"tip {whisker.reach_mm:g} mm from the centre of rotation",
+        f"  EI                 {d.bending_stiffness_n_mm2:.4g} N·mm²",
+        f"  k_θ·L/EI           {d.root_ratio:.3g}  (k_θ {whisker.root_rotational_stiffness_n_mm_per_rad:g} "
+        "N·mm/rad; large: a push bends the wire, small: it turns the root)",
+        "  static field       " + ", ".join(f"{a} {v:.0f}" for a, v in zip("XYZ", d.static_field_uT)) + " µT",
+        f"paper's deflection: the study's plane (tilted {push.tilt_deg:g}°, μ_s {push.mu_static:.2f}, "
+        f"μ_k {push.mu_kinetic:.2f}) {push.depth_mm:g} mm past the undeflected tip",
+    ]
+    if push.kind == "failed":
+        lines.append("  no equilibrium found at this depth")
+    else:
+        lines += [f"  contact            {push.kind}" + ("" if push.kind == "tip" else "  (not a tip contact)"),
+                  f"  tip                ({push.tip_mm[0]:.2f}, {push.tip_mm[1]:.2f}) mm",
+                  f"  force              {push.force_n:.3g} N", f"  z                  {push.z_uT:.0f} µT"]
+    return lines + _range_lines(d.one_to_one) + _saturation_lines(d.saturation)
+
+
+def _range_lines(one) -> list[str]:
+    why = {"fold": f"z turns back at a tip slope of {abs(one.tip_slope_rad):.2f} rad",
+           "sweep_end": f"z is monotonic over the whole sweep, to a tip slope of {one.swept_to_rad:.2f} rad",
+           "contact_lost": f"z is monotonic as far as the rod holds the tip, a tip slope of "
+                           f"{one.swept_to_rad:.2f} rad"}
+    return [f"one-to-one z range   {one.z_range_uT[0]:.0f} .. {one.z_range_uT[1]:.0f} µT "
+            "(frictionless tip contact)",
+            f"  ends               {why[one.ends_at]}",
+            f"  tip there          ({one.tip_mm[0]:.2f}, {one.tip_mm[1]:.2f}) mm"]
+
+
+def _saturation_lines(sat) -> list[str]:
+    where = ("none over the tip-contact sweep" if sat.axis is None
+             else f"already at rest, on {sat.axis}" if sat.at_rest
+             else f"at z = {sat.z_uT:.0f} µT, first on {sat.axis}")
+    scale = " / ".join(f"±{v / 1000:.1f}" for v in sat.full_scale_uT)
+    use = ", ".join(f"{a} {share:.0%}" for a, share in zip("XYZ", sat.peak_fraction))
+    return [f"saturation           {where}",
+            f"  range              GAIN_SEL {sat.gain}, RES {sat.res}: {scale} mT on X / Y / Z",
+            f"  peak use           {use} of the range over the sweep"]
+
+
+@command.command("describe")
+@click.argument("sensor", metavar="ID_OR_PATH")
+@click.option("--depth", type=float, default=40.0, show_default=True,
+              help="How far the study's plane is pushed past the undeflected tip, mm "
+                   "(40: the paper's deflection target).")
+@click.option("--json", "as_json", is_flag=True, help="Print the description as JSON.")
+def describe(sensor: str, depth: float, as_json: bool) -> None:
+    """The numbers a builder needs before calibrating a sensor (a shipped id or a .toml file).
+
+    EI, k_θ·L/EI, the tip's force and z under the paper's deflection, the z range over which the
+    tip is a one-to-one function of z, and the z at which the magnetometer saturates.
+    """
+    from whiskercal.twin.describe import describe as describe_sensor, description_to_dict
+    from whiskercal.twin.sensor_file import resolve_sensor
+
+    description = describe_sensor(resolve_sensor(sensor), depth)
+    if as_json:
+        echo_json(description_to_dict(description))
+        return
+    click.echo("\n".join(_describe_lines(description)))

@@ -80,10 +80,10 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         if fault == "missed_steps" and argument:
             stage_faults.missed_steps_mm = float(argument)
     sensor = None
-    if "sensor" in options:
-        from whiskercal.twin.params import sensor_by_id
+    if "sensor" in options:  # a shipped id or the path of a .toml sensor file (percent-decoded)
+        from whiskercal.twin.sensor_file import resolve_sensor
 
-        sensor = sensor_by_id(value("sensor", ""))
+        sensor = resolve_sensor(value("sensor", ""))
     world = create_world(name, scene=value("scene", "rod"), sensor=sensor, seed=int(value("seed", 0)),
                          rod_radius_mm=float(value("rod_radius", 1.5)), stock=value("stock", "0") == "1",
                          speed=float(value("speed", 0)), backlash_mm=float(value("backlash", 0.02)),
