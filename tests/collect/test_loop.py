@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from collect_fakes import STATIC_Y_UT, FakeSensor, FakeStage, FakeWorld
+from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.collect.config import load_config
-from whiskercal.collect.dataset import read_raw_grid
 from whiskercal.collect.journal import journal_path
 from whiskercal.collect.plan import build_plan
 from whiskercal.rig.overload import OverloadError

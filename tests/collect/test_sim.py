@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.cli import cli
 from whiskercal.collect.config import load_config
-from whiskercal.collect.dataset import read_raw_grid
 from whiskercal.collect.journal import journal_path
 from whiskercal.collect.plan import build_plan
 from whiskercal.collect.run import collect

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from whiskercal.collect.dataset import read_raw_grid
+from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.regress.golden import Dataset, check_inputs, find_datasets, read_golden
 from whiskercal.regress.pack import compact_copy

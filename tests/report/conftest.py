@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from whiskercal.artifacts.raw_grid import Baseline, PointRecord, RawGridWriter, RawHeader
 from whiskercal.bench.twin_grid import noisy_z, simulate_grid
 from whiskercal.cli import cli
-from whiskercal.collect.dataset import Baseline, PointRecord, RawGridWriter, RawHeader
 
 STATIC_Y_UT = 1160.0
 FIELD_STD_UT = 5.6

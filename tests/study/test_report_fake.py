@@ -1,20 +1,24 @@
 """The report's bookkeeping on a fake study: table, clear refusals, target in a new artifact."""
 
-import json
+import shutil
+from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 
 from whiskercal.artifacts import h5io
-from whiskercal.study.artifact_target import read_target, write_target
+from whiskercal.artifacts.calibration import Target, read_calibration
+from whiskercal.artifacts.plane_study import StudyWriter, read_study
+from whiskercal.study.artifact_target import write_target
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.study.dataset import StudyWriter, read_study
 from whiskercal.study.figures import write_figures
 from whiskercal.study.report import IncompleteStudyError, build_report
 from whiskercal.study.run import StudyRun
 
 from study_fakes import FakeCalibration, fake_config as _config, fake_rig
+
+FIXTURES = Path(__file__).parents[1] / "fixtures"
 
 
 @pytest.fixture(scope="module")
@@ -76,20 +80,19 @@ def test_a_trial_cut_short_is_flagged(tmp_path, fake_study):
 def test_target_goes_into_a_new_artifact_version(tmp_path, fake_study):
     path, geometry = fake_study
     report = build_report(path, FakeCalibration(geometry))
-    calibration = tmp_path / "CAL.h5"
-    with h5py.File(calibration, "w") as handle:
-        h5io.write_provenance(handle, schema="whiskercal.calibration", schema_version="1.0.0",
-                              sensor_id="fake", inputs={"raw_grid": "ab" * 32})
+    calibration = shutil.copyfile(FIXTURES / "calibration-1.0.0.h5", tmp_path / "CAL.h5")
     before = calibration.read_bytes()
     out = write_target(calibration, tmp_path / "out" / "CAL-target.h5", report.choice,
                        read_study(path).sha256)
     assert calibration.read_bytes() == before  # the input version is never changed
-    stored = read_target(out)
-    assert stored["z_uT"] == report.choice.z_uT and stored["depth_mm"] == report.choice.depth_mm
+    stored = read_calibration(out)
+    assert stored.target == Target(report.choice.z_uT, report.choice.depth_mm, report.choice.rule,
+                                   report.choice.reason, h5io.sha256_file(path))
+    assert stored.schema_version == "1.1.0" and stored.target_z_uT == report.choice.z_uT
+    assert stored.inputs == {"raw_grid": read_calibration(calibration).inputs["raw_grid"],
+                             "plane_study": h5io.sha256_file(path),
+                             "calibration": h5io.sha256_file(calibration)}
     with h5py.File(out) as handle:
-        assert handle.attrs["schema_version"] == "1.1.0"
-        inputs = json.loads(handle.attrs["inputs_sha256"])
-        assert inputs["plane_study"] == h5io.sha256_file(path) and inputs["raw_grid"] == "ab" * 32
         assert handle["target/z_uT"].attrs["units"] == "µT"
 
 

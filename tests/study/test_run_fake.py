@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from whiskercal.artifacts.plane_study import PHASE_SLIDE, StudyWriter, read_study
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.study.dataset import PHASE_SLIDE, StudyWriter, read_study
 from whiskercal.rig.overload import OverloadError
 from whiskercal.study.run import NoContactError, StudyRun
 

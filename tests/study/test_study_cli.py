@@ -6,8 +6,8 @@ import h5py
 import pytest
 from click.testing import CliRunner
 
+from whiskercal.artifacts.plane_study import read_study
 from whiskercal.cli import cli
-from whiskercal.study.dataset import read_study
 
 SMALL = """
 [trials]

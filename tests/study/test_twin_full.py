@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from whiskercal import runtime
+from whiskercal.artifacts.plane_study import StudyWriter
 from whiskercal.rig import SensorClient, StageClient
 from whiskercal.study.config import load_config
-from whiskercal.study.dataset import StudyWriter
 from whiskercal.study.report import build_report
 from whiskercal.study.run import StudyRun
 from whiskercal.twin.devices import simport

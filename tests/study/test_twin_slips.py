@@ -5,7 +5,7 @@ import pytest
 
 from twin_calibration import run_twin_study
 from whiskercal import runtime
-from whiskercal.study.dataset import PHASE_SLIDE, read_study
+from whiskercal.artifacts.plane_study import PHASE_SLIDE, read_study
 from whiskercal.study.report import build_report
 from whiskercal.study.truth import match_rows
 

@@ -7,7 +7,7 @@ import pytest
 
 from whiskercal import runtime
 from whiskercal.study.artifact_target import write_target
-from whiskercal.study.dataset import PHASE_SLIDE, read_study
+from whiskercal.artifacts.plane_study import PHASE_SLIDE, read_study
 from whiskercal.study.report import build_report
 
 

@@ -60,9 +60,9 @@ def run_twin_study(folder: Path, config_text: str, world: str, seed: int):
 
     Returns the study file, its config and the world (for the ground truth).
     """
+    from whiskercal.artifacts.plane_study import StudyWriter
     from whiskercal.rig import SensorClient, StageClient
     from whiskercal.study.config import load_config
-    from whiskercal.study.dataset import StudyWriter
     from whiskercal.study.run import StudyRun
     from whiskercal.twin.devices import simport
 

@@ -15,15 +15,21 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
 - ``/filter``, ``/collision``: settings as attributes.
 - ``/metrics``: fit and lookup evidence, and ``warnings`` (JSON list of sentences, 1.2);
   ``/metrics/truth`` when the raw grid came from the twin.
-- ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``.
+- ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``,
+  ``depth_mm`` and why (:class:`Target`). It is never written into an artifact in place:
+  :func:`write_with_target` makes the next version as a new file.
 
-Reading never executes code: plain arrays and JSON text only.
+One writer, :func:`write_calibration` (and :func:`write_with_target` for the derived version);
+one reader, :func:`read_calibration`. Reading never executes code: plain arrays and JSON text
+only.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,14 +37,28 @@ from typing import Any
 import h5py
 import numpy as np
 
-from whiskercal.artifacts.h5io import (as_text, check_schema, open_h5, read_array,
-                                       read_json_attr, write_array, write_provenance)
-from whiskercal.errors import ArtifactError
+from whiskercal.artifacts.h5io import (as_text, check_schema, now_iso, open_h5, read_array,
+                                       read_json_attr, sha256_file, write_array, write_provenance)
+from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
 SCHEMA_VERSION = "1.2.0"  # 1.1: /target (the study); 1.2: extrapolation marks
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
+TARGET_GROUP = "target"
+
+
+@dataclass(frozen=True)
+class Target:
+    """The deflection target an optimal-depth study chose: z in µT at a contact depth in mm,
+    the selection rule and the reason in words, and the SHA-256 of the study file."""
+
+    z_uT: float
+    depth_mm: float
+    rule: str
+    reason: str
+    study_sha256: str
 
 
 @dataclass
@@ -72,7 +92,7 @@ class CalibrationData:
     truth: dict[str, np.ndarray] | None = None
     inputs: dict[str, str] = field(default_factory=dict)
     config: dict[str, Any] = field(default_factory=dict)
-    target_z_uT: float | None = None
+    target: Target | None = None
     schema_version: str = SCHEMA_VERSION
     created: str = ""
     whiskercal_version: str = ""
@@ -81,6 +101,11 @@ class CalibrationData:
     lookup_extension_mm: np.ndarray | None = None
     extrapolated: bool = False
     trusted_z_uT: tuple[float, float] | None = None  # with extrapolated: None means no part
+
+    @property
+    def target_z_uT(self) -> float | None:
+        """The study's deflection target, µT (None until a study chose one)."""
+        return None if self.target is None else self.target.z_uT
 
     def trusted_range_uT(self) -> tuple[float, float] | None:
         """The z range (µT) whose tips lie within the extrapolation limit; None when none do."""
@@ -240,11 +265,20 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         truth=_read_truth(metrics),
         inputs=read_json_attr(handle, "inputs_sha256", {}),
         config=read_json_attr(handle, "config", {}),
-        target_z_uT=float(handle["target"]["z_uT"][()]) if "target" in handle else None,
+        target=_read_target(handle),
         created=as_text(handle.attrs.get("created", "")),
         whiskercal_version=as_text(handle.attrs.get("whiskercal_version", "")),
         **_read_extrapolation(trace, lookup),
     )
+
+
+def _read_target(handle: h5py.File) -> Target | None:
+    if TARGET_GROUP not in handle:
+        return None
+    group = handle[TARGET_GROUP]
+    depth_mm = float(group["depth_mm"][()]) if "depth_mm" in group else math.nan
+    return Target(float(group["z_uT"][()]), depth_mm,
+                  *(as_text(group.attrs.get(key, "")) for key in ("rule", "reason", "study_sha256")))
 
 
 def _read_extrapolation(trace: h5py.Group, lookup: h5py.Group) -> dict[str, Any]:
@@ -315,6 +349,64 @@ def validate(data: CalibrationData, path: str | Path = "") -> None:
     for ok, expectation in checks:
         if not ok:
             raise ArtifactError(f"{where}corrupt calibration artifact: expected {expectation}")
+
+
+# --- the target: a new version of an existing artifact ------------------------------------------
+
+def bump_minor(version: str) -> str:
+    """``1.0.0`` -> ``1.1.0``: a new optional part that readers of the same major accept."""
+    try:
+        major, minor, *_ = (int(part) for part in version.split("."))
+    except ValueError:
+        raise ArtifactError(f"bad schema_version {version!r} in the calibration artifact") from None
+    return f"{major}.{minor + 1}.0"
+
+
+def write_with_target(calibration_path: str | Path, out_path: str | Path, target: Target) -> Path:
+    """Copy the calibration artifact to ``out_path`` with ``target`` added (docs/formats.md,
+    "Calibration artifact with a target"): the copy's minor version is bumped, its ``created``
+    renewed and its ``inputs_sha256`` extended by the study and the artifact it came from.
+
+    Raises
+    ------
+    UsageError
+        When ``out_path`` is the input artifact itself (an artifact version is never rewritten).
+    ArtifactError
+        When the input cannot be read as HDF5.
+    """
+    calibration_path, out_path = Path(calibration_path), Path(out_path)
+    if out_path.resolve() == calibration_path.resolve():
+        raise UsageError("the artifact with the target must be a new file, not the input artifact")
+    ensure_dir(out_path.parent)
+    scratch = out_path.with_name(out_path.name + ".partial")
+    shutil.copyfile(calibration_path, scratch)
+    input_sha = sha256_file(calibration_path)
+    try:
+        with h5py.File(scratch, "r+") as handle:
+            _add_target(handle, target, input_sha)
+    except OSError as error:
+        scratch.unlink(missing_ok=True)
+        raise ArtifactError(f"{calibration_path}: cannot write a copy with the target "
+                            f"({error})") from None
+    os.replace(scratch, out_path)
+    return out_path
+
+
+def _add_target(handle: h5py.File, target: Target, input_sha: str) -> None:
+    if TARGET_GROUP in handle:
+        del handle[TARGET_GROUP]  # a newer study supersedes the target of the copied version
+    group = handle.create_group(TARGET_GROUP)
+    write_array(group, "z_uT", float(target.z_uT), "µT")
+    write_array(group, "depth_mm", float(target.depth_mm), "mm")
+    group.attrs["rule"] = target.rule
+    group.attrs["reason"] = target.reason
+    group.attrs["study_sha256"] = target.study_sha256
+    handle.attrs["schema_version"] = bump_minor(as_text(handle.attrs.get("schema_version", "1.0.0")))
+    inputs = read_json_attr(handle, "inputs_sha256", {}) or {}
+    inputs["plane_study"] = target.study_sha256
+    inputs["calibration"] = input_sha
+    handle.attrs["inputs_sha256"] = json.dumps(inputs, sort_keys=True)
+    handle.attrs["created"] = now_iso()
 
 
 # --- between the artifact and the models -------------------------------------------------------

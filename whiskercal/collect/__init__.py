@@ -4,8 +4,8 @@
 - ``plan``: which rod positions, in what order, along which path; frames.
 - ``estimate``: stage time and limit checks of a plan (``--dry-run``).
 - ``loop`` and ``recorder``: the acquisition loop over injected stage and sensor clients.
-- ``dataset``: the raw dataset (schema ``whiskercal.raw_grid``): ``RawGridWriter``, ``read_raw_grid``.
-- ``journal`` and ``checkpoint``: the crash-proof side journal and resuming from it.
+- ``journal`` and ``checkpoint``: the crash-proof side journal and resuming from it; the raw
+  dataset itself (schema ``whiskercal.raw_grid``) is ``whiskercal.artifacts.raw_grid``.
 - ``twin_truth``: the twin's ground truth per point.
 - ``run``: one run from ports to file, what ``whiskercal collect`` calls.
 """

@@ -15,12 +15,11 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Mapping
 
-import h5py
 import numpy as np
 
-from whiskercal.collect.dataset import (POINT_FIELDS, STREAM_FIELDS, Baseline, PointRecord,
-                                        RawGridWriter, RawHeader, StreamChunk, read_raw_grid,
-                                        read_truth)
+from whiskercal.artifacts.raw_grid import (POINT_FIELDS, STREAM_FIELDS, Baseline, PointRecord,
+                                           RawGridWriter, RawHeader, StreamChunk,
+                                           read_plan_fingerprint, read_raw_grid)
 from whiskercal.collect.journal import Journal, decode_line, journal_path, replay
 from whiskercal.errors import ArtifactError, UsageError
 
@@ -159,12 +158,9 @@ def recorded_fingerprint(path: str | Path) -> str:
             header = decode_line(handle.readline())
         if header is not None and header.get("type") == "header":
             return str(header["fingerprint"])
-    if path.exists():
-        try:
-            with h5py.File(path, "r") as handle:
-                return str(handle.attrs.get("plan_fingerprint", ""))
-        except OSError:
-            pass
+    fingerprint = read_plan_fingerprint(path) if path.exists() else None
+    if fingerprint is not None:
+        return fingerprint
     raise UsageError(f"{path}: nothing to resume (no readable file or journal)")
 
 
@@ -180,28 +176,21 @@ def _records_to_resume(path: Path) -> list[dict[str, Any]]:
 def _records_from_h5(path: Path) -> list[dict[str, Any]]:
     """Records equivalent to a valid raw dataset, for resuming a file whose journal is gone."""
     try:
-        grid = read_raw_grid(path)
+        grid = read_raw_grid(path, stream=True)
     except ArtifactError as error:
         raise UsageError(f"cannot resume: {error}") from None
     if grid.complete:
         raise UsageError(f"{path}: the run is already complete; nothing to resume")
-    with h5py.File(path, "r") as handle:
-        fingerprint = str(handle.attrs["plan_fingerprint"])
-        points = {name: handle["points"][name][()] for name in POINT_FIELDS}
-        stream = {name: handle["stream"][name][()] for name in STREAM_FIELDS}
-        truth = read_truth(handle)
-        group = handle["baseline"]
-        before = Baseline(group["before_field_uT"][()], group["before_std_uT"][()],
-                          float(group["t_before_s"][()]))
     header = RawHeader(grid.plan_stage_mm, grid.plan_rod_center_mm, grid.config, grid.sensor_id,
                        grid.rod_radius_mm)
-    records = [{**_header_record(header), "fingerprint": fingerprint},
-               {"type": "baseline", "which": "before", **asdict(before)},
-               {"type": "stream", **stream}]
-    for row in range(len(points["plan_index"])):
+    records = [{**_header_record(header), "fingerprint": grid.plan_fingerprint},
+               {"type": "baseline", "which": "before", **asdict(grid.baseline_before)},
+               {"type": "stream", **asdict(grid.stream)}]
+    points = {name: getattr(grid, name) for name in POINT_FIELDS}
+    for row in range(len(grid)):
         record = {"type": "point", **{name: values[row] for name, values in points.items()},
                   "stream": None,
-                  "truth": None if truth is None else {k: v[row] for k, v in truth.items()}}
+                  "truth": None if grid.truth is None else {k: v[row] for k, v in grid.truth.items()}}
         records.append(record)
     return records
 

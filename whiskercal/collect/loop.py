@@ -14,8 +14,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from whiskercal.artifacts.raw_grid import Baseline, PointRecord
 from whiskercal.collect.checkpoint import Checkpoint
-from whiskercal.collect.dataset import Baseline, PointRecord
 from whiskercal.collect.plan import GridPlan, Move
 from whiskercal.collect.recorder import StreamRecorder, field_stats
 from whiskercal.rig.overload import OverloadError, describe_axes

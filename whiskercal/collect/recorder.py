@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from whiskercal.collect.dataset import StreamChunk
+from whiskercal.artifacts.raw_grid import StreamChunk
 from whiskercal.errors import DeviceError
 from whiskercal.rig.overload import check_overload, saturated_axes, valid_samples
 

@@ -11,9 +11,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from whiskercal.artifacts.raw_grid import RawHeader
 from whiskercal.collect.checkpoint import Checkpoint, recorded_fingerprint
 from whiskercal.collect.config import CollectConfig
-from whiskercal.collect.dataset import RawHeader
 from whiskercal.collect.estimate import limit_problems
 from whiskercal.collect.journal import journal_path
 from whiskercal.collect.loop import Collector, Devices, Progress, identify

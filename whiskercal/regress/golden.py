@@ -111,8 +111,8 @@ def check_inputs(dataset: Dataset) -> dict[str, str]:
     Each file is opened with its own reader (schema and version checked), so a corrupt or
     foreign file is named with what is wrong with it.
     """
-    from whiskercal.collect.dataset import read_raw_grid
-    from whiskercal.study.dataset import read_study
+    from whiskercal.artifacts.plane_study import read_study
+    from whiskercal.artifacts.raw_grid import read_raw_grid
 
     for path, reader in ((dataset.raw_grid, read_raw_grid), (dataset.study, read_study)):
         if not path.is_file():

@@ -175,7 +175,7 @@ def _provenance(cal_path: Path, data: CalibrationData, raw, study_path, bench_di
 def build_html(cal_path: str | Path, raw_path: str | Path | None = None,
                study_path: str | Path | None = None, bench_dir: str | Path | None = None) -> str:
     """The report's HTML for a calibration artifact and the optional raw grid, study and bench."""
-    from whiskercal.collect.dataset import read_raw_grid
+    from whiskercal.artifacts.raw_grid import read_raw_grid
 
     cal_path = Path(cal_path)
     data = read_calibration(cal_path)

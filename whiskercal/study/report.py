@@ -12,10 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_SLIDE, Study, TrialRecord,
+                                              read_study)
 from whiskercal.errors import ArtifactError
 from whiskercal.study.analysis import Criteria, TrialMetrics, TrialSeries, analyse_study
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.study.dataset import PHASE_APPROACH, PHASE_SLIDE, Study, TrialRecord, read_study
 from whiskercal.study.localize import track
 from whiskercal.rig.overload import SENSOR_AXIS_Y
 from whiskercal.study.recorder import measured_positions_mm, stage_position_per_sample

@@ -24,12 +24,12 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE,
+                                              StudyWriter, TrialRecord)
 from whiskercal.collect.loop import Progress
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.study import truth as truth_module
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.study.dataset import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE, StudyWriter,
-                                      TrialRecord)
 from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError
 from whiskercal.study.recorder import POLL_PERIOD_S, StreamRecorder, stage_position_per_sample
 

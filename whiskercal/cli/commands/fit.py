@@ -187,7 +187,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     when the surface's CV error is far above the noise expected at the grid points.
     """
     from whiskercal.artifacts.calibration import data_from_calibration, write_calibration
-    from whiskercal.collect.dataset import read_raw_grid
+    from whiskercal.artifacts.raw_grid import read_raw_grid
     from whiskercal.model.calibrate import MAX_EXTENSION_MM, CalibrationOptions
     from whiskercal.model.collision import CollisionParams
     from whiskercal.model.kalman import KalmanParams

@@ -8,6 +8,7 @@ import click
 import h5py
 import numpy as np
 
+from whiskercal.artifacts import calibration, raw_grid
 from whiskercal.artifacts.h5io import as_text, open_h5, read_json_attr
 from whiskercal.cli.app import echo_json
 from whiskercal.errors import ArtifactError
@@ -52,9 +53,7 @@ def _extension_summary(data) -> dict:
 
 
 def _calibration_summary(path: Path) -> dict:
-    from whiskercal.artifacts.calibration import read_calibration
-
-    data = read_calibration(path)
+    data = calibration.read_calibration(path)
     return {
         "kind": "calibration",
         "surface": {"degree": data.degree, "coordinates": data.coordinates,
@@ -72,9 +71,7 @@ def _calibration_summary(path: Path) -> dict:
 
 
 def _raw_summary(path: Path) -> dict:
-    from whiskercal.collect.dataset import read_raw_grid
-
-    grid = read_raw_grid(path)
+    grid = raw_grid.read_raw_grid(path)
     return {"kind": "raw_grid", "points": len(grid), "complete": grid.complete,
             "planned_points": int(len(grid.plan_rod_center_mm)),
             "rod_radius_mm": grid.rod_radius_mm,
@@ -90,7 +87,7 @@ def inspect_file(path: str | Path) -> dict:
         inputs = read_json_attr(handle, "inputs_sha256", {})
         datasets = _datasets(handle)
     schema = provenance.get("schema", "")
-    readers = {"whiskercal.calibration": _calibration_summary, "whiskercal.raw_grid": _raw_summary}
+    readers = {calibration.SCHEMA: _calibration_summary, raw_grid.SCHEMA: _raw_summary}
     if schema not in readers:
         raise ArtifactError(f"{path}: not a whiskercal calibration artifact or raw grid "
                             f"(schema attribute is {schema or 'missing'!r})")

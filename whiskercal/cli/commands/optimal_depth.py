@@ -47,9 +47,9 @@ def _progress_printer(app: App, enabled: bool):
 def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, config_path: Path | None,
                 resume: bool, as_json: bool) -> None:
     """Run the flat-plane study: first contact, then one constant-velocity slide per depth."""
+    from whiskercal.artifacts.plane_study import StudyWriter
     from whiskercal.rig import SensorClient, StageClient
     from whiskercal.study.config import PlaneGeometry, load_config
-    from whiskercal.study.dataset import StudyWriter
     from whiskercal.study.run import StudyRun
     from whiskercal.study.truth import check_world
 

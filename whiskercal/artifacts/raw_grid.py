@@ -2,8 +2,10 @@
 
 ``whiskercal collect`` appends one grid point at a time through :class:`RawGridWriter` and
 flushes after each, so a stopped run leaves a valid file with every point taken so far;
-``whiskercal fit`` reads it with :func:`read_raw_grid`. docs/formats.md describes the layout.
-The crash-proof copy of the same records is the side journal (``collect/checkpoint.py``).
+``whiskercal fit`` reads it with :func:`read_raw_grid`, and a resumed run reads it back the same
+way (``stream=True``) when its journal is gone. docs/formats.md describes the layout. The
+crash-proof copy of the same records is the collection run's side journal
+(``whiskercal/collect/checkpoint.py``).
 """
 
 from __future__ import annotations
@@ -257,7 +259,9 @@ class RawGrid:
 
     ``z_uT`` is the field's Y mean minus the static baseline, which is interpolated linearly in
     device time between the before and after readings when both exist (drift), else the before
-    reading. ``truth`` holds the twin's ground truth per point (None for a real rig).
+    reading. ``truth`` holds the twin's ground truth per point (None for a real rig). Every
+    column of /points is here under its own name (``POINT_FIELDS``); ``stream`` only when the
+    reader was asked for it (the raw samples are most of a file and the fit does not need them).
     """
 
     rod_center_mm: np.ndarray
@@ -272,17 +276,34 @@ class RawGrid:
     truth: dict[str, np.ndarray] | None
     plan_index: np.ndarray
     field_mean_uT: np.ndarray
+    field_std_uT: np.ndarray
     commanded_mm: np.ndarray
     encoder_mm: np.ndarray
+    t_start_s: np.ndarray
+    t_end_s: np.ndarray
     t_mid_s: np.ndarray
+    dropped: np.ndarray
+    corrupt: np.ndarray
     plan_stage_mm: np.ndarray
     plan_rod_center_mm: np.ndarray
-    baseline_before_uT: np.ndarray
-    baseline_after_uT: np.ndarray | None
+    baseline_before: Baseline
+    baseline_after: Baseline | None
+    plan_fingerprint: str = ""
+    stream: StreamChunk | None = None
     path: str = ""
 
     def __len__(self) -> int:
         return len(self.z_uT)
+
+    @property
+    def baseline_before_uT(self) -> np.ndarray:
+        """The static reading before the grid, X Y Z µT."""
+        return self.baseline_before.field_uT
+
+    @property
+    def baseline_after_uT(self) -> np.ndarray | None:
+        """The static reading after the grid, X Y Z µT (None until the run completes)."""
+        return None if self.baseline_after is None else self.baseline_after.field_uT
 
 
 def baseline_y_at(t_s: np.ndarray, before: tuple[float, float],
@@ -300,7 +321,7 @@ def baseline_y_at(t_s: np.ndarray, before: tuple[float, float],
     return y0 + (y1 - y0) * (t_s - t0) / (t1 - t0)
 
 
-def read_truth(handle: h5py.File) -> dict[str, np.ndarray] | None:
+def _read_truth(handle: h5py.File) -> dict[str, np.ndarray] | None:
     """The /truth group of an open raw dataset as arrays (text as str), or None."""
     if "truth" not in handle:
         return None
@@ -313,20 +334,25 @@ def read_truth(handle: h5py.File) -> dict[str, np.ndarray] | None:
     return truth
 
 
-def _read_baselines(handle: h5py.File, path: Path) -> tuple[tuple[float, np.ndarray],
-                                                              tuple[float, np.ndarray] | None]:
+def _read_baseline(group: h5py.Group, which: str) -> Baseline:
+    return Baseline(group[f"{which}_field_uT"][()], group[f"{which}_std_uT"][()],
+                    float(group[f"t_{which}_s"][()]))
+
+
+def _read_baselines(handle: h5py.File, path: Path) -> tuple[Baseline, Baseline | None]:
     group = handle["baseline"] if "baseline" in handle else None
     if group is None or "before_field_uT" not in group:
         raise ArtifactError(f"{path}: no static baseline recorded (the run stopped before it)")
-    before = (float(group["t_before_s"][()]), group["before_field_uT"][()])
-    after = None
-    if "after_field_uT" in group:
-        after = (float(group["t_after_s"][()]), group["after_field_uT"][()])
-    return before, after
+    after = _read_baseline(group, "after") if "after_field_uT" in group else None
+    return _read_baseline(group, "before"), after
 
 
-def read_raw_grid(path: str | Path) -> RawGrid:
-    """Load a raw calibration dataset (complete or partial).
+def _read_stream(handle: h5py.File, path: Path) -> StreamChunk:
+    return StreamChunk(**{name: read_array(handle["stream"], name, path) for name in STREAM_FIELDS})
+
+
+def read_raw_grid(path: str | Path, *, stream: bool = False) -> RawGrid:
+    """Load a raw calibration dataset (complete or partial); its raw samples too when ``stream``.
 
     Raises
     ------
@@ -338,35 +364,43 @@ def read_raw_grid(path: str | Path) -> RawGrid:
     with open_h5(path) as handle:
         check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         grid = _grid_from(handle, path)
+        if stream:
+            grid.stream = _read_stream(handle, path)
     grid.sha256 = sha256_file(path)
     return grid
+
+
+def read_plan_fingerprint(path: str | Path) -> str | None:
+    """The plan fingerprint a raw dataset was started with ("" when it has none), or None when
+    the file does not open (a run killed before its first flush leaves such a file)."""
+    try:
+        with h5py.File(path, "r") as handle:
+            return str(handle.attrs.get("plan_fingerprint", ""))
+    except OSError:
+        return None
 
 
 def _grid_from(handle: h5py.File, path: Path) -> RawGrid:
     columns = {name: read_array(handle["points"], name, path) for name in POINT_FIELDS}
     before, after = _read_baselines(handle, path)
     t_mid = 0.5 * (columns["t_start_s"] + columns["t_end_s"])
-    static_y = baseline_y_at(t_mid, (before[0], before[1][1]),
-                             None if after is None else (after[0], after[1][1]))
+    static_y = baseline_y_at(t_mid, (before.t_s, before.field_uT[1]),
+                             None if after is None else (after.t_s, after.field_uT[1]))
     return RawGrid(
-        rod_center_mm=columns["rod_center_mm"],
         z_uT=columns["field_mean_uT"][:, 1] - static_y,
         z_std_uT=columns["field_std_uT"][:, 1],
-        n_samples=columns["n_samples"],
         rod_radius_mm=float(handle.attrs["rod_radius_mm"]),
         sensor_id=str(handle.attrs["sensor_id"]),
         config=read_json_attr(handle, "config", {}),
         sha256="",
         complete=bool(handle.attrs.get("complete", False)),
-        truth=read_truth(handle),
-        plan_index=columns["plan_index"],
-        field_mean_uT=columns["field_mean_uT"],
-        commanded_mm=columns["commanded_mm"],
-        encoder_mm=columns["encoder_mm"],
+        truth=_read_truth(handle),
         t_mid_s=t_mid,
         plan_stage_mm=read_array(handle["plan"], "stage_mm", path),
         plan_rod_center_mm=read_array(handle["plan"], "rod_center_mm", path),
-        baseline_before_uT=before[1],
-        baseline_after_uT=None if after is None else after[1],
+        baseline_before=before,
+        baseline_after=after,
+        plan_fingerprint=str(handle.attrs.get("plan_fingerprint", "")),
         path=str(path),
+        **columns,
     )

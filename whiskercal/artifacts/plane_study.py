@@ -4,7 +4,8 @@ One HDF5 file holds the study's header (baseline, first contact, the plan) and o
 finished trial. A trial is written whole when it ends: the file is copied, the trial added to the
 copy, and the copy renamed over the original, so a crash or ``kill -9`` at any moment leaves
 either the old file or the new one, never a half-written trial. A finished trial is never redone;
-``--resume`` continues with the trials that are missing. docs/formats.md describes the layout.
+``--resume`` continues with the trials that are missing. docs/formats.md describes the layout;
+docs/study.md the study (``whiskercal/study/``) that writes and analyses it.
 """
 
 from __future__ import annotations
@@ -177,10 +178,6 @@ def _plain(value: Any) -> Any:
     return str(value)
 
 
-def _text(value: Any) -> str:
-    return value.decode() if isinstance(value, bytes) else str(value)
-
-
 def _read_header(handle: h5py.File) -> dict[str, Any]:
     if "header" not in handle:
         return {}
@@ -227,7 +224,7 @@ def read_study(path: str | Path) -> Study:
         h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         trials = [_read_trial(handle, name) for name in sorted(handle.get("trials", {}))]
         study = Study(path=path, config=h5io.read_json_attr(handle, "config", {}),
-                      sensor_id=_text(handle.attrs.get("sensor_id", "")),
+                      sensor_id=h5io.as_text(handle.attrs.get("sensor_id", "")),
                       sha256=h5io.sha256_file(path), complete=bool(handle.attrs.get("complete", False)),
                       header=_read_header(handle), trials=trials)
     return study

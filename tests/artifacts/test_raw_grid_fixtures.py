@@ -1,4 +1,4 @@
-"""Every raw dataset schema version that shipped must still load (fixtures in fixtures/)."""
+"""Every raw dataset schema version that shipped must still load (fixtures in tests/fixtures/)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,12 @@ import h5py
 import numpy as np
 import pytest
 
-from whiskercal.collect.dataset import read_raw_grid
+from whiskercal.artifacts.raw_grid import SCHEMA_VERSION, read_raw_grid
 
-FIXTURES = sorted((Path(__file__).parent / "fixtures").glob("raw_grid_v*.h5"))
+FIXTURES = sorted((Path(__file__).parents[1] / "fixtures").glob("raw_grid_v*.h5"))
 
 
 def test_there_is_a_fixture_for_the_current_schema():
-    from whiskercal.collect.dataset import SCHEMA_VERSION
-
     assert any(path.name == f"raw_grid_v{SCHEMA_VERSION}.h5" for path in FIXTURES)
 
 
