@@ -103,6 +103,8 @@ def _model_speed(quick: bool, progress: Callable | None) -> dict:
 COMPARISONS = {c.name: c for c in (
     Comparison("tip-extraction", "paper trace vs adaptive trace vs lookup",
                _module_run("whiskercal.bench.tip_extraction")),
+    Comparison("tip-accuracy", "level set vs mechanics-informed fit (Y; Y and Z) across builds",
+               _module_run("whiskercal.bench.tip_accuracy")),
     Comparison("surface-degree", "polynomial degree 1..8: CV error vs evaluation time",
                _module_run("whiskercal.bench.surface_degree")),
     Comparison("collection", "samples per point and settle time vs fit error and stage time",

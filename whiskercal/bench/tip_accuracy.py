@@ -1,0 +1,307 @@
+"""Tip accuracy across builds: the level set, the mechanics-informed fit on Y, and on (Y, Z).
+
+For each build of a family (length 45-120 mm, diameter 0.15-0.40 mm, k_θ·L/EI about 1 to 80)
+a rod grid is simulated through the twin's physics (the default plan's bands scaled by the trace
+length, points past the overload threshold dropped, averaged-reading noise on Y and Z). Every
+candidate is fitted to that grid only and then measured against the twin's truth:
+
+- ``level-set``: ``model.calibrate`` as ``whiskercal fit`` runs it today;
+- ``mechanics-y``: ``mechfit`` fitted to Y, its z -> tip lookup (20 samples, cubic);
+- ``mechanics-yz``: ``mechfit`` fitted to Y and Z together; its z -> tip lookup, and its
+  (Y, Z) -> tip table for realistic contacts.
+
+Errors: on the frictionless tip curve (``twin.truth``) over the grid's z range, and on
+realistic contacts (planes tilted 0-40° against the tip, friction 0-0.4 sliding either way,
+depths 7-53 % of the wire's length) whose Y lies in that range.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+
+from whiskercal.bench.timing import machine_info, per_call_s
+from whiskercal.bench.twin_grid import default_grid_config, tip_error_mm
+from whiskercal.collect.plan import lattice_points, visiting_order
+from whiskercal.errors import WhiskercalError
+from whiskercal.mechfit.fit import fit_mechanics
+from whiskercal.mechfit.forward import Suspension
+from whiskercal.mechfit.tables import field_tip_table, monotone_z_range, z_lookup
+from whiskercal.mechfit.tipcurve import tip_family
+from whiskercal.model.calibrate import CalibrationOptions, calibrate
+from whiskercal.twin import truth
+from whiskercal.twin.params import DEFAULT_SENSOR, SECOND_SENSOR, SensorParams
+from whiskercal.twin.physics import mechanics
+from whiskercal.twin.physics.magnet import field_uT
+from whiskercal.twin.physics.whisker import WhiskerParams
+
+ROD_RADIUS_MM = 1.5
+NOISE_UT = (1.0, 1.6)    # averaged Y and Z readings (5.6 and 9.0 µT over 30 samples)
+OVERLOAD_UT = 15000.0    # collect's default overload guard on |Y|
+DEFAULT_TRACE_MM = 78.0  # the trace length the default plan's bands were chosen for
+TILTS_DEG = (0, 10, 20, 30, 40)
+QUICK_BUILDS = 1  # the default sensor only
+MUS = (0.0, 0.2, 0.4)
+DEPTH_FRACTIONS = (0.07, 0.16, 0.25, 0.34, 0.43, 0.53)
+
+
+def _build(sensor_id: str, **whisker) -> SensorParams:
+    return replace(DEFAULT_SENSOR, sensor_id=sensor_id, whisker=WhiskerParams(**whisker))
+
+
+FAMILY = (
+    DEFAULT_SENSOR,
+    SECOND_SENSOR,
+    _build("long-110x0.20", length_mm=110.0, diameter_mm=0.20),
+    _build("short-45x0.35-soft", length_mm=45.0, diameter_mm=0.35,
+           root_rotational_stiffness_n_mm_per_rad=1.2),
+    _build("default-stiff-root", root_rotational_stiffness_n_mm_per_rad=12.0),
+    _build("thin-120x0.15", length_mm=120.0, diameter_mm=0.15,
+           root_rotational_stiffness_n_mm_per_rad=1.2),
+)
+
+
+def stiffness_ratio(whisker: WhiskerParams) -> float:
+    """k_θ·L/EI: how much a push turns the root against bending the wire (large: the wire bends)."""
+    return (whisker.root_rotational_stiffness_n_mm_per_rad * whisker.length_mm
+            / whisker.bending_stiffness_n_mm2)
+
+
+@dataclass(frozen=True)
+class FieldGrid3:
+    """A simulated rod grid: centres (n, 2) mm in visiting order, noise-free and measured
+    (Y, Z) minus the static reading (n, 2) µT."""
+
+    rod_center_mm: np.ndarray
+    fields_true_uT: np.ndarray
+    fields_uT: np.ndarray
+
+
+def static_fields(sensor: SensorParams) -> np.ndarray:
+    """(X, Y, Z) field of the free whisker, µT."""
+    return field_uT(sensor.magnet, 0.0, np.zeros(2))
+
+
+def pose_fields(sensor: SensorParams, equilibria) -> np.ndarray:
+    """(Y, Z) minus the static reading (n, 2) µT of equilibria."""
+    rotation = np.array([e.root_rotation_rad for e in equilibria])
+    shift = np.array([e.root_shift_mm for e in equilibria])
+    return (field_uT(sensor.magnet, rotation, shift) - static_fields(sensor))[:, 1:]
+
+
+def scaled_grid(sensor: SensorParams):
+    """The default plan's bands scaled by the build's trace length (any number of points)."""
+    factor = sensor.whisker.reach_mm / DEFAULT_TRACE_MM
+    grid = default_grid_config()
+    return replace(grid, step_mm=grid.step_mm * factor, reach_min_mm=grid.reach_min_mm * factor,
+                   reach_max_mm=grid.reach_max_mm * factor, expected_points=0)
+
+
+def simulate_fields(sensor: SensorParams, seed: int = 0) -> FieldGrid3:
+    """Solve every rod position of the scaled plan; keep contacts under the overload guard."""
+    points = lattice_points(scaled_grid(sensor))
+    points = points[visiting_order(points)]
+    kept, equilibria, previous, column, stopped = [], [], None, None, False
+    for center in points:
+        if center[0] != column:
+            previous, column, stopped = None, center[0], False
+        if stopped:
+            continue  # past the overload guard the rest of the column is deeper still
+        equilibrium = mechanics.solve_rod(sensor.whisker, center, ROD_RADIUS_MM, previous=previous)
+        previous = equilibrium if equilibrium.in_contact else None
+        stopped = abs(pose_fields(sensor, [equilibrium])[0, 0]) >= OVERLOAD_UT
+        if equilibrium.kind == "shaft" and not stopped:
+            kept.append(center), equilibria.append(equilibrium)
+    fields = pose_fields(sensor, equilibria)
+    noise = np.random.default_rng(seed).normal(0.0, 1.0, fields.shape) * np.array(NOISE_UT)
+    return FieldGrid3(np.array(kept), fields, fields + noise)
+
+
+def true_suspension(sensor: SensorParams) -> Suspension:
+    """The twin's own mechanics in the fit's parameters (for checks only, never for fitting)."""
+    w = sensor.whisker
+    ei = w.bending_stiffness_n_mm2
+    return Suspension(w.reach_mm, w.root_offset_mm, ei / (w.length_mm * w.root_rotational_stiffness_n_mm_per_rad),
+                      ei / (w.length_mm ** 3 * w.root_translational_stiffness_n_per_mm))
+
+
+def truth_tip_curve(sensor: SensorParams) -> tuple[np.ndarray, np.ndarray]:
+    """The twin's z (µT) and true tips (mm) for frictionless tip contact, one-to-one part."""
+    try:
+        z, tips = truth.tip_curve(sensor)
+    except WhiskercalError:  # the truth's rod march fails on soft suspensions: same physics
+        family = tip_family(true_suspension(sensor))
+        z = pose_fields_of_poses(sensor, family.pose)[:, 0]
+        tips = family.tip_mm
+    low, _ = monotone_z_range(z)
+    keep = z >= low
+    return z[keep], tips[keep]
+
+
+def pose_fields_of_poses(sensor: SensorParams, poses: np.ndarray) -> np.ndarray:
+    return (field_uT(sensor.magnet, poses[:, 0], poses[:, 1:]) - static_fields(sensor))[:, 1:]
+
+
+def realistic_contacts(sensor: SensorParams) -> dict:
+    """Tip contacts against tilted planes with friction: (Y, Z) µT, true tips mm, conditions."""
+    whisker, rows = sensor.whisker, []
+    for tilt in TILTS_DEG:
+        for mu in MUS:
+            for sign in (1, -1):
+                if tilt == 0 and mu == 0.0:
+                    continue  # an end-on push on the straight wire: the twin has no buckling
+                for fraction in DEPTH_FRACTIONS:
+                    plane = mechanics.plane_for_depth(
+                        whisker, fraction * whisker.length_mm, 0.0, math.radians(tilt),
+                        mu_static=mu, mu_kinetic=mu, motion_sign=sign)
+                    try:
+                        eq = mechanics.solve_plane(whisker, plane)
+                    except WhiskercalError:
+                        continue
+                    if eq.kind == "tip":
+                        rows.append((tilt, mu, sign, fraction, eq))
+    fields = pose_fields(sensor, [r[4] for r in rows])
+    return {"fields_uT": fields, "tip_mm": np.array([r[4].tip_mm for r in rows]),
+            "conditions": np.array([r[:4] for r in rows], float)}
+
+
+def _timed(call):
+    started = time.perf_counter()
+    value = call()
+    return value, time.perf_counter() - started
+
+
+def _level_set(sensor, grid):
+    options = CalibrationOptions(trace_length_mm=sensor.whisker.reach_mm, allow_extrapolation=True)
+    calibration, fit_s = _timed(lambda: calibrate(grid.rod_center_mm, grid.fields_uT[:, 0],
+                                                  ROD_RADIUS_MM, options))
+    return {"lookup": calibration.lookup, "fit_s": fit_s}
+
+
+def _mechanics(sensor, grid, axes):
+    fields = grid.fields_uT[:, :axes]
+    fit, fit_s = _timed(lambda: fit_mechanics(grid.rod_center_mm, fields, ROD_RADIUS_MM,
+                                              sensor.whisker.reach_mm, NOISE_UT[:axes]))
+    y_range = (float(fields[:, 0].min()), float(fields[:, 0].max()))
+    lookup, table_s = _timed(lambda: z_lookup(fit, y_range))
+    out = {"lookup": lookup, "fit_s": fit_s + table_s, "fit": fit}
+    if axes == 2:
+        out["table"], extra_s = _timed(lambda: field_tip_table(fit, y_range))
+        out["table_s"] = extra_s
+    return out
+
+
+def _lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
+    inside = (z_true >= z_range[0]) & (z_true <= z_range[1])
+    z, tips = z_true[inside], tips_true[inside]
+    covered = (z >= lookup.z_min_uT) & (z <= lookup.z_max_uT)
+    estimate = np.full_like(tips, np.nan)
+    estimate[covered] = lookup(z[covered])
+    errors = tip_error_mm(estimate, tips)
+    errors["coverage"] = float(covered.mean()) if len(z) else float("nan")
+    return errors
+
+
+def _realistic_errors(candidate, contacts, z_range) -> dict:
+    y, z = contacts["fields_uT"][:, 0], contacts["fields_uT"][:, 1]
+    inside = (y >= z_range[0]) & (y <= z_range[1])
+    lookup, tips = candidate["lookup"], contacts["tip_mm"][inside]
+    covered = (y[inside] >= lookup.z_min_uT) & (y[inside] <= lookup.z_max_uT)
+    estimate = np.full_like(tips, np.nan)
+    estimate[covered] = lookup(y[inside][covered])
+    out = {"y_only": tip_error_mm(estimate, tips), "n": int(inside.sum())}
+    if "table" in candidate:
+        out["y_and_z"] = tip_error_mm(candidate["table"](y[inside], z[inside]), tips)
+    return out
+
+
+def _speeds(candidate) -> dict:
+    lookup = candidate["lookup"]
+    middle = 0.5 * (lookup.z_min_uT + lookup.z_max_uT)
+    out = {"lookup_s": per_call_s(lambda: lookup.tip_scalar(middle))}
+    if "table" in candidate:
+        table = candidate["table"]
+        y, z = float(np.mean(table.y_uT)), float(np.mean(table.z_uT))
+        out["table_s"] = per_call_s(lambda: table.tip_scalar(y, z))
+    return out
+
+
+CANDIDATES = {
+    "level-set": _level_set,
+    "mechanics-y": lambda sensor, grid: _mechanics(sensor, grid, 1),
+    "mechanics-yz": lambda sensor, grid: _mechanics(sensor, grid, 2),
+}
+
+
+def measure_build(sensor: SensorParams, candidates=tuple(CANDIDATES), seed: int = 0,
+                  say=lambda _row: None) -> list[dict]:
+    """One row per candidate for one build: fit and lookup times, errors against the truth."""
+    grid = simulate_fields(sensor, seed)
+    z_true, tips_true = truth_tip_curve(sensor)
+    z_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
+    contacts = realistic_contacts(sensor)
+    rows = []
+    for name in candidates:
+        row = {"build": sensor.sensor_id, "method": name, "grid_points": len(grid.rod_center_mm),
+               "stiffness_ratio": stiffness_ratio(sensor.whisker), "z_range_uT": list(z_range)}
+        try:
+            candidate = CANDIDATES[name](sensor, grid)
+        except WhiskercalError as error:
+            row["error"] = f"{type(error).__name__}: {error}"
+            rows.append(row), say(row)
+            continue
+        row.update(fit_s=candidate["fit_s"], tip_curve=_lookup_errors(
+            candidate["lookup"], z_true, tips_true, z_range),
+            realistic=_realistic_errors(candidate, contacts, z_range), **_speeds(candidate))
+        if "fit" in candidate:
+            fit = candidate["fit"]
+            row["fitted"] = {"stub_mm": fit.suspension.stub_mm,
+                             "stiffness_ratio": 1.0 / fit.suspension.rot_compliance,
+                             "trans_compliance": fit.suspension.trans_compliance,
+                             "residual_rms_uT": fit.rms_uT.tolist(), "evaluations": fit.evaluations}
+        rows.append(row), say(row)
+    return rows
+
+
+def _summary(rows: list[dict]) -> dict:
+    """Per method: builds meeting the goals (0.25 mm RMS, 0.5 mm max; realistic 0.3 mm RMS)."""
+    out = {}
+    for method in CANDIDATES:
+        mine = [r for r in rows if r["method"] == method]
+        ok = [r for r in mine if "tip_curve" in r and r["tip_curve"]["coverage"] >= 0.95
+              and r["tip_curve"]["rmse_mm"] <= 0.25 and r["tip_curve"]["max_mm"] <= 0.5]
+        out[method] = {"builds": len(mine), "meeting_tip_goal": [r["build"] for r in ok]}
+    return out
+
+
+def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0) -> dict:
+    """Tip errors, fit and lookup times of every candidate on every build (mm, s).
+
+    ``quick``: the default sensor only, without the (Y, Z) candidate (about a minute).
+    """
+    say = progress or (lambda _row: None)
+    builds = FAMILY[:QUICK_BUILDS] if quick else FAMILY
+    candidates = ("level-set", "mechanics-y") if quick else tuple(CANDIDATES)
+    rows = []
+    for sensor in builds:
+        rows += measure_build(sensor, candidates, seed, say)
+    for row in rows:
+        if "tip_curve" in row:
+            row["error_vs_truth_mm"] = row["tip_curve"]["rmse_mm"]
+            row["label"] = row["build"]
+    return {
+        "benchmark": "tip-accuracy", "quick": quick, "machine": machine_info(),
+        "units": {"time": "s", "error": "mm", "field": "µT"},
+        "setup": {"builds": [s.sensor_id for s in builds], "noise_uT": list(NOISE_UT),
+                  "rod_radius_mm": ROD_RADIUS_MM, "overload_uT": OVERLOAD_UT,
+                  "plane_tilts_deg": list(TILTS_DEG), "mu": list(MUS),
+                  "depth_fractions_of_length": list(DEPTH_FRACTIONS)},
+        "rows": rows,
+        "pareto": {"x": "fit_s", "y": "error_vs_truth_mm", "series": ["method"], "label": "label",
+                   "x_label": "fit time (s)", "y_label": "tip RMS error vs twin truth (mm)"},
+        "supports": _summary(rows),
+    }

@@ -1,0 +1,127 @@
+"""Fit the suspension (stub, rotational and translational compliance) and the pose map to a grid.
+
+Variable projection: for trial mechanics every rod contact of the grid is solved for its root
+pose (warm-started from the last trial), the pose map is then linear in its coefficients and
+comes from least squares, and what it leaves is the residual the outer least squares (over the
+three mechanical parameters, in logs) drives down. The start depends on the trace length only:
+a stub of 4 % of it, and a few rotational compliances spanning the family (k_θ·L/EI from about
+1 to 100), the best of which is kept.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from whiskercal.errors import UsageError
+from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, PoseMap, fit_pose_map
+from whiskercal.mechfit.forward import Suspension, pose_of, rod_equilibria
+
+STUB_FRACTION_START = 0.04
+ROT_COMPLIANCE_STARTS = (0.01, 0.1, 1.0)
+# translational compliance as a share of the rotational one at the start: k_θ/(L²·k_t) of a
+# suspension whose shift under the push is small against its turn
+TRANS_SHARE_START = 0.01
+MAX_STUB_FRACTION = 0.2
+# evaluations of each start's scouting fit with the linear pose map
+SCOUT_EVALUATIONS = 40
+
+
+@dataclass
+class MechanicsFit:
+    """The fitted model and its evidence.
+
+    ``residual_uT`` per grid point and axis; ``rms_uT`` per axis; ``fit_time_s`` wall time.
+    """
+
+    suspension: Suspension
+    pose_map: PoseMap
+    poses: np.ndarray
+    residual_uT: np.ndarray
+    rms_uT: np.ndarray
+    axes: tuple[int, ...]
+    fit_time_s: float
+    evaluations: int = 0
+    starts: list[dict] = field(default_factory=list)
+
+
+class _Objective:
+    """Residuals (in standard errors) of trial mechanics; keeps the last equilibria as warm starts."""
+
+    def __init__(self, trace_mm, rod_center_mm, rod_radius_mm, fields_uT, noise_uT, degree):
+        self.trace_mm, self.centers, self.radius = trace_mm, rod_center_mm, rod_radius_mm
+        self.fields, self.weights, self.degree = fields_uT, 1.0 / noise_uT, degree
+        self.warm = None
+        self.evaluations = 0
+
+    def suspension(self, theta: np.ndarray) -> Suspension:
+        stub = self.trace_mm * MAX_STUB_FRACTION / (1.0 + math.exp(-theta[2]))
+        return Suspension(self.trace_mm, stub, math.exp(theta[0]), math.exp(theta[1]))
+
+    def solve(self, theta: np.ndarray):
+        suspension = self.suspension(theta)
+        equilibria = rod_equilibria(suspension, self.centers, self.radius, self.warm)
+        in_contact = [e.in_contact for e in equilibria]
+        if all(in_contact):
+            self.warm = equilibria
+        poses = np.array([pose_of(e) for e in equilibria])
+        self.evaluations += 1
+        return suspension, poses, np.array(in_contact)
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray:
+        _, poses, in_contact = self.solve(theta)
+        _, residual = fit_pose_map(poses, self.fields, self.degree, self.weights)
+        residual[~in_contact] = 1e3  # a trial that loses a contact the grid had is far off
+        return residual.ravel()
+
+
+def _theta_start(trace_mm: float, rot_compliance: float) -> np.ndarray:
+    share = STUB_FRACTION_START / MAX_STUB_FRACTION
+    return np.array([math.log(rot_compliance), math.log(rot_compliance * TRANS_SHARE_START),
+                     math.log(share / (1.0 - share))])
+
+
+def fit_mechanics(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
+                  trace_length_mm: float, noise_uT, degree: int = DEFAULT_DEGREE,
+                  starts=ROT_COMPLIANCE_STARTS) -> MechanicsFit:
+    """Fit the suspension and the pose map to a rod grid.
+
+    Parameters
+    ----------
+    rod_center_mm : ndarray (n, 2)
+        Rod centres in the whisker frame (contacts only: drop the no-contact points first),
+        ordered in columns as the stage visits them.
+    fields_uT : ndarray (n,) or (n, m)
+        Field axes minus their static readings (Y first; Z optionally), µT.
+    rod_radius_mm, trace_length_mm : float
+    noise_uT : float or ndarray (m,)
+        Standard error of each axis' point means, µT (weights the axes against each other).
+    """
+    started = time.perf_counter()
+    fields = np.atleast_2d(np.asarray(fields_uT, float).T).T
+    noise = np.broadcast_to(np.asarray(noise_uT, float), (fields.shape[1],))
+    centers = np.asarray(rod_center_mm, float)
+    if len(centers) != len(fields):
+        raise UsageError("rod centres and fields must have one row per grid point.")
+    tried = []
+    for rot in starts:  # a rigid (linear) pose map first: it leaves the mechanics less to hide
+        objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields,
+                               noise, 1)
+        result = least_squares(objective, _theta_start(trace_length_mm, rot), diff_step=1e-4,
+                               max_nfev=SCOUT_EVALUATIONS)
+        tried.append((float(result.cost), rot, result.x, objective.evaluations))
+    _, _, theta, _ = min(tried, key=lambda t: t[0])
+    objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise,
+                           degree)
+    result = least_squares(objective, theta, diff_step=1e-4, xtol=1e-10, ftol=1e-10,
+                           max_nfev=200)
+    suspension, poses, _ = objective.solve(result.x)
+    pose_map, residual = fit_pose_map(poses, fields, degree)
+    return MechanicsFit(suspension, pose_map, poses, residual,
+                        np.sqrt(np.mean(residual ** 2, axis=0)), tuple(range(fields.shape[1])),
+                        time.perf_counter() - started, objective.evaluations + sum(t[3] for t in tried),
+                        [{"rot_compliance_start": t[1], "linear_map_cost": t[0]} for t in tried])

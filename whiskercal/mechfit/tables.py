@@ -1,0 +1,151 @@
+"""The runtime's fast paths from a fitted model: z -> tip (1-D) and (Y, Z) -> tip (2-D).
+
+The 1-D table is the model layer's own `TipLookup` (evenly spaced z knots, piecewise
+polynomials), so the runtime evaluates it exactly as it evaluates a level-set lookup. The 2-D
+table samples the tip over a regular (Y, Z) grid from the family of tip loads tilted from the
+tip's normal, and is read by bilinear interpolation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import LinearNDInterpolator
+
+from whiskercal.errors import UsageError
+from whiskercal.mechfit.fit import MechanicsFit
+from whiskercal.mechfit.tipcurve import TipFamily, tip_family
+from whiskercal.model.lookup import TipLookup
+
+DEFAULT_SAMPLES = 20
+DEFAULT_KIND = "cubic"
+# Load tilts of the 2-D family, from the tip's normal toward the root (+) and away (-): friction
+# up to mu 0.4 tilts the load by 22°, a plane tilted 40° from the tip's normal by 40°.
+DEFAULT_BETAS_DEG = tuple(range(-40, 71, 10))
+
+
+def monotone_z_range(z_uT: np.ndarray) -> tuple[float, float]:
+    """The z range (µT) from rest over which z falls strictly along the curve (one-to-one)."""
+    steps = np.diff(z_uT)
+    stop = int(np.argmax(steps >= 0)) if np.any(steps >= 0) else len(steps)
+    return float(z_uT[stop]), float(z_uT[0])
+
+
+def z_lookup(fit: MechanicsFit, z_range_uT: tuple[float, float], samples: int = DEFAULT_SAMPLES,
+             kind: str = DEFAULT_KIND, family: TipFamily | None = None) -> TipLookup:
+    """The 1-D lookup z (µT, Y axis) -> tip (mm) for frictionless tip contact.
+
+    Covers ``z_range_uT`` (the grid's range) where the model's z is one-to-one in the tip's
+    deflection; raises UsageError where it is not.
+    """
+    family = family or tip_family(fit.suspension)
+    z = fit.pose_map(family.pose)[:, 0]
+    low, high = monotone_z_range(z)
+    low, high = max(low, z_range_uT[0]), min(high, z_range_uT[1])
+    if not low < high:
+        raise UsageError("the fitted model's tip curve does not reach the grid's z range.")
+    knots = np.linspace(low, high, samples)
+    order = np.argsort(z[: _monotone_count(z)])
+    zs, tips = z[order], family.tip_mm[order]
+    knot_tips = np.column_stack([np.interp(knots, zs, tips[:, k]) for k in range(2)])
+    # a denser resampling in slope before interpolating keeps the knots' tips exact enough
+    return TipLookup(knots, _refine(fit, family, knots, knot_tips), kind)
+
+
+def _monotone_count(z: np.ndarray) -> int:
+    steps = np.diff(z)
+    return int(np.argmax(steps >= 0)) + 1 if np.any(steps >= 0) else len(z)
+
+
+def _refine(fit: MechanicsFit, family: TipFamily, knots: np.ndarray, tips: np.ndarray) -> np.ndarray:
+    """Tips at the knots by cubic interpolation in the tip slope (z and tip are smooth in it)."""
+    from scipy.interpolate import CubicSpline
+
+    n = _monotone_count(fit.pose_map(family.pose)[:, 0])
+    slope = family.tip_slope_rad[:n]
+    z = fit.pose_map(family.pose[:n])[:, 0]
+    z_of_slope = CubicSpline(-slope, z)
+    tip_of_slope = CubicSpline(-slope, family.tip_mm[:n], axis=0)
+    out = []
+    for knot, guess in zip(knots, tips):
+        grid = -slope
+        k = int(np.clip(np.searchsorted(-z, -knot), 1, len(z) - 1))
+        lo, hi = grid[k - 1], grid[k]
+        for _ in range(60):  # bisection on the spline: z falls with the slope's magnitude
+            mid = 0.5 * (lo + hi)
+            if z_of_slope(mid) > knot:
+                lo = mid
+            else:
+                hi = mid
+        out.append(tip_of_slope(0.5 * (lo + hi)))
+    return np.array(out)
+
+
+class FieldTipTable:
+    """(Y, Z) µT -> tip (mm) on a regular grid, bilinear; NaN outside the tip-load family.
+
+    Parameters
+    ----------
+    y_uT, z_uT : ndarray (ny,), (nz,)
+        Increasing, evenly spaced axes.
+    tips_mm : ndarray (ny, nz, 2)
+    """
+
+    def __init__(self, y_uT: np.ndarray, z_uT: np.ndarray, tips_mm: np.ndarray) -> None:
+        self.y_uT, self.z_uT = np.asarray(y_uT, float), np.asarray(z_uT, float)
+        self.tips_mm = np.asarray(tips_mm, float)
+        self._y0, self._z0 = float(self.y_uT[0]), float(self.z_uT[0])
+        self._dy = float(self.y_uT[1] - self.y_uT[0])
+        self._dz = float(self.z_uT[1] - self.z_uT[0])
+        self._ny, self._nz = len(self.y_uT), len(self.z_uT)
+        self._rows = self.tips_mm.tolist()
+
+    def tip_scalar(self, y_uT: float, z_uT: float) -> tuple[float, float]:
+        """One tip (x, y) mm in plain floats; NaN outside the table."""
+        fy, fz = (y_uT - self._y0) / self._dy, (z_uT - self._z0) / self._dz
+        i, j = int(math.floor(fy)), int(math.floor(fz))
+        if not (0 <= i < self._ny - 1 and 0 <= j < self._nz - 1):
+            return math.nan, math.nan
+        ty, tz = fy - i, fz - j
+        a, b, c, d = self._rows[i][j], self._rows[i + 1][j], self._rows[i][j + 1], self._rows[i + 1][j + 1]
+        w00, w10, w01, w11 = (1 - ty) * (1 - tz), ty * (1 - tz), (1 - ty) * tz, ty * tz
+        return (w00 * a[0] + w10 * b[0] + w01 * c[0] + w11 * d[0],
+                w00 * a[1] + w10 * b[1] + w01 * c[1] + w11 * d[1])
+
+    def __call__(self, y_uT, z_uT) -> np.ndarray:
+        """Tips (..., 2) mm for arrays of Y and Z (µT)."""
+        y, z = np.broadcast_arrays(np.asarray(y_uT, float), np.asarray(z_uT, float))
+        out = np.array([self.tip_scalar(a, b) for a, b in zip(y.ravel(), z.ravel())])
+        return out.reshape(y.shape + (2,))
+
+
+def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
+                    betas_deg=DEFAULT_BETAS_DEG, shape: tuple[int, int] = (121, 121)
+                    ) -> FieldTipTable:
+    """The (Y, Z) -> tip table from the model's tip loads tilted by each of ``betas_deg``.
+
+    The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans what
+    the families reach there.
+    """
+    if fit.pose_map.coefficients.shape[1] < 2:
+        raise UsageError("a (Y, Z) table needs a fit of both axes.")
+    fields, tips = [], []
+    for beta in betas_deg:
+        try:
+            family = tip_family(fit.suspension, math.radians(beta))
+        except UsageError:
+            continue
+        fields.append(fit.pose_map(family.pose)[:, :2])
+        tips.append(family.tip_mm)
+    fields, tips = np.concatenate(fields), np.concatenate(tips)
+    inside = (fields[:, 0] >= y_range_uT[0] - 0.05 * np.ptp(y_range_uT)) & (fields[:, 0] <= 0.0)
+    fields, tips = fields[inside], tips[inside]
+    scale = np.ptp(fields, axis=0)
+    interpolant = LinearNDInterpolator(fields / scale, tips)
+    y_axis = np.linspace(y_range_uT[0], y_range_uT[1], shape[0])
+    z_axis = np.linspace(fields[:, 1].min(), fields[:, 1].max(), shape[1])
+    yy, zz = np.meshgrid(y_axis, z_axis, indexing="ij")
+    table = interpolant(np.stack([yy, zz], axis=-1) / scale)
+    return FieldTipTable(y_axis, z_axis, table)
