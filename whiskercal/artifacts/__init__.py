@@ -1,19 +1,12 @@
 """Every whiskercal file layout: one module per HDF5 schema, each the only place that knows it.
 
-============================  ==========================  =============================================
-module                        schema                      writer / reader
-============================  ==========================  =============================================
-``raw_grid``                  ``whiskercal.raw_grid``     ``RawGridWriter`` (appends point by point,
-                                                          what collect's checkpoint drives) /
-                                                          ``read_raw_grid``
-``plane_study``               ``whiskercal.plane_study``  ``StudyWriter`` (adds finished trials
-                                                          atomically, resumable) / ``read_study``
-``calibration``               ``whiskercal.calibration``  ``write_calibration`` (and
-                                                          ``write_with_target`` for the next version
-                                                          with a study's target) / ``read_calibration``
-``h5io``                      (shared conventions)        provenance attributes, schema check, datasets
-                                                          with units
-============================  ==========================  =============================================
+- ``raw_grid``: schema ``whiskercal.raw_grid``; ``RawGridWriter`` (appends point by point, what
+  collect's checkpoint drives) and ``read_raw_grid``.
+- ``plane_study``: schema ``whiskercal.plane_study``; ``StudyWriter`` (adds finished trials
+  atomically, resumable) and ``read_study``.
+- ``calibration``: schema ``whiskercal.calibration``; ``write_calibration`` (and
+  ``write_with_target`` for the next version with a study's target) and ``read_calibration``.
+- ``h5io``: the shared conventions: provenance attributes, the schema check, datasets with units.
 
 Each schema module defines ``SCHEMA``, ``SCHEMA_VERSION`` (semver) and ``SUPPORTED_MAJOR`` and
 the plain data types its files hold. Every file carries root attributes ``schema``,
@@ -23,8 +16,8 @@ refuses another schema or an unknown major version with one clear ``ArtifactErro
 ever unpickles. docs/formats.md describes each layout.
 
 A new file type goes here as a new module named after its schema (``whiskercal.<name>`` in
-``<name>.py``) with those constants, one writer and one reader built on ``h5io``, a row in the
-table above and a section in docs/formats.md, and a fixture per shipped version under
+``<name>.py``) with those constants, one writer and one reader built on ``h5io``, an entry in the
+list above and a section in docs/formats.md, and a fixture per shipped version under
 ``tests/fixtures/`` that every later release must still load.
 
 This package sits below the pipeline stages (collect, study, fit, regress, report, bench) and
