@@ -11,6 +11,7 @@ import json
 import platform
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +23,9 @@ from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.paths import ensure_dir
 from whiskercal.report import figures
 from whiskercal.report.html import Section, figure, key_values, paragraph, render, table
+
+if TYPE_CHECKING:
+    from whiskercal.fit.truth import TruthComparison
 
 SUMMARY_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
                    "lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm", "points_used", "points_total")
@@ -72,7 +76,7 @@ def _residuals(data: CalibrationData, raw) -> Section:
                    note + figure(png, "grid contact points coloured by the fit residual"))
 
 
-def _truth(data: CalibrationData, raw):
+def _truth(data: CalibrationData, raw) -> TruthComparison | None:
     """The artifact's lookup against the twin's true tips: from the twin sensor of a raw grid
     that has /truth, else from the truth stored in the artifact; None without either."""
     from whiskercal.fit.truth import compare_lookup, lookup_vs_twin_truth
