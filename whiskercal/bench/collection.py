@@ -25,7 +25,7 @@ from whiskercal.bench.twin_grid import calibrate_grid, simulate_grid, tip_error_
 from whiskercal.collect.config import load_config
 from whiskercal.collect.estimate import plan_summary
 from whiskercal.collect.plan import build_plan
-from whiskercal.model.calibrate import CalibrationOptions
+from whiskercal.fit.options import FitOptions
 from whiskercal.model.errors import ModelError
 from whiskercal.model.surface import fit_fixed
 from whiskercal.twin import truth
@@ -92,7 +92,7 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
         Seed of the simulated readings.
     """
     say = progress or (lambda _row: None)
-    config, degree, grid = load_config(), int(CalibrationOptions().degree), simulate_grid()
+    config, degree, grid = load_config(), int(FitOptions().degree), simulate_grid()
     counts, settles = ((3, 30), (0.0, 0.3)) if quick else (SAMPLES_PER_POINT, SETTLE_S)
     noise_free = _grid_errors(grid, grid.z_true_uT, degree) if not quick else {}
     rows = []

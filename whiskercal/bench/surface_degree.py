@@ -20,7 +20,7 @@ import numpy as np
 
 from whiskercal.bench.timing import machine_info, per_call_s
 from whiskercal.bench.twin_grid import calibrate_grid, noisy_z, simulate_grid, tip_error_mm, truth_points
-from whiskercal.model.calibrate import CalibrationOptions
+from whiskercal.fit.options import FitOptions
 from whiskercal.model.errors import ModelError
 from whiskercal.model.surface import MAX_DEGREE, choose_degree, fit_fixed, kfold_rmse
 
@@ -90,7 +90,7 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
     cv = np.array([r["cv_rmse_uT"] for r in rows])
     se = np.array([r["cv_se_uT"] for r in rows])
     chosen = choose_degree(np.array([r["degree"] for r in rows]), cv, se)
-    current = CalibrationOptions().degree
+    current = FitOptions().degree
     for row in rows:
         row["default"] = row["degree"] == current
     return {

@@ -15,7 +15,9 @@ import numpy as np
 
 from whiskercal.collect.config import GridConfig, load_config
 from whiskercal.collect.plan import lattice_points, visiting_order
-from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrate
+from whiskercal.fit.options import FitOptions
+from whiskercal.fit.truth import true_tips_in_range
+from whiskercal.model.calibrate import Calibration, calibrate
 from whiskercal.twin.physics import mechanics
 from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR, SensorParams
@@ -71,8 +73,9 @@ def noisy_z(grid: SimulatedGrid, noise_uT: float = AVERAGED_NOISE_UT, seed: int 
 
 
 def calibrate_grid(grid: SimulatedGrid, z_uT: np.ndarray | None = None, **options) -> Calibration:
-    """Calibrate a simulated grid exactly as ``whiskercal fit`` does (options override defaults)."""
-    base = CalibrationOptions(trace_length_mm=grid.sensor.whisker.reach_mm)
+    """Calibrate a simulated grid with the model options of the fit stage's defaults (``options``,
+    :class:`~whiskercal.model.calibrate.CalibrationOptions` fields, override them)."""
+    base = FitOptions().calibration_options(trace_length_mm=grid.sensor.whisker.reach_mm)
     z_uT = noisy_z(grid) if z_uT is None else z_uT
     return calibrate(grid.rod_center_mm, z_uT, grid.rod_radius_mm, replace(base, **options))
 
@@ -84,10 +87,9 @@ def truth_curve(sensor: SensorParams = DEFAULT_SENSOR, n: int = TRUTH_SAMPLES):
 
 def truth_points(sensor: SensorParams, z_low_uT: float, z_high_uT: float,
                  n: int = TRUTH_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
-    """The tip-curve samples whose z lies in [low, high] µT: (z (m,), true tips (m, 2) mm)."""
-    z, tips = truth_curve(sensor, n)
-    inside = (z >= z_low_uT) & (z <= z_high_uT)
-    return z[inside], tips[inside]
+    """The tip-curve samples whose z lies in [low, high] µT: (z (m,), true tips (m, 2) mm), as
+    the fit stage compares its lookup with them."""
+    return true_tips_in_range(sensor, z_low_uT, z_high_uT, n)
 
 
 def tip_error_mm(estimated_mm: np.ndarray, true_mm: np.ndarray) -> dict:

@@ -1,9 +1,10 @@
 """Recompute every stage on a recorded dataset and flatten the results into named quantities.
 
-The stages run exactly as a user runs them: `whiskercal fit` (the command itself, in-process)
-writes a calibration artifact; the study report (`whiskercal optimal-depth report`'s
-``build_report``) localizes every trial through ``whiskercal.runtime``; the chosen target is
-written into a copy of the artifact, which ``whiskercal.runtime`` loads again.
+The stages run exactly as a user runs them: ``whiskercal.fit.fit`` (what `whiskercal fit` runs,
+with the options of the golden file's `whiskercal fit` arguments) writes a calibration artifact;
+the study report (`whiskercal optimal-depth report`'s ``build_report``) localizes every trial
+through ``whiskercal.runtime``; the chosen target is written into a copy of the artifact, which
+``whiskercal.runtime`` loads again.
 
 Quantity names say where a number comes from (``fit.rmse_uT``, ``lookup.tip_x_mm[07]``,
 ``study.trial[20mm].filtered_mean_mm``, ``study.target.z_uT``, ``runtime.target_z_uT``).
@@ -11,13 +12,10 @@ Quantity names say where a number comes from (``fit.rmse_uT``, ``lookup.tip_x_mm
 
 from __future__ import annotations
 
-import contextlib
-import io
 import math
 from pathlib import Path
 from typing import Any, Callable
 
-import click
 import numpy as np
 
 from whiskercal.errors import WhiskercalError
@@ -73,25 +71,21 @@ def recompute(dataset: Dataset, pipeline: dict[str, Any], workdir: Path,
 
 
 def run_fit(raw_grid: Path, artifact: Path, fit_args: list[str]) -> None:
-    """Run `whiskercal fit RAW --out ARTIFACT [fit_args]` in this process, its output discarded."""
-    from whiskercal.cli.app import App
-    from whiskercal.cli.commands.fit import command as fit_command
+    """Fit ``raw_grid`` as `whiskercal fit RAW --out ARTIFACT [fit_args]` does and write the
+    artifact; a stage that fails is named with the dataset."""
+    from whiskercal.collect.dataset import read_raw_grid
+    from whiskercal.fit import fit, options_from_args
 
-    args = [str(raw_grid), "--out", str(artifact), "--json", *fit_args]
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        try:
-            fit_command.main(args=args, prog_name="whiskercal fit", standalone_mode=False,
-                             obj=App(quiet=True))
-        except SystemExit as stop:  # the command's own abort() path
-            if stop.code:
-                raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit failed "
-                                       f"(exit {stop.code})") from None
-        except WhiskercalError as error:
-            raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit failed: "
-                                   f"{error}") from None
-        except click.ClickException as error:  # bad fit_args in golden.json
-            raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit "
-                                   f"{' '.join(fit_args)}: {error.format_message()}") from None
+    try:
+        options = options_from_args(fit_args)
+    except WhiskercalError as error:  # bad fit_args in golden.json
+        raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit "
+                               f"{' '.join(fit_args)}: {error}") from None
+    try:
+        fit(read_raw_grid(raw_grid), options).write(artifact)
+    except WhiskercalError as error:
+        raise StageFailedError(f"{raw_grid.parent.name}: whiskercal fit failed: "
+                               f"{error}") from None
 
 
 def fit_quantities(data) -> dict[str, Any]:

@@ -11,16 +11,21 @@ import json
 import platform
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from whiskercal import __version__
-from whiskercal.artifacts.calibration import CalibrationData, read_calibration, surface_of
+from whiskercal.artifacts.calibration import (CalibrationData, lookup_of, read_calibration,
+                                              surface_of)
 from whiskercal.artifacts.h5io import now_iso, sha256_file
 from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.paths import ensure_dir
 from whiskercal.report import figures
 from whiskercal.report.html import Section, figure, key_values, paragraph, render, table
+
+if TYPE_CHECKING:
+    from whiskercal.fit.truth import TruthComparison
 
 SUMMARY_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
                    "lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm", "points_used", "points_total")
@@ -55,11 +60,10 @@ def _residuals(data: CalibrationData, raw) -> Section:
     if raw is None:
         return Section("Grid and fit residuals", paragraph("No raw grid given (--raw): the grid "
                                                            "and its residuals are not shown."))
-    from whiskercal.model.calibrate import calibrate
+    from whiskercal.fit import calibrate_raw
 
     # refit with the artifact's own options: the points it used, moved onto the shaft as it did
-    sem = raw.z_std_uT / np.sqrt(np.maximum(raw.n_samples, 1))
-    refit = calibrate(raw.rod_center_mm, raw.z_uT, raw.rod_radius_mm, _fit_options(data), sem)
+    refit = calibrate_raw(raw, _fit_options(data))
     residual = surface_of(data)(refit.contact_points_mm) - refit.z_uT
     unused = raw.rod_center_mm[~refit.used]
     rms = float(np.sqrt(np.mean(residual ** 2)))
@@ -72,24 +76,20 @@ def _residuals(data: CalibrationData, raw) -> Section:
                    note + figure(png, "grid contact points coloured by the fit residual"))
 
 
-def _twin_truth(data: CalibrationData, raw) -> dict | None:
-    """The twin's z -> true tip inside the lookup's range, when the raw grid came from the twin."""
-    if raw is not None and raw.truth is not None:
-        from whiskercal.twin import truth
-        from whiskercal.twin.params import SENSORS
+def _truth(data: CalibrationData, raw) -> TruthComparison | None:
+    """The artifact's lookup against the twin's true tips: from the twin sensor of a raw grid
+    that has /truth, else from the truth stored in the artifact; None without either."""
+    from whiskercal.fit.truth import compare_lookup, lookup_vs_twin_truth
 
-        sensor = SENSORS.get(raw.sensor_id)
-        if sensor is not None:
-            z, tips = truth.tip_curve(sensor)
-            inside = (z >= data.lookup_z_uT[0]) & (z <= data.lookup_z_uT[-1])
-            return {"z_uT": z[inside], "true_tip_mm": tips[inside]}
-    if data.truth and "z_uT" in data.truth and "true_tip_mm" in data.truth:
-        return {"z_uT": np.asarray(data.truth["z_uT"]), "true_tip_mm": np.asarray(data.truth["true_tip_mm"])}
-    return None
+    lookup = lookup_of(data)
+    found = lookup_vs_twin_truth(raw, lookup) if raw is not None else None
+    if found is None and data.truth and "z_uT" in data.truth and "true_tip_mm" in data.truth:
+        found = compare_lookup(lookup, data.truth["z_uT"], data.truth["true_tip_mm"])
+    return found
 
 
 def _lookup(data: CalibrationData, raw) -> Section:
-    truth = _twin_truth(data, raw)
+    truth = _truth(data, raw)
     note = paragraph("Against the twin's true tips (tip contact)." if truth is not None else
                      "No ground truth: the raw grid has no /truth (a real rig).")
     return Section("Lookup z → tip", note + figure(figures.lookup_curve(data, truth),

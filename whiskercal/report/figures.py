@@ -95,8 +95,12 @@ def level_sets(data: CalibrationData) -> bytes:
     return to_png(fig)
 
 
-def lookup_curve(data: CalibrationData, truth: dict | None) -> bytes:
-    """Tip x and y against z: the lookup's samples and interpolant, the twin's truth and the error."""
+def lookup_curve(data: CalibrationData, truth=None) -> bytes:
+    """Tip x and y against z: the lookup's samples and interpolant, the twin's truth and the error.
+
+    ``truth`` is a :class:`~whiskercal.fit.truth.TruthComparison` of this artifact's lookup, or
+    None.
+    """
     plt = pyplot()
     lookup = lookup_of(data)
     z = np.linspace(lookup.z_min_uT, lookup.z_max_uT, 400)
@@ -108,17 +112,16 @@ def lookup_curve(data: CalibrationData, truth: dict | None) -> bytes:
         ax.plot(z, tips[:, axis], "-", color=f"C{axis}", label=f"lookup {name} ({lookup.kind})")
         ax.plot(lookup.z_knots_uT, lookup.tips_mm[:, axis], "o", color=f"C{axis}", ms=4)
         if truth is not None:
-            ax.plot(truth["z_uT"], truth["true_tip_mm"][:, axis], "k--", lw=0.8,
+            ax.plot(truth.z_uT, truth.true_tip_mm[:, axis], "k--", lw=0.8,
                     label="twin truth" if axis == 0 else None)
     ax.set_xlabel("z (µT)")
     ax.set_ylabel("tip (mm)")
     ax.set_title(f"lookup: {len(lookup.z_knots_uT)} samples, {lookup.kind}")
     ax.legend(fontsize=7)
     if truth is not None:
-        error = np.linalg.norm(lookup(truth["z_uT"]) - truth["true_tip_mm"], axis=1)
-        axes[1, 0].plot(truth["z_uT"], error, "C3.-")
+        axes[1, 0].plot(truth.z_uT, truth.error_mm, "C3.-")
         axes[1, 0].set_xlabel("z (µT)")
         axes[1, 0].set_ylabel("|lookup - truth| (mm)")
         axes[1, 0].set_title(f"lookup against the twin's true tip: RMS "
-                             f"{np.sqrt(np.mean(error ** 2)):.3f} mm, max {error.max():.3f} mm")
+                             f"{truth.rmse_mm:.3f} mm, max {truth.max_mm:.3f} mm")
     return to_png(fig)

@@ -1,0 +1,181 @@
+"""The fit stage as a library call (``whiskercal.fit``), without click."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analytic import paper_grid_mm, rigid_z
+from rawfile import write_raw_grid
+from whiskercal.artifacts.calibration import read_calibration
+from whiskercal.collect.dataset import read_raw_grid
+from whiskercal.errors import UsageError
+from whiskercal.fit import (FitOptions, compare_with_twin_truth, fit, options_from_args,
+                            resolve_trace_length)
+from whiskercal.model.errors import ExtrapolationLimitError, FitError
+
+ROOT = Path(__file__).resolve().parents[2]
+RECORDED = ROOT / "data" / "twin-short-60mm"
+
+
+@pytest.fixture(scope="module")
+def rigid_raw(tmp_path_factory):
+    """An analytic rigid-whisker grid (no twin truth) with a 70 mm trace length recorded."""
+    points = paper_grid_mm()
+    z = rigid_z(points) + np.random.default_rng(1).normal(0.0, 1.0, len(points))
+    path = tmp_path_factory.mktemp("raw") / "raw.h5"
+    write_raw_grid(path, points, z, 0.0, "analytic-rigid",
+                   config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
+    return read_raw_grid(path)
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    """The recorded twin grid fitted with its golden file's options, and the golden file."""
+    golden = json.loads((RECORDED / "golden.json").read_text(encoding="utf-8"))
+    raw = read_raw_grid(RECORDED / "raw_grid.h5")
+    return raw, fit(raw, options_from_args(golden["pipeline"]["fit_args"])), golden
+
+
+def test_the_recorded_grid_fits_to_its_golden_results(recorded):
+    from whiskercal.regress.compare import compare
+    from whiskercal.regress.pipeline import fit_quantities, lookup_quantities
+
+    _, result, golden = recorded
+    data = result.artifact_data()
+    new = {**fit_quantities(data), **lookup_quantities(data)}
+    wanted = {name: entry["value"] for name, entry in golden["quantities"].items()
+              if name.startswith(("fit.", "lookup."))}
+    classes = {name: golden["quantities"][name]["tolerance"] for name in wanted}
+    assert len(wanted) > 40 and compare(wanted, classes, new) == []
+
+
+def test_the_result_carries_the_calibration_its_truth_and_provenance(recorded):
+    raw, result, _ = recorded
+    assert result.sensor_id == raw.sensor_id == "twin-short-60mm"
+    assert result.calibration_options.trace_length_mm == raw.config["rig"]["trace_length_mm"]
+    assert result.metrics["points_used"] == int(result.calibration.used.sum())
+    assert result.metrics["raw_complete"] is True
+    assert result.truth is not None and 0 < result.truth.rmse_mm < result.truth.max_mm < 1.0
+    assert result.truth.contact_error_corrected_mm < result.truth.contact_error_uncorrected_mm
+    assert result.metrics["lookup_vs_truth_rmse_mm"] == result.truth.rmse_mm
+    assert result.inputs == {"raw_grid": raw.sha256}
+    assert result.config["options"] == asdict(result.calibration_options)
+    assert result.config["raw_grid"] == str(RECORDED / "raw_grid.h5")
+
+
+def test_write_round_trips_through_the_artifact_reader(recorded, tmp_path):
+    _, result, _ = recorded
+    data = read_calibration(result.write(tmp_path / "cal.h5"))
+    assert data.sensor_id == result.sensor_id and data.degree == 5
+    assert data.metrics["warnings"] == result.warnings
+    assert data.metrics["rmse_uT"] == result.metrics["rmse_uT"]
+    np.testing.assert_array_equal(data.lookup_z_uT, result.calibration.lookup.z_knots_uT)
+    np.testing.assert_array_equal(data.truth["error_mm"], result.truth.error_mm)
+    assert data.collision["threshold_uT"] == 300.0
+    assert data.config["options"]["trace_length_mm"] == result.calibration_options.trace_length_mm
+
+
+def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
+    result = fit(rigid_raw, FitOptions(samples=8, threshold_uT=250.0))
+    assert result.truth is None and compare_with_twin_truth(rigid_raw, result.calibration) is None
+    assert not any(name.startswith(("lookup_vs_truth", "contact_error")) for name in result.metrics)
+    assert result.artifact_data().truth is None
+    assert result.artifact_data().collision["threshold_uT"] == 250.0
+    assert len(result.calibration.lookup.z_knots_uT) == 8 and result.warnings == []
+
+
+def test_options_reach_the_model(rigid_raw):
+    result = fit(rigid_raw, FitOptions(degree=3, coordinates="cartesian", interpolant="linear",
+                                       trace_length_mm=68.0, rod_correction=False))
+    assert (result.calibration.surface.degree, result.calibration.surface.coordinates) == \
+        (3, "cartesian")
+    assert result.calibration.lookup.kind == "linear"
+    assert result.calibration.problem.trace_length_mm == 68.0
+    assert not result.calibration_options.correct_rod_radius
+    assert result.warnings[0] == ("the trace length 68 mm of --trace-length-mm overrides the "
+                                  "70 mm of the raw grid's rig config")
+
+
+def test_a_grid_short_of_the_tip_is_refused_or_marked(rigid_raw):
+    # the grid reaches 65 mm: a 78 mm trace extrapolates about 14 mm past it
+    with pytest.raises(ExtrapolationLimitError, match="--allow-extrapolation"):
+        fit(rigid_raw, FitOptions(trace_length_mm=78.0))
+    marked = fit(rigid_raw, FitOptions(trace_length_mm=78.0, allow_extrapolation=True))
+    assert marked.calibration.extrapolated and marked.metrics["extrapolated"] is True
+    assert any("stops short of the tip" in warning for warning in marked.warnings)
+
+
+def test_the_model_refuses_a_degree_out_of_range(rigid_raw):
+    with pytest.raises(FitError):
+        fit(rigid_raw, FitOptions(degree=9))
+
+
+def test_an_unknown_sensor_needs_a_trace_length(rigid_raw):
+    from dataclasses import replace
+
+    stranger = replace(rigid_raw, sensor_id="bench-sensor-7", config={})
+    with pytest.raises(UsageError, match="--trace-length-mm"):
+        resolve_trace_length(stranger, None)
+    assert resolve_trace_length(stranger, 71.0) == (71.0, [])
+
+
+@pytest.mark.parametrize("bad", [{"samples": 1}, {"samples": 10_001}, {"coordinates": "spherical"},
+                                 {"tracer": "slow"}, {"interpolant": "nearest"},
+                                 {"degree": "five"}, {"degree": 5.0}, {"max_extension_mm": -1.0}])
+def test_fit_options_refuse_what_the_command_refuses(bad):
+    with pytest.raises(UsageError, match=next(iter(bad))):
+        FitOptions(**bad)
+
+
+def test_options_from_command_line_words():
+    assert options_from_args([]) == FitOptions()
+    words = ["--degree", "auto", "--samples=12", "--coordinates", "cartesian", "--tracer", "paper",
+             "--interpolant", "pchip", "--trace-length-mm", "70", "--entry-radius-mm", "25.5",
+             "--max-extension-mm", "12", "--allow-extrapolation", "--no-rod-correction",
+             "--threshold-uT", "250"]
+    assert options_from_args(words) == FitOptions(
+        degree="auto", samples=12, coordinates="cartesian", tracer="paper", interpolant="pchip",
+        trace_length_mm=70.0, entry_radius_mm=25.5, max_extension_mm=12.0,
+        allow_extrapolation=True, rod_correction=False, threshold_uT=250.0)
+    assert options_from_args(["--degree", "4", "--degree", "6"]).degree == 6
+
+
+@pytest.mark.parametrize("words, message", [
+    (["--samples", "1"], "samples must be an integer 2..10000"),
+    (["--samples", "many"], "--samples must be a number"),
+    (["--degree"], "--degree needs a value"),
+    (["--degree", "x"], "--degree must be a degree 1..8 or 'auto'"),
+    (["--out", "cal.h5"], "no such option of whiskercal fit: --out"),
+    (["--allow-extrapolation=yes"], "no such option"),
+])
+def test_bad_command_line_words_are_usage_errors(words, message):
+    with pytest.raises(UsageError, match=message):
+        options_from_args(words)
+
+
+def test_the_word_parser_knows_every_option_of_the_command_and_its_defaults():
+    from whiskercal.cli.commands.fit import command
+    from whiskercal.fit.args import FLAGS, VALUED
+
+    own = {"raw", "out_path", "as_json"}
+    options = [p for p in command.params if p.name not in own]
+    assert sorted(o for p in options for o in p.opts) == sorted([*VALUED, *FLAGS])
+    defaults = [word for p in options if not p.is_flag and p.default is not None
+                for word in (p.opts[0], str(p.default))]
+    assert options_from_args(defaults) == FitOptions()
+
+
+def test_the_fit_stage_imports_without_click():
+    code = ("import sys; import whiskercal.fit, whiskercal.regress.pipeline, "
+            "whiskercal.report.build, whiskercal.bench.runner; "
+            "sys.exit('click' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stderr or "click was imported"

@@ -1,0 +1,84 @@
+"""The choices of a fit: ``FitOptions``, one field per option of ``whiskercal fit`` (mm, µT)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from whiskercal.errors import UsageError
+from whiskercal.model.calibrate import MAX_EXTENSION_MM, CalibrationOptions
+from whiskercal.model.collision import CollisionParams
+
+COORDINATES = ("polar", "cartesian")
+TRACERS = ("fast", "paper")
+INTERPOLANTS = ("auto", "linear", "cubic", "pchip", "akima", "polynomial")
+SAMPLES_RANGE = (2, 10_000)
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """What ``fit`` does with a raw grid; each field is the ``whiskercal fit`` option of its name.
+
+    Attributes
+    ----------
+    degree : int or "auto"
+        Total degree of the surface polynomial (the model accepts 1..8), or "auto" (k-fold CV,
+        1-SE rule).
+    coordinates : str
+        Variables of the surface polynomial: "polar" (r, θ about the root) or "cartesian" (x, y).
+    samples : int
+        Tips precomputed for the lookup, evenly spread over the calibrated z range.
+    tracer : str
+        Level-set tracer: "fast" (adaptive) or "paper" (fixed 1e-3 mm step).
+    interpolant : str
+        Lookup interpolant; "auto" picks the smallest hold-out error.
+    trace_length_mm : float or None
+        Arc length from the root to the tip, mm; None: the raw grid's rig config, else the twin
+        sensor of the same id (``resolve_trace_length``).
+    entry_radius_mm : float or None
+        Radius about the root where the trace enters the data, mm; None: a third of the trace
+        length, at least the grid's nearest point.
+    max_extension_mm : float
+        Longest straight extrapolation of a tip past the grid's far edge that is trusted, mm.
+    allow_extrapolation : bool
+        Keep a calibration whose tips lie farther past the grid, with that z range marked.
+    rod_correction : bool
+        Move the rod centres by the rod radius onto the shaft before the final fit.
+    threshold_uT : float
+        Collision threshold stored for the runtime, µT from the static reading.
+    """
+
+    degree: int | str = 5
+    coordinates: str = "polar"
+    samples: int = 20
+    tracer: str = "fast"
+    interpolant: str = "auto"
+    trace_length_mm: float | None = None
+    entry_radius_mm: float | None = None
+    max_extension_mm: float = MAX_EXTENSION_MM
+    allow_extrapolation: bool = False
+    rod_correction: bool = True
+    threshold_uT: float = CollisionParams.threshold_uT
+
+    def __post_init__(self) -> None:
+        # the degree's range is the model's to check (FitError), as it is for every caller
+        if not (self.degree == "auto" or (isinstance(self.degree, int)
+                                          and not isinstance(self.degree, bool))):
+            raise UsageError(f"degree must be a degree 1..8 or 'auto', not {self.degree!r}")
+        for name, allowed in (("coordinates", COORDINATES), ("tracer", TRACERS),
+                              ("interpolant", INTERPOLANTS)):
+            if getattr(self, name) not in allowed:
+                raise UsageError(f"{name} must be one of {', '.join(allowed)}, "
+                                 f"not {getattr(self, name)!r}")
+        low, high = SAMPLES_RANGE
+        if not (isinstance(self.samples, int) and low <= self.samples <= high):
+            raise UsageError(f"samples must be an integer {low}..{high}, not {self.samples!r}")
+        if not self.max_extension_mm >= 0:
+            raise UsageError(f"max_extension_mm must be at least 0 mm, not {self.max_extension_mm}")
+
+    def calibration_options(self, trace_length_mm: float) -> CalibrationOptions:
+        """The model's options for this fit, with the trace length (mm) already resolved."""
+        return CalibrationOptions(
+            degree=self.degree, coordinates=self.coordinates, samples=self.samples,
+            tracer=self.tracer, lookup_kind=self.interpolant, trace_length_mm=trace_length_mm,
+            entry_radius_mm=self.entry_radius_mm, correct_rod_radius=self.rod_correction,
+            max_extension_mm=self.max_extension_mm, allow_extrapolation=self.allow_extrapolation)

@@ -1,0 +1,85 @@
+"""``fit``: a raw calibration grid -> its calibration, metrics, warnings and provenance."""
+
+from __future__ import annotations
+
+import platform
+from dataclasses import asdict
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
+                                    surface_and_lookup_metrics)
+from whiskercal.fit.options import FitOptions
+from whiskercal.fit.result import FitResult
+from whiskercal.fit.trace_length import resolve_trace_length
+from whiskercal.fit.truth import compare_with_twin_truth
+from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrate
+from whiskercal.model.errors import ExtrapolationLimitError
+
+if TYPE_CHECKING:
+    from whiskercal.collect.dataset import RawGrid
+
+
+def fit(raw: RawGrid, options: FitOptions = FitOptions(),
+        progress: Callable[[str], None] | None = None) -> FitResult:
+    """Calibrate a raw grid: what ``whiskercal fit`` does, short of reading and writing files.
+
+    Resolves the trace length, fits the surface and the lookup (``model.calibrate``), records
+    the metrics, and measures the lookup against the twin's true tips when the grid came from
+    the twin. ``FitResult.write`` writes the artifact.
+
+    Parameters
+    ----------
+    raw : RawGrid
+        The raw grid (``collect.dataset.read_raw_grid``).
+    options : FitOptions
+    progress : callable(str), optional
+        Told the name of each stage of the calibration as it starts.
+
+    Raises
+    ------
+    UsageError
+        The trace length is unknown (give ``trace_length_mm``), or the model refuses the grid
+        (``model.errors``: too few points, a degree out of range, a grid that stops short of
+        the tip without ``allow_extrapolation``...).
+    """
+    length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
+    model_options = options.calibration_options(length_mm)
+    calibration = _calibrate(raw, model_options, progress)
+    truth = compare_with_twin_truth(raw, calibration)
+    metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
+               **raw_metrics(raw), **(truth.metrics() if truth is not None else {})}
+    return FitResult(calibration, options, model_options, metrics,
+                     length_warnings + calibration.warnings, truth, raw.sensor_id,
+                     raw.rod_radius_mm, inputs={"raw_grid": raw.sha256},
+                     config=_provenance(model_options, raw.path))
+
+
+def z_sem_uT(raw: RawGrid) -> np.ndarray:
+    """Standard error (n,) µT of each grid point's mean z."""
+    return raw.z_std_uT / np.sqrt(np.maximum(raw.n_samples, 1))
+
+
+def calibrate_raw(raw: RawGrid, options: CalibrationOptions,
+                  progress: Callable[[str], None] | None = None) -> Calibration:
+    """``model.calibrate`` on a raw grid's points, with the standard errors of their means."""
+    return calibrate(raw.rod_center_mm, raw.z_uT, raw.rod_radius_mm, options, z_sem_uT(raw),
+                     progress)
+
+
+def _calibrate(raw: RawGrid, options: CalibrationOptions, progress) -> Calibration:
+    """``calibrate_raw`` with the refusal of a short grid told how to proceed."""
+    try:
+        return calibrate_raw(raw, options, progress)
+    except ExtrapolationLimitError as error:
+        raise ExtrapolationLimitError(f"{error}; collect a grid that reaches farther, or pass "
+                                      "--allow-extrapolation to mark that range") from None
+
+
+def _provenance(options: CalibrationOptions, raw_path: str) -> dict:
+    import scipy
+
+    return {"options": asdict(options), "raw_grid": str(raw_path),
+            "versions": {"python": platform.python_version(), "numpy": np.__version__,
+                         "scipy": scipy.__version__}}
