@@ -14,7 +14,7 @@ import pytest
 from analytic import paper_grid_mm, rigid_z
 from rawfile import write_raw_grid
 from whiskercal.artifacts.calibration import read_calibration
-from whiskercal.collect.dataset import read_raw_grid
+from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.errors import UsageError
 from whiskercal.fit import (FitOptions, compare_with_twin_truth, fit, options_from_args,
                             resolve_trace_length)

@@ -18,7 +18,7 @@ from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrat
 from whiskercal.model.errors import ExtrapolationLimitError
 
 if TYPE_CHECKING:
-    from whiskercal.collect.dataset import RawGrid
+    from whiskercal.artifacts.raw_grid import RawGrid
 
 
 def fit(raw: RawGrid, options: FitOptions = FitOptions(),
@@ -32,7 +32,7 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     Parameters
     ----------
     raw : RawGrid
-        The raw grid (``collect.dataset.read_raw_grid``).
+        The raw grid (``artifacts.raw_grid.read_raw_grid``).
     options : FitOptions
     progress : callable(str), optional
         Told the name of each stage of the calibration as it starts.

@@ -73,7 +73,7 @@ def recompute(dataset: Dataset, pipeline: dict[str, Any], workdir: Path,
 def run_fit(raw_grid: Path, artifact: Path, fit_args: list[str]) -> None:
     """Fit ``raw_grid`` as `whiskercal fit RAW --out ARTIFACT [fit_args]` does and write the
     artifact; a stage that fails is named with the dataset."""
-    from whiskercal.collect.dataset import read_raw_grid
+    from whiskercal.artifacts.raw_grid import read_raw_grid
     from whiskercal.fit import fit, options_from_args
 
     try:
