@@ -52,7 +52,11 @@ class Scene(Protocol):
 
 
 class SceneBase:
-    """Defaults for dataclass scenes: no memory of the path to update, a copy per world."""
+    """Defaults for dataclass scenes: no memory of the path to update, a copy per world.
+
+    A scene that cannot be made from URL options alone (``ShapeFixture``) has no ``name`` and
+    stays out of the registry.
+    """
 
     name: ClassVar[str] = ""
 
