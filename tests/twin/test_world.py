@@ -10,7 +10,9 @@ from test_world_standin import FIELD_PER_RAD_UT, RigidWhiskerPhysics
 import whiskercal.rig  # noqa: F401  (registers sim://)
 from whiskercal.rig.sensor import SensorClient
 from whiskercal.rig.stage import StageClient
-from whiskercal.twin.world import RigGeometry, create_world, fixture_for_scene, get_world
+from whiskercal.twin.geometry import RigGeometry
+from whiskercal.twin.scenes import fixture_for_scene
+from whiskercal.twin.world import create_world, get_world
 
 _names = itertools.count()
 
@@ -158,7 +160,7 @@ def test_a_rod_arriving_from_below_pushes_the_whisker_up():
 
 def test_a_shape_rides_on_the_end_effector():
     from whiskercal.twin.physics.obstacles import Circle
-    from whiskercal.twin.world import ShapeFixture
+    from whiskercal.twin.scenes import ShapeFixture
 
     # a 6 mm disc centred 10 mm to the +y side of the end effector
     world, stage, sensor = _rig(fixture=ShapeFixture(Circle(np.array([0.0, 10.0]), 6.0)))

@@ -11,7 +11,8 @@ import whiskercal.rig  # noqa: F401  (registers sim://)
 from whiskercal.rig.sensor import SensorClient
 from whiskercal.rig.stage import StageClient
 from whiskercal.twin.physics import mechanics
-from whiskercal.twin.world import create_world, fixture_for_scene
+from whiskercal.twin.scenes import fixture_for_scene
+from whiskercal.twin.world import create_world
 
 _names = itertools.count()
 
@@ -85,7 +86,7 @@ def test_a_slide_saws_as_the_mechanics_do():
 
 
 def test_the_fixture_passes_its_friction_to_the_plane():
-    from whiskercal.twin.world import PlaneFixture
+    from whiskercal.twin.scenes import PlaneFixture
 
     tool = np.array([60.0, -20.0])
     default = PlaneFixture().obstacle(tool, -1)

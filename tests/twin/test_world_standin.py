@@ -23,6 +23,7 @@ class RigidEquilibrium:
     contact_mm: np.ndarray
     tip_mm: np.ndarray
     root_shift_mm: tuple = (0.0, 0.0)
+    slips: int = 0
 
     @property
     def in_contact(self) -> bool:
@@ -45,10 +46,8 @@ class RigidWhiskerPhysics:
     def free(self) -> RigidEquilibrium:
         return _free()
 
-    def solve(self, obstacle, previous) -> RigidEquilibrium:
+    def solve_shape(self, obstacle, previous) -> RigidEquilibrium:
         self.solves += 1
-        if obstacle is None:
-            return _free()
         center, radius = np.asarray(obstacle.center_mm), obstacle.radius_mm
         distance = float(np.hypot(*center))
         if distance <= radius:
@@ -59,6 +58,9 @@ class RigidWhiskerPhysics:
             return _free()
         direction = np.array([math.cos(angle), math.sin(angle)])
         return RigidEquilibrium("shaft", angle, along * direction, REACH_MM * direction)
+
+    def solve_plane(self, plane, previous) -> RigidEquilibrium:
+        raise NotImplementedError("the rigid stand-in meets rods and shapes only")
 
     def field_uT(self, equilibrium) -> np.ndarray:
         return STATIC_FIELD_UT + np.array([0.0, FIELD_PER_RAD_UT * equilibrium.root_rotation_rad, 0.0])

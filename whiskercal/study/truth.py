@@ -72,7 +72,7 @@ def check_world(world, geometry) -> None:
         configuration's (the errors would be measured against the wrong line).
     """
     from whiskercal.errors import UsageError
-    from whiskercal.twin.world import PlaneFixture
+    from whiskercal.twin.scenes import PlaneFixture
 
     fixture = world.config.fixture
     if not isinstance(fixture, PlaneFixture):

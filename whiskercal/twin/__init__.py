@@ -11,8 +11,11 @@ Sub-packages, from the bottom up:
 - ``params`` (a sensor build), ``sensor_file`` (a build as a TOML file or dict), ``describe``
   (the numbers a builder needs before calibrating), ``truth`` (what the real rig never knows: z for a pose, the
   true tip for a z).
-- ``scenes``: what rides on the stage (rod, plane, shapes), each answering its own contact question.
-- ``world``: one simulated rig: stage, scene, sensor, clock, faults, ground-truth record.
+- ``scenes``: what rides on the stage (rod, plane, shapes), each answering its own contact
+  question through one small protocol (``scenes.base.Scene``); a registry finds them by name.
+- ``geometry`` (the whisker frame in stage coordinates), ``contact_path`` (the equilibrium
+  followed along the stage's path), ``truth_record`` (the ground truth of every sample).
+- ``world``: one simulated rig wired from those parts and the devices.
 - ``devices``: the emulated boards that speak the firmware's serial protocols, the simulated
   clock and serial line, and the ``sim://`` ports and ptys.
 """

@@ -8,6 +8,7 @@ import time
 import click
 
 from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.twin.scenes import scene_names
 
 
 @click.group("sim")
@@ -19,7 +20,7 @@ def command() -> None:
 
 
 @command.command("serve")
-@click.option("--scene", type=click.Choice(["rod", "plane", "none"]), default="rod", show_default=True,
+@click.option("--scene", type=click.Choice(scene_names()), default="rod", show_default=True,
               help="What rides on the stage's end effector.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise and faults.")
 @click.option("--speed", type=float, default=1.0, show_default=True,

@@ -8,7 +8,7 @@ the whisker's +y side pushing it toward -y, as the calibration rod and the study
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -152,6 +152,14 @@ class Circle:
         finite_number("radius_mm", self.radius_mm, 0.0)
         _check_side(self.side)
 
+    def moved(self, offset_mm: np.ndarray) -> "Circle":
+        """The same circle moved by `offset_mm`."""
+        return replace(self, center_mm=self.center_mm + offset_mm)
+
+    def reaches(self, points_mm: np.ndarray) -> bool:
+        """True when any of the points (n, 2) lies on or inside the circle."""
+        return bool(np.min(np.hypot(*(points_mm - self.center_mm).T)) <= self.radius_mm)
+
 
 @dataclass(frozen=True)
 class Polygon:
@@ -187,6 +195,13 @@ class Polygon:
         offsets = np.einsum("ij,ij->i", normals, self.vertices_mm)
         return np.min(offsets[None, :] - points_mm @ normals.T, axis=1)
 
+    def moved(self, offset_mm: np.ndarray) -> "Polygon":
+        """The same polygon moved by `offset_mm`."""
+        return replace(self, vertices_mm=self.vertices_mm + offset_mm)
+
+    def reaches(self, points_mm: np.ndarray) -> bool:
+        """True when any of the points (n, 2) lies on or inside the polygon."""
+        return bool(np.max(self.depth_mm(points_mm)) >= 0)
 
     def crosses_polyline(self, points_mm: np.ndarray, tol_mm: float = 1e-6) -> bool:
         """Does any segment of the polyline through `points_mm` (n, 2) cut into the polygon
