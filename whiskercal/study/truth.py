@@ -72,10 +72,9 @@ def check_world(world, geometry) -> None:
         configuration's (the errors would be measured against the wrong line).
     """
     from whiskercal.errors import UsageError
-    from whiskercal.twin.scenes import PlaneFixture
 
     fixture = world.config.fixture
-    if not isinstance(fixture, PlaneFixture):
+    if fixture.name != "plane":
         raise UsageError(f"the simulated rig carries a {type(fixture).__name__}, not the plane: "
                          "open the stage as sim://NAME/stage?scene=plane")
     rig = world.config.geometry
