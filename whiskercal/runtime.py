@@ -13,11 +13,18 @@ calibrated range, unless loaded with ``allow_extrapolated=True`` (then each such
 flagged in ``TrackerState.extrapolated``). Evaluation uses only the precomputed lookup: one
 sample takes about a microsecond, a batch runs at tens of millions of samples a second
 (docs/model.md).
+
+Every expected failure raises a :class:`~whiskercal.errors.WhiskercalError` subclass, listed per
+function below: a z that is not a real number (a string, None, a complex or ragged array) is a
+:class:`~whiskercal.errors.UsageError`; NaN and ±inf are numbers, handled by the out-of-range
+policy (and ignored by contact detection).
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from numbers import Real
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +32,7 @@ import numpy as np
 from whiskercal.artifacts.calibration import (CalibrationData, collision_params_of,
                                               kalman_params_of, lookup_of, problem_of,
                                               read_calibration)
+from whiskercal.errors import UsageError
 from whiskercal.model.collision import CollisionDetector
 from whiskercal.model.errors import ExtrapolationLimitError
 from whiskercal.model.kalman import ConstantStateKalman
@@ -52,6 +60,7 @@ class Tracker:
     """Streaming collision detection, lookup and constant-state Kalman filter, one z at a time."""
 
     def __init__(self, calibration: "Calibration", out_of_range: str = "raise") -> None:
+        """Raises ModelError for an ``out_of_range`` policy other than "raise", "nan", "clip"."""
         check_out_of_range(out_of_range)
         self._calibration = calibration
         self._out_of_range = out_of_range
@@ -66,8 +75,11 @@ class Tracker:
         ZOutOfRangeError
             In contact with z outside the calibrated range under the "raise" policy; the tracker
             stays usable and keeps its filter state.
+        UsageError
+            When z is not one real number; the tracker's state is unchanged.
         """
-        z_uT = float(z_uT)
+        if type(z_uT) is not float:  # the per-sample path: plain floats skip the checks
+            z_uT = _z_scalar(z_uT)
         was_in_contact = self._detector.contact
         contact = self._detector.update(z_uT)
         if not contact:
@@ -123,12 +135,24 @@ class Calibration:
 
         ``out_of_range``: "raise" (ZOutOfRangeError), "nan" (NaN tips) or "clip" (the nearest
         end of the calibrated range).
+
+        Raises
+        ------
+        ZOutOfRangeError
+            Some z (NaN and ±inf included) lies outside the range under the "raise" policy.
+        ModelError
+            ``out_of_range`` is not one of the three policies.
+        UsageError
+            z is not a real number or a (rectangular) array of them.
         """
-        return self.lookup(z_uT, out_of_range)
+        return self.lookup(_z_array(z_uT), out_of_range)
 
     def extrapolated(self, z_uT) -> np.ndarray:
-        """True where z (µT) lies in the calibrated range's part marked as extrapolated."""
-        z = np.asarray(z_uT, float)
+        """True where z (µT) lies in the calibrated range's part marked as extrapolated.
+
+        Raises UsageError when z is not a real number or a (rectangular) array of them.
+        """
+        z = _z_array(z_uT)
         if not self.data.extrapolated:
             return np.zeros(z.shape, bool)
         inside = (z >= self.data.lookup_z_uT[0]) & (z <= self.data.lookup_z_uT[-1])
@@ -145,16 +169,30 @@ class Calibration:
         return trusted is None or not trusted[0] <= z_uT <= trusted[1]
 
     def tracker(self, out_of_range: str = "raise") -> Tracker:
-        """A fresh streaming tracker (collision detection + lookup + filter)."""
+        """A fresh streaming tracker (collision detection + lookup + filter).
+
+        Raises ModelError for an ``out_of_range`` policy other than "raise", "nan", "clip".
+        """
         return Tracker(self, out_of_range)
 
     def trace(self, z_uT: float, tracer: str = "fast") -> np.ndarray:
         """The tip (2,) mm traced at z (µT) on the stored surface (slow; for checks, not for the
-        control loop)."""
+        control loop).
+
+        Raises
+        ------
+        TraceError
+            The trace fails (a subclass says why: z out of range, the domain left, ...).
+        ModelError
+            ``tracer`` names no tracer.
+        UsageError
+            z is not one real number.
+        """
+        z_uT = _z_scalar(z_uT)
         trace = get_tracer(tracer)
         if self._problem is None:
             self._problem = problem_of(self.data)
-        return trace(self._problem, float(z_uT)).tip_mm
+        return trace(self._problem, z_uT).tip_mm
 
 
 def _lookup(data: CalibrationData, allow_extrapolated: bool) -> TipLookup:
@@ -176,5 +214,45 @@ def load(path: str | Path, allow_extrapolated: bool = False) -> Calibration:
     ``allow_extrapolated``: answer z in the range marked as extrapolated past the grid too
     (flagged by :meth:`Calibration.extrapolated` and ``TrackerState.extrapolated``) instead of
     refusing it.
+
+    Raises
+    ------
+    ArtifactError
+        The file is missing, not a calibration artifact, torn, or of another major version.
+    ExtrapolationLimitError
+        Every tip is marked as extrapolated and ``allow_extrapolated`` is False.
+    UsageError
+        ``path`` is not a path or ``allow_extrapolated`` not a bool.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise UsageError(f"a calibration path must be a str or a path, not {type(path).__name__}")
+    if not isinstance(allow_extrapolated, (bool, np.bool_)):
+        raise UsageError("allow_extrapolated must be True or False, "
+                         f"not {type(allow_extrapolated).__name__}")
     return Calibration(read_calibration(path), allow_extrapolated)
+
+
+def _z_scalar(z_uT) -> float:
+    """One z as a float; anything but a real number (bools, strings, arrays) is refused."""
+    if isinstance(z_uT, np.ndarray) and z_uT.ndim == 0:
+        z_uT = z_uT[()]
+    if isinstance(z_uT, (bool, np.bool_)) or not isinstance(z_uT, Real):
+        raise UsageError(f"z must be one real number of µT, not {_shown(z_uT)}")
+    return float(z_uT)
+
+
+def _z_array(z_uT) -> np.ndarray:
+    """z (scalar or array) as a float array; non-numbers, complex or ragged arrays are refused."""
+    try:
+        z = np.asarray(z_uT)
+    except ValueError:  # ragged nested sequences
+        raise UsageError(f"z must be a real number or a rectangular array of them, "
+                         f"not {_shown(z_uT)}") from None
+    if z.dtype.kind not in "iuf":
+        raise UsageError(f"z must be a real number or an array of them (µT), not {_shown(z_uT)}")
+    return z.astype(float, copy=False)
+
+
+def _shown(value) -> str:
+    text = repr(value)
+    return f"{type(value).__name__} {text[:40]}{'...' if len(text) > 40 else ''}"

@@ -6,9 +6,13 @@ a typo never silently falls back to a default.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, fields
+from numbers import Real
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import merge_overrides, read_toml
@@ -140,32 +144,38 @@ def _section(cls: type, values: dict[str, Any], name: str) -> Any:
         value = values[spec.name]
         try:
             converted[spec.name] = _convert(value, spec.type)
-        except (TypeError, ValueError):
-            raise UsageError(f"config [{name}] {spec.name} = {value!r} is not a valid {spec.type}") from None
+        except (TypeError, ValueError, OverflowError) as error:
+            raise UsageError(f"config [{name}] {spec.name} = {value!r} must be {error}") from None
     return cls(**converted)
 
 
+def _is_real(value: Any) -> bool:
+    # TOML booleans are Python ints: they are not numbers here
+    return isinstance(value, Real) and not isinstance(value, (bool, np.bool_))
+
+
 def _convert(value: Any, type_name: str) -> Any:
-    if type_name == "str":
-        if not isinstance(value, str):
-            raise TypeError(value)
-        return value
-    if type_name == "bool":
-        if not isinstance(value, bool):
-            raise TypeError(value)
+    """``value`` as ``type_name``; raises ValueError("what it must be") otherwise.
+
+    Every number must be finite: a NaN compares false with everything, so it would silently
+    switch off a limit such as the overload guard.
+    """
+    if type_name in ("str", "bool"):
+        if type(value).__name__ != type_name:
+            raise ValueError(f"a {'string' if type_name == 'str' else 'boolean'}")
         return value
     if type_name == "int":
-        if isinstance(value, bool) or int(value) != value:
-            raise ValueError(value)
+        if not (_is_real(value) and math.isfinite(value) and int(value) == value):
+            raise ValueError("a whole number")
         return int(value)
     if type_name == "float":
-        if isinstance(value, bool):
-            raise TypeError(value)
+        if not (_is_real(value) and math.isfinite(value)):
+            raise ValueError("a finite number")
         return float(value)
-    pair = tuple(float(v) for v in value)
-    if len(pair) != 2:
-        raise ValueError(value)
-    return pair
+    if not (isinstance(value, (list, tuple)) and len(value) == 2
+            and all(_is_real(v) and math.isfinite(v) for v in value)):
+        raise ValueError("a pair of finite numbers")
+    return (float(value[0]), float(value[1]))
 
 
 def config_from_dict(values: dict[str, Any]) -> CollectConfig:
@@ -176,9 +186,28 @@ def config_from_dict(values: dict[str, Any]) -> CollectConfig:
     return config
 
 
+# keys whose sign is fixed by what they measure; the checks below cover the keys they relate
+_POSITIVE = ("rig.rod_radius_mm", "rig.whisker_reach_mm", "rig.trace_length_mm",
+             "motion.max_rate_mm_min", "motion.move_timeout_s", "sensor.rate_hz",
+             "safety.travel_mm", "safety.overload_z_uT", "safety.encoder_tolerance_mm")
+_NON_NEGATIVE = ("grid.expected_points", "approach.overtravel_mm", "safety.margin_mm")
+
+
+def _sign_problems(config: CollectConfig) -> list[str]:
+    problems = []
+    for keys, least, says in ((_POSITIVE, False, "> 0"), (_NON_NEGATIVE, True, ">= 0")):
+        for key in keys:
+            section, name = key.split(".")
+            value = getattr(getattr(config, section), name)
+            values = value if isinstance(value, tuple) else (value,)
+            if not all(v >= 0 if least else v > 0 for v in values):
+                problems.append(f"{key} must be {says} (got {value!r})")
+    return problems
+
+
 def _validate(config: CollectConfig) -> None:
     grid, acq, motion = config.grid, config.acquisition, config.motion
-    problems = []
+    problems = _sign_problems(config)
     if grid.step_mm <= 0 or grid.reach_min_mm >= grid.reach_max_mm:
         problems.append("grid needs step_mm > 0 and reach_min_mm < reach_max_mm")
     lowest = min(grid.angle_min_near_deg, grid.angle_min_far_deg)
@@ -201,9 +230,14 @@ def load_config(path: str | Path | None = None) -> CollectConfig:
     Raises
     ------
     UsageError
-        When the file is missing, not TOML, has unknown keys or values of the wrong type.
+        When the file is missing, not TOML, has unknown keys, values of the wrong type, a
+        non-finite number (NaN, inf) or a number out of range; one line naming file and key.
     """
     values = read_toml(DEFAULT_CONFIG_PATH)
-    if path is not None:
-        values = merge_overrides(values, read_toml(path), str(path))
-    return config_from_dict(values)
+    if path is None:
+        return config_from_dict(values)
+    values = merge_overrides(values, read_toml(path), str(path))
+    try:
+        return config_from_dict(values)
+    except UsageError as error:
+        raise UsageError(f"{path}: {error}") from None

@@ -18,6 +18,9 @@ from whiskercal.protocol.codes import describe
 from whiskercal.rig.transport import Transport, open_port
 
 _STATUS = re.compile(r"^<([^|>]+)((?:\|[^|>]*)*)>$")
+# plain decimal numbers as grbl prints them (float() would also take "nan", "1_0", " 1")
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z", re.ASCII)
+_SETTING = re.compile(r"\$(\d+)=(.*)\Z", re.ASCII | re.DOTALL)
 _POLL_INTERVAL_S = 0.02
 _MAX_LINE_BYTES = 256
 
@@ -83,23 +86,61 @@ class StageIdentity:
 
 
 def parse_status(line: str) -> StageStatus:
-    """Parse ``<Idle|MPos:1,2,0|FS:0,0|Enc:1,2>``; unknown fields are ignored."""
+    """Parse ``<Idle|MPos:1,2,0|FS:0,0|Enc:1,2>``; unknown fields are ignored.
+
+    A report is refused (DeviceError naming the line) unless ``MPos`` holds finite x, y, z (a
+    ``WPos``, when sent too, must as well), ``Enc`` when present finite x, y, and the feed of
+    ``FS``/``F`` is a finite number >= 0: a position the host cannot trust must stop the run,
+    not move the stage. A stock grbl reporting only ``WPos`` ($10=0) is told to send ``MPos``.
+    """
     match = _STATUS.match(line.strip())
     if match is None:
         raise DeviceError(f"stage sent a malformed status report: {line!r}")
     fields = dict(_split_field(f) for f in match.group(2).split("|") if f)
-    try:
-        mpos = np.array([float(v) for v in fields["MPos"].split(",")[:2]])
-        enc = np.array([float(v) for v in fields["Enc"].split(",")[:2]]) if "Enc" in fields else None
-        feed = float(fields.get("FS", fields.get("F", "0")).split(",")[0])
-    except (KeyError, ValueError) as error:
-        raise DeviceError(f"stage sent a status report without a readable MPos: {line!r}") from error
-    return StageStatus(match.group(1), mpos, enc, feed, fields.get("Pn", ""))
+    if "MPos" not in fields:
+        hint = " (set $10=1 so grbl reports MPos)" if "WPos" in fields else ""
+        raise DeviceError(f"stage sent a status report without MPos{hint}: {line!r}")
+    mpos = _numbers(fields["MPos"], 3, "MPos", line)
+    if "WPos" in fields:
+        _numbers(fields["WPos"], 3, "WPos", line)
+    enc = _numbers(fields["Enc"], 2, "Enc", line) if "Enc" in fields else None
+    feed = _numbers(fields.get("FS", fields.get("F", "0")), 1, "FS", line)[0]
+    if feed < 0:
+        raise DeviceError(f"stage sent a status report with a negative feed: {line!r}")
+    return StageStatus(match.group(1), mpos[:2], enc[:2] if enc is not None else None,
+                       float(feed), fields.get("Pn", ""))
+
+
+def _numbers(text: str, count: int, name: str, line: str) -> np.ndarray:
+    """At least ``count`` comma-separated finite decimal numbers, or a DeviceError naming ``name``."""
+    parts = text.split(",")
+    if len(parts) < count or not all(_NUMBER.match(part) for part in parts):
+        raise DeviceError(f"stage sent a status report whose {name} is not {count} or more "
+                          f"numbers: {line!r}")
+    values = np.array([float(part) for part in parts])
+    if not np.all(np.isfinite(values)):
+        raise DeviceError(f"stage sent a status report with a non-finite {name}: {line!r}")
+    return values
 
 
 def _split_field(field: str) -> tuple[str, str]:
     name, _, value = field.partition(":")
     return name, value
+
+
+def parse_setting(line: str) -> tuple[int, float] | None:
+    """``$N=value`` (grbl's ``$$`` lines, an optional ``(comment)`` after the value) -> (N, value).
+
+    Lines that are not settings return None; a setting line whose value is missing, not a
+    number or not finite raises DeviceError naming the line.
+    """
+    match = _SETTING.match(line.strip())
+    if match is None:
+        return None
+    words = match.group(2).split()
+    if not words or not _NUMBER.match(words[0]) or not np.isfinite(float(words[0])):
+        raise DeviceError(f"stage sent a setting without a finite number: {line!r}")
+    return int(match.group(1)), float(words[0])
 
 
 class StageClient:
@@ -191,13 +232,9 @@ class StageClient:
         return StageIdentity(version, name, options, proto, has_encoder, self.banner)
 
     def settings(self) -> dict[int, float]:
-        """All ``$N=value`` settings as numbers."""
-        settings = {}
-        for line in self.command("$$"):
-            key, _, value = line.partition("=")
-            if key.startswith("$") and key[1:].isdigit():
-                settings[int(key[1:])] = float(value.split()[0])
-        return settings
+        """All ``$N=value`` settings as numbers; a malformed setting line raises DeviceError."""
+        parsed = (parse_setting(line) for line in self.command("$$"))
+        return dict(setting for setting in parsed if setting is not None)
 
     def set_setting(self, number: int, value: float) -> None:
         """Write setting ``$number`` (stored in the board's EEPROM)."""

@@ -12,6 +12,7 @@ through ``R^T (S + fixture_offset - origin)``, where R is that rotation.
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
@@ -41,30 +42,78 @@ def load_config(path: str | Path | None = None) -> dict[str, Any]:
     UsageError
         When the file is missing, not TOML, has unknown keys or values out of range.
     """
-    config = default_config()
+    defaults = config = default_config()
     if path is not None:
         config = merge_overrides(config, read_toml(path), str(path))
-    _validate(config)
+    where = "study config" if path is None else str(path)
+    _check_types(config, defaults, where)
+    _validate(config, where)
     return config
 
 
-def _validate(config: dict[str, Any]) -> None:
+# lists of numbers that are points (x, y), mm; the other lists (depths) may have any length
+_PAIRS = ("geometry.whisker_origin_stage_mm", "geometry.fixture_offset_mm")
+# keys whose sign is fixed by what they measure (the rest are checked in _validate)
+_POSITIVE = ("geometry.tip_reach_mm", "contact.search_max_mm", "contact.samples_per_step",
+             "contact.baseline_samples", "sensor.rate_hz", "safety.move_timeout_s")
+_NON_NEGATIVE = ("contact.search_start_mm", "safety.travel_margin_mm")
+
+
+def _is_number(value: Any) -> bool:
+    # TOML booleans are Python ints: not numbers here; NaN or inf would switch off a limit
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _type_problem(value: Any, default: Any, key: str) -> str | None:
+    """What ``value`` must be, judged by the documented default's type, or None when it is."""
+    if isinstance(default, bool):
+        return None if isinstance(value, bool) else "true or false"
+    if isinstance(default, int):
+        return None if _is_number(value) and isinstance(value, int) else "a whole number"
+    if isinstance(default, float):
+        return None if _is_number(value) else "a finite number"
+    if isinstance(default, list):
+        good = (isinstance(value, list) and (len(value) == 2 if key in _PAIRS else len(value) > 0)
+                and all(_is_number(v) for v in value))
+        return None if good else ("a pair of finite numbers" if key in _PAIRS
+                                  else "a non-empty list of finite numbers")
+    return None
+
+
+def _sign_problem(value: Any, key: str) -> str | None:
+    if key in _POSITIVE and not value > 0:
+        return "> 0"
+    if key in _NON_NEGATIVE and not value >= 0:
+        return ">= 0"
+    return None
+
+
+def _check_types(config: dict[str, Any], defaults: dict[str, Any], where: str) -> None:
+    for section, table in defaults.items():
+        for name, default in table.items():
+            key, value = f"{section}.{name}", config[section][name]
+            says = _type_problem(value, default, key) or _sign_problem(value, key)
+            if says is not None:
+                raise UsageError(f"{where}: {key} = {value!r} must be {says}")
+
+
+def _validate(config: dict[str, Any], where: str = "study config") -> None:
     trials = config["trials"]
     depths = np.asarray(trials["depths_mm"], float)
     if depths.size == 0 or np.any(depths <= 0) or np.any(np.diff(depths) <= 0):
-        raise UsageError("trials.depths_mm must be positive and increasing")
+        raise UsageError(f"{where}: trials.depths_mm must be positive and increasing")
     for key in ("speed_mm_s", "travel_mm", "approach_speed_mm_s", "rapid_speed_mm_s", "retract_mm"):
         if not float(trials[key]) > 0:
-            raise UsageError(f"trials.{key} must be positive")
+            raise UsageError(f"{where}: trials.{key} must be positive")
     if trials["slide_sign"] not in (1, -1):
-        raise UsageError("trials.slide_sign must be 1 or -1")
+        raise UsageError(f"{where}: trials.slide_sign must be 1 or -1")
     contact = config["contact"]
     if not 0 < float(contact["search_step_mm"]) <= 1.0:
-        raise UsageError("contact.search_step_mm must be in (0, 1] mm")
+        raise UsageError(f"{where}: contact.search_step_mm must be in (0, 1] mm")
     if not float(contact["threshold_uT"]) > 0:
-        raise UsageError("contact.threshold_uT must be positive")
+        raise UsageError(f"{where}: contact.threshold_uT must be positive")
     if float(config["safety"]["overload_uT"]) <= float(contact["threshold_uT"]):
-        raise UsageError("safety.overload_uT must exceed contact.threshold_uT")
+        raise UsageError(f"{where}: safety.overload_uT must exceed contact.threshold_uT")
 
 
 @dataclass(frozen=True)
