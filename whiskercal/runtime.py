@@ -13,6 +13,17 @@ calibrated range, unless loaded with ``allow_extrapolated=True`` (then each such
 flagged in ``TrackerState.extrapolated``). Evaluation uses only the precomputed lookup: one
 sample takes about a microsecond, a batch runs at tens of millions of samples a second
 (docs/model.md).
+
+Out-of-range z in contact (``out_of_range``, per tracker):
+
+- ``"raise"`` (the default, strict): :class:`ZOutOfRangeError`, the tracker stays usable;
+- ``"clip"`` (streaming): the tip at the nearest end of the calibrated range, the sample
+  flagged in ``TrackerState.out_of_range`` (-1 below, +1 above); the filter is fed the edge tip;
+- ``"nan"`` (streaming): no raw tip, the filter keeps its state, the sample flagged the same way.
+
+Neither streaming policy raises on any float, NaN and inf included (a non-finite z keeps the
+previous contact decision and gives no raw tip). ``whiskercal replay`` streams with ``"clip"``
+(docs/replay.md says why).
 """
 
 from __future__ import annotations
@@ -40,12 +51,15 @@ class TrackerState:
     "nan" policy); ``filtered_tip_mm`` is None until the filter has its first tip in a contact.
     ``extrapolated`` is True when the raw tip came from the part of the range marked as
     extrapolated past the grid (only when loaded with ``allow_extrapolated=True``).
+    ``out_of_range`` is -1 (below) or +1 (above) when, in contact, z lay outside the range the
+    lookup answers (``Calibration.z_range_uT``) and a streaming policy handled it; else 0.
     """
 
     contact: bool
     raw_tip_mm: np.ndarray | None
     filtered_tip_mm: np.ndarray | None
     extrapolated: bool = False
+    out_of_range: int = 0
 
 
 class Tracker:
@@ -65,7 +79,8 @@ class Tracker:
         ------
         ZOutOfRangeError
             In contact with z outside the calibrated range under the "raise" policy; the tracker
-            stays usable and keeps its filter state.
+            stays usable and keeps its filter state. The "clip" and "nan" policies never raise:
+            they flag the sample in ``TrackerState.out_of_range``.
         """
         z_uT = float(z_uT)
         was_in_contact = self._detector.contact
@@ -74,13 +89,16 @@ class Tracker:
             if was_in_contact:
                 self._kalman.reset()
             return TrackerState(False, None, None)
-        x, y = self._calibration.lookup.tip_scalar(z_uT, self._out_of_range)
-        if x != x:  # NaN under the "nan" policy
+        lookup = self._calibration.lookup
+        x, y = lookup.tip_scalar(z_uT, self._out_of_range)
+        side = -1 if z_uT < lookup.z_min_uT else 1 if z_uT > lookup.z_max_uT else 0
+        if x != x:  # NaN: a non-finite z, or out of range under the "nan" policy
             filtered = self._kalman.state_mm
-            return TrackerState(True, None, None if filtered is None else filtered.copy())
+            return TrackerState(True, None, None if filtered is None else filtered.copy(),
+                                False, side)
         raw = np.array([x, y])
         flagged = self._calibration._flagged(z_uT)
-        return TrackerState(True, raw, self._kalman.update(raw), flagged)
+        return TrackerState(True, raw, self._kalman.update(raw), flagged, side)
 
 
 class Calibration:
@@ -145,7 +163,10 @@ class Calibration:
         return trusted is None or not trusted[0] <= z_uT <= trusted[1]
 
     def tracker(self, out_of_range: str = "raise") -> Tracker:
-        """A fresh streaming tracker (collision detection + lookup + filter)."""
+        """A fresh streaming tracker (collision detection + lookup + filter).
+
+        ``out_of_range``: "raise" (strict), "clip" or "nan" (streaming, flagged; module docstring).
+        """
         return Tracker(self, out_of_range)
 
     def trace(self, z_uT: float, tracer: str = "fast") -> np.ndarray:
