@@ -11,7 +11,9 @@ from whiskercal.cli.app import App, echo_json, pass_app
 
 def _rest(rest: str | None, rest_uT: float | None):
     if rest is not None and rest_uT is not None:
-        raise click.UsageError("give either --rest or --rest-uT, not both")
+        from whiskercal.errors import UsageError
+
+        raise UsageError("give either --rest or --rest-uT, not both")
     return rest_uT if rest_uT is not None else rest
 
 
