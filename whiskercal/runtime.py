@@ -18,6 +18,17 @@ Every expected failure raises a :class:`~whiskercal.errors.WhiskercalError` subc
 function below: a z that is not a real number (a string, None, a complex or ragged array) is a
 :class:`~whiskercal.errors.UsageError`; NaN and ±inf are numbers, handled by the out-of-range
 policy (and ignored by contact detection).
+
+Out-of-range z in contact (``out_of_range``, per tracker):
+
+- ``"raise"`` (the default, strict): :class:`ZOutOfRangeError`, the tracker stays usable;
+- ``"clip"`` (streaming): the tip at the nearest end of the calibrated range, the sample
+  flagged in ``TrackerState.out_of_range`` (-1 below, +1 above); the filter is fed the edge tip;
+- ``"nan"`` (streaming): no raw tip, the filter keeps its state, the sample flagged the same way.
+
+Neither streaming policy raises on any float, NaN and inf included (a non-finite z keeps the
+previous contact decision and gives no raw tip). ``whiskercal replay`` streams with ``"clip"``
+(docs/replay.md says why).
 """
 
 from __future__ import annotations
@@ -48,12 +59,15 @@ class TrackerState:
     "nan" policy); ``filtered_tip_mm`` is None until the filter has its first tip in a contact.
     ``extrapolated`` is True when the raw tip came from the part of the range marked as
     extrapolated past the grid (only when loaded with ``allow_extrapolated=True``).
+    ``out_of_range`` is -1 (below) or +1 (above) when, in contact, z lay outside the range the
+    lookup answers (``Calibration.z_range_uT``) and a streaming policy handled it; else 0.
     """
 
     contact: bool
     raw_tip_mm: np.ndarray | None
     filtered_tip_mm: np.ndarray | None
     extrapolated: bool = False
+    out_of_range: int = 0
 
 
 class Tracker:
@@ -74,7 +88,8 @@ class Tracker:
         ------
         ZOutOfRangeError
             In contact with z outside the calibrated range under the "raise" policy; the tracker
-            stays usable and keeps its filter state.
+            stays usable and keeps its filter state. The "clip" and "nan" policies never raise:
+            they flag the sample in ``TrackerState.out_of_range``.
         UsageError
             When z is not one real number; the tracker's state is unchanged.
         """
@@ -86,13 +101,16 @@ class Tracker:
             if was_in_contact:
                 self._kalman.reset()
             return TrackerState(False, None, None)
-        x, y = self._calibration.lookup.tip_scalar(z_uT, self._out_of_range)
-        if x != x:  # NaN under the "nan" policy
+        lookup = self._calibration.lookup
+        x, y = lookup.tip_scalar(z_uT, self._out_of_range)
+        side = -1 if z_uT < lookup.z_min_uT else 1 if z_uT > lookup.z_max_uT else 0
+        if x != x:  # NaN: a non-finite z, or out of range under the "nan" policy
             filtered = self._kalman.state_mm
-            return TrackerState(True, None, None if filtered is None else filtered.copy())
+            return TrackerState(True, None, None if filtered is None else filtered.copy(),
+                                False, side)
         raw = np.array([x, y])
         flagged = self._calibration._flagged(z_uT)
-        return TrackerState(True, raw, self._kalman.update(raw), flagged)
+        return TrackerState(True, raw, self._kalman.update(raw), flagged, side)
 
 
 class Calibration:
@@ -171,7 +189,8 @@ class Calibration:
     def tracker(self, out_of_range: str = "raise") -> Tracker:
         """A fresh streaming tracker (collision detection + lookup + filter).
 
-        Raises ModelError for an ``out_of_range`` policy other than "raise", "nan", "clip".
+        ``out_of_range``: "raise" (strict), "clip" or "nan" (streaming, flagged; module docstring).
+        Raises ModelError for any other policy.
         """
         return Tracker(self, out_of_range)
 

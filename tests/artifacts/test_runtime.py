@@ -70,6 +70,31 @@ def test_tracker_out_of_range_raises_but_goes_on(calibration):
     quiet.update(low + 100.0)
     state = quiet.update(low - 500.0)
     assert state.contact and state.raw_tip_mm is None and state.filtered_tip_mm is not None
+    assert state.out_of_range == -1
+
+
+def test_clip_policy_gives_the_edge_tip_and_flags_the_side(calibration):
+    low, high = calibration.z_range_uT
+    tracker = calibration.tracker(out_of_range="clip")
+    inside = tracker.update(low + 100.0)
+    assert inside.out_of_range == 0
+    below = tracker.update(low - 500.0)
+    assert below.out_of_range == -1
+    np.testing.assert_array_equal(below.raw_tip_mm, calibration.tip(low))
+    if high < -calibration.collision_params.threshold_uT:  # above the range yet in contact
+        above = tracker.update(high + 0.5 * (-calibration.collision_params.threshold_uT - high))
+        assert above.out_of_range == 1
+        np.testing.assert_array_equal(above.raw_tip_mm, calibration.tip(high))
+
+
+@pytest.mark.parametrize("policy", ["clip", "nan"])
+def test_streaming_policies_never_raise_on_any_float(calibration, policy):
+    low, _ = calibration.z_range_uT
+    tracker = calibration.tracker(out_of_range=policy)
+    for z in (low + 100.0, float("nan"), float("inf"), -float("inf"), -1e300, 1e300, low - 1.0,
+              0.0, float("nan"), low * 10):
+        state = tracker.update(z)
+        assert state.filtered_tip_mm is None or np.all(np.isfinite(state.filtered_tip_mm))
 
 
 def test_target_is_none_until_a_study_writes_one(calibration, tmp_path):

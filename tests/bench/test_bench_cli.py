@@ -99,3 +99,15 @@ def test_a_failing_comparison_is_recorded_and_fails_the_command(tmp_path, monkey
 def test_unknown_comparison_is_a_usage_error(tmp_path):
     result = CliRunner().invoke(cli, ["bench", "--only", "nope", "--out", str(tmp_path)])
     assert result.exit_code == 2
+
+
+def test_tracker_speed_is_in_the_bench_json(tmp_path):
+    result = CliRunner().invoke(cli, ["bench", "--quick", "--only", "tracker-speed", "--out",
+                                      str(tmp_path), "--json"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    measured = _load(tmp_path, "tracker-speed")
+    assert set(measured["tracker_update_us"]) == {"free", "contact_in_range", "contact_clipped"}
+    assert all(t > 0 for t in measured["tracker_update_us"].values())
+    assert measured["replay"]["out_of_range_below"] > 0  # the stream does run past the range
+    # the 1 ms budget is judged in the JSON (within_1ms), not by a timed unit test
+    assert isinstance(measured["within_1ms"], bool)

@@ -6,7 +6,7 @@ import pytest
 from whiskercal.model.collision import CollisionDetector, CollisionParams, detect
 from whiskercal.model.errors import ModelError
 from whiskercal.model.kalman import (ConstantStateKalman, KalmanParams, filter_batch,
-                                     window_covariance)
+                                     floored_covariance_2x2, window_covariance)
 
 
 def test_filter_reduces_the_spread_of_noisy_tips_around_a_fixed_contact():
@@ -83,3 +83,16 @@ def test_collision_threshold_and_hysteresis():
     streamed = [detector.update(float(v)) for v in z]
     np.testing.assert_array_equal(streamed, detect(z))
     assert detect(np.array([350.0]))[0]  # a departure either way counts
+
+
+@pytest.mark.parametrize("case", ["random", "identical", "collinear", "isotropic", "tiny"])
+def test_plain_float_covariance_equals_the_numpy_reference(case):
+    rng = np.random.default_rng(7)
+    tips = {"random": rng.normal(50.0, 0.3, (10, 2)),
+            "identical": np.tile([55.0, -40.0], (10, 1)),
+            "collinear": np.column_stack([np.arange(10.0), 2.0 * np.arange(10.0)]),
+            "isotropic": np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
+            "tiny": 50.0 + rng.normal(0.0, 1e-5, (10, 2))}[case]
+    a, b, d = floored_covariance_2x2([tuple(t) for t in tips], 1e-6)
+    np.testing.assert_allclose([[a, b], [b, d]], window_covariance(tips, 1e-6), rtol=1e-9,
+                               atol=1e-15)

@@ -113,6 +113,8 @@ COMPARISONS = {c.name: c for c in (
     Comparison("twin-speed", "the twin's mechanics against real time", _twin_speed),
     Comparison("field-speed", "magnet field evaluation paths", _field_speed),
     Comparison("model-speed", "the model's per-sample costs", _model_speed),
+    Comparison("tracker-speed", "the runtime tracker's cost per sample, and a replayed stream's",
+               _module_run("whiskercal.bench.tracker_speed")),
     Comparison("stability", "where each method fails, and whether it is detected",
                _module_run("whiskercal.bench.stability")),
 )}
