@@ -14,11 +14,13 @@ Everything recorded without friction history stays in the last digits, and round
 whole counts hides those: the calibration grid (static contacts, each solved afresh), the
 push-ins, the stage's moves. Those quantities keep the strict classes of ``tolerances``.
 
-Measured by ``scripts/rerecord_spread.py`` and by re-recording twin-short-60mm on one machine
-with its code paths switched (data/README.md, "Recording again"): glibc's libm without its FMA
-and AVX2 variants moved the slide statistics by up to 3.0 µm and one median z by 1 µT; numpy
-without its AVX2 loops, OpenBLAS's Nehalem kernels instead of Haswell, numba compiling for a
-generic x86-64, and one BLAS or numba thread instead of two moved nothing beyond the last digits.
+Measured on twin-short-60mm (data/README.md, "Recording again"): recorded again with glibc's
+libm without its FMA and AVX2 variants, and 12 times with the twin whisker's Young's modulus
+moved by -5 to 11 units in the last place (``scripts/rerecord_spread.py``), the slide statistics
+moved by up to 3.6 µm, medians of z by 1 µT and, when the target's median moved, the runtime's
+tip by 7.6 µm; numpy without its AVX2 loops, OpenBLAS's Nehalem kernels instead of Haswell, numba
+compiling for a generic x86-64, one BLAS or numba thread instead of two moved nothing beyond the
+last digits.
 """
 
 from __future__ import annotations
@@ -39,11 +41,10 @@ SLIDE_STATISTIC = ToleranceClass(
     "slide_statistic", 0.01, 0.0,
     "Study error statistics and target scores (mm) of slides on the stick-slip path: once one "
     "slip falls a step earlier or later, the slides differ sample by sample by up to one slip of "
-    "the tip (16-83 µm), and their means and spreads over ~1800 samples moved by up to 3.0 µm "
-    "under last-digit changes of libm or of the twin's inputs. 10 µm is three times that, a "
-    "third of the surface's travel in one sample (33 µm at 10 mm/s and 300 Hz), and far below "
-    "the 0.07 mm between the two best target scores and the 0.15 mm of the smallest error, so "
-    "no verdict or choice can turn on it.")
+    "the tip (16-83 µm), and their means and spreads over ~1800 samples moved by up to 3.6 µm "
+    "under last-digit changes of libm or of the twin's inputs. 10 µm is nearly three times "
+    "that, and far below the 0.07 mm between the two best target scores and the 0.15 mm of the "
+    "smallest error, so no verdict or choice can turn on it.")
 WORDING = ToleranceClass(
     "wording", 0.0, 0.0,
     "A verdict's reasons: the same sentences, with their numbers masked. The numbers come from "
@@ -69,7 +70,7 @@ def runtime_tip_class(z_step_uT: float, tip_per_uT: float) -> ToleranceClass:
         "runtime_tip_at_target", bound, 0.0,
         f"The runtime's tip (mm) at the target z, which may move by {Z_STEPS} counts of "
         f"{z_step_uT:g} µT: the lookup moves the tip at most {tip_per_uT:.4g} mm per µT, so "
-        f"{bound:.3g} mm.")
+        f"{bound:.3g} mm (a target moved by one count moved it 7.6 µm on twin-short-60mm).")
 
 
 def z_step_uT(study_path) -> float:
