@@ -1,24 +1,45 @@
 # whiskercal: `make demo` runs the calibration pipeline on the digital twin, `make test` the tests.
-# Both create the virtual environment (.venv) on first use.
+# Both create the virtual environment (.venv) on first use, with the tested versions (LOCK).
 
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 INSTALLED := $(VENV)/.installed
 OUT ?= out/demo
+# Exact versions of every package the suite passed with; pyproject.toml keeps the ranges.
+LOCK ?= requirements.lock
+LATEST_VENV ?= .venv-latest
 
-.PHONY: setup test demo bench firmware firmware-deps clean
+.PHONY: setup test test-latest lock demo bench firmware firmware-deps clean
 
 setup: $(INSTALLED)
 
-$(INSTALLED): pyproject.toml
+$(INSTALLED): pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet -c $(LOCK) -e '.[dev]'
 	touch $@
 
 test: $(INSTALLED)
 	$(PY) -m pytest -n 2 -q
+
+# The suite against the newest versions pyproject.toml allows, in a venv of their own (no lock).
+test-latest:
+	$(PYTHON) -m venv $(LATEST_VENV)
+	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e '.[dev]'
+	$(LATEST_VENV)/bin/python -m pip freeze --exclude-editable
+	$(LATEST_VENV)/bin/python -m pytest -n 2 -q
+
+# Write LOCK from the packages installed in VENV: after `make test-latest` passed,
+# `make lock VENV=.venv-latest` makes the newest versions the tested ones.
+lock:
+	@test -x $(PY) || { echo "no $(PY): run make setup or make test-latest first" >&2; exit 1; }
+	{ echo "# Tested versions of every package whiskercal and its tests install, as pip"; \
+	  echo "# constraints: make setup installs with pip install -c $(LOCK) -e '.[dev]'."; \
+	  echo "# Written by make lock; make test-latest tests the newest versions instead."; \
+	  $(PY) -m pip freeze --exclude-editable; } > $(LOCK).tmp
+	mv $(LOCK).tmp $(LOCK)
 
 demo: $(INSTALLED)
 	OUT=$(OUT) PY=$(PY) bash scripts/demo.sh

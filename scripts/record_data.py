@@ -45,7 +45,7 @@ def _run(argv: list[str]) -> tuple[dict, float]:
     return json.loads(done.stdout), time.perf_counter() - started
 
 
-def _commands(spec: dict, directory: Path, raw: Path, study: Path) -> list[list[str]]:
+def dataset_commands(spec: dict, directory: Path, raw: Path, study: Path) -> list[list[str]]:
     """The collect and study commands of one dataset (URLs carry the sensor and seed)."""
     grid_seed, study_seed = spec["seeds"]
     world = spec["name"].replace("-", "_")
@@ -69,7 +69,7 @@ def record(spec: dict, out: Path) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="whiskercal-record-") as scratch:
         raw, study = Path(scratch) / "raw_grid.h5", Path(scratch) / "plane_study.h5"
-        commands = _commands(spec, directory, raw, study)
+        commands = dataset_commands(spec, directory, raw, study)
         outputs = []
         for command in commands:
             print("$", shlex.join(command), flush=True)

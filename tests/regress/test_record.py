@@ -8,11 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from whiskercal.regress.compare import compare
 from whiskercal.regress.golden import Dataset, read_golden
+from whiskercal.regress.rerecorded import compare_rerecorded, z_step_uT
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data"
+# A hang must still end the test; a fresh checkout first compiles the twin's numba kernels
+# (about 40 s), and a machine busy with the rest of the suite runs the recording at half speed.
+RECORD_TIMEOUT_S = 600
 
 
 def test_the_recorded_data_stay_small_enough_for_git():
@@ -32,12 +35,17 @@ def test_each_dataset_readme_says_how_it_was_recorded(name):
 
 @pytest.mark.slow
 def test_recording_again_with_the_same_seeds_gives_the_golden_results(tmp_path):
+    # Within the re-recording bounds (whiskercal/regress/rerecorded.py): the grid and the push-ins
+    # to the regress tolerances, the stick-slip slides to what another machine's last digits move.
     name = "twin-short-60mm"
     (tmp_path / name).mkdir()
     for config in (DATA / name).glob("*.toml"):
         shutil.copy(config, tmp_path / name / config.name)
     subprocess.run([sys.executable, str(ROOT / "scripts" / "record_data.py"), "--out",
-                    str(tmp_path), "--only", name], check=True, capture_output=True, timeout=120)
+                    str(tmp_path), "--only", name], check=True, capture_output=True,
+                   timeout=RECORD_TIMEOUT_S)
     fresh, recorded = read_golden(Dataset(tmp_path / name)), read_golden(Dataset(DATA / name))
-    assert compare(recorded.quantities, recorded.classes, fresh.quantities) == []
+    changes = compare_rerecorded(recorded.quantities, fresh.quantities,
+                                 z_step_uT(DATA / name / "plane_study.h5"))
+    assert changes == [], "\n".join(change.describe() for change in changes)
     assert recorded.pipeline == fresh.pipeline
