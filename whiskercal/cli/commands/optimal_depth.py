@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from whiskercal.cli.app import App, abort, echo_json, pass_app, time_left
+from whiskercal.cli.app import App, abort, echo_json, pass_app
 
 
 @click.group("optimal-depth")
@@ -18,17 +18,6 @@ def command() -> None:
     error against the plane, flags slips and tangential contact, chooses the target and writes it
     into a new version of the artifact.
     """
-
-
-def _progress_printer(app: App, enabled: bool):
-    """A progress line on stderr (trials done, time left) on a terminal; None otherwise."""
-    if not (enabled and app.interactive):
-        return None
-
-    def show(progress) -> None:
-        click.echo(f"\r  {progress.done}/{progress.total} trials  {time_left(progress.remaining_s)} "
-                   "left ", err=True, nl=progress.done == progress.total)
-    return show
 
 
 @command.command("run")
@@ -46,12 +35,14 @@ def _progress_printer(app: App, enabled: bool):
 def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, config_path: Path | None,
                 resume: bool, as_json: bool) -> None:
     """Run the flat-plane study: first contact, then one constant-velocity slide per depth."""
+    from whiskercal.cli.progress import progress_bar
     from whiskercal.study.config import load_config
     from whiskercal.study.run import run_study
 
     config = load_config(config_path)
-    summary = run_study(stage_url, sensor_url, out_path, config, resume=resume,
-                        progress=_progress_printer(app, not as_json))
+    with progress_bar(app, "trials", description="study", as_json=as_json) as bar:
+        summary = run_study(stage_url, sensor_url, out_path, config, resume=resume,
+                            progress=bar.update if bar else None)
     result = {**summary.__dict__, "wall_time_s": round(summary.wall_time_s, 3)}
     if as_json:
         echo_json(result)
