@@ -205,11 +205,13 @@ class SensorClient:
 
     def start(self) -> None:
         """Start the sample stream; sequence and time unwrapping start afresh (unread samples
-        of an earlier stream are discarded)."""
+        of an earlier stream are discarded). The answer may take as long as a sync's: a board
+        simulated in real time (``whiskercal sim serve``) on a busy machine sends it only after
+        computing its first conversions."""
         if self._config is None:
             self.config()
         self._unwrapper = _Unwrapper()
-        self.command("START")
+        self.command("START", SYNC_TIMEOUT_S)
         self.streaming = True
 
     def stop(self) -> None:
