@@ -232,3 +232,28 @@ def test_the_session_imports_only_the_layers_below_it():
                 assert node.module.startswith(allowed), f"{path.name} imports {node.module}"
             if isinstance(node, ast.Import):
                 assert not any(a.name.startswith("whiskercal") for a in node.names), path.name
+
+
+def test_a_failing_sensor_does_not_keep_the_stage_from_being_stopped():
+    class SlowHold(Stage):
+        def hold(self) -> None:
+            super().hold()
+            self.state, self.polls_to_rest = "Hold:0", 3
+
+        def status(self) -> StageStatus:
+            if self.state == "Hold:0":
+                self.polls_to_rest -= 1
+                if self.polls_to_rest == 0:
+                    self.state = "Hold:1"
+            return super().status()
+
+    class Unplugged(Sensor):
+        def read(self, n: int, timeout_s: float = 1.0) -> SampleBlock:
+            raise DeviceError("sensor on scripted is disconnected")
+
+    stage = SlowHold()
+    with pytest.raises(DeviceError, match="disconnected"):
+        with open_session(stage, Unplugged()) as rig:
+            rig.start()
+            rig.move_to([10.0, 0.0], 600.0)
+    assert stage.log[-2:] == ["!", "reset"]

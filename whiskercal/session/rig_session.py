@@ -211,8 +211,8 @@ class RigSession:
         self.sensor.stop()  # a board left streaming refuses settings (ERR:3)
         self.sensor.configure(rate_hz=settings.rate_hz, gain=settings.gain, res=settings.res,
                               osr=settings.osr, filt=settings.filt)
+        self._streaming = True  # from here on, leaving the session sends STOP
         self.sensor.start()
-        self._streaming = True
 
     # -- frames and position -----------------------------------------------------------------
     @property
@@ -290,8 +290,16 @@ class RigSession:
             if status.state in ("Hold:1", "Idle") or status.alarm:
                 return
             if self._streaming:  # else each status round trip is the wait
-                self.sink(self.sensor.read(_poll_samples(self.config.sensor), timeout_s=1.0))
+                self._read_quietly()
         raise DeviceError("stage did not come to rest after a feed hold; check it by hand")
+
+    def _read_quietly(self) -> None:
+        """Read one poll period into the sink; a sensor that fails must not keep the stage from
+        being stopped."""
+        try:
+            self.sink(self.sensor.read(_poll_samples(self.config.sensor), timeout_s=1.0))
+        except DeviceError:
+            pass
 
     def back_off(self, retreat_stage_mm: Callable[[np.ndarray], np.ndarray],
                  feed_mm_min: float) -> None:
