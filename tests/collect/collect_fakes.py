@@ -200,6 +200,7 @@ class FakeSensor:
         self.seq = 0
         self.reads = 0
         self.configured: dict = {}
+        self.dropped = self.corrupt = 0
 
     def identify(self) -> str:
         return "whisker_nano fw=0.1.0 proto=1"
@@ -216,6 +217,12 @@ class FakeSensor:
 
     def stop(self) -> None:
         self.streaming = False
+
+    def sync(self) -> float:
+        """Nothing is ever buffered here: the next sample read is the first fresh one."""
+        if not self.streaming:
+            raise DeviceError("not streaming")
+        return self.world.t_s + 1.0 / self.rate_hz
 
     def read_available(self) -> SampleBlock:
         """Nothing is ever buffered here: every read makes its samples on the spot."""
@@ -242,5 +249,7 @@ class FakeSensor:
         bad = every is not None and self.reads % every == 0
         seq = self.seq + np.arange(n) + (1 if bad else 0)
         self.seq = int(seq[-1]) + 1
+        self.dropped += int(bad)
+        self.corrupt += int(bad)
         return SampleBlock(seq=seq, t_s=t_s, counts=counts, field_uT=counts * LSB_UT,
                            status=np.zeros(n, np.uint8), dropped=int(bad), corrupt=int(bad))

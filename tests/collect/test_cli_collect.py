@@ -81,19 +81,46 @@ def test_dry_run_reads_the_travel_from_a_connected_stage(tmp_path):
     assert json.loads(result.output)["travel_mm"] == [200.0, 200.0]
 
 
-def test_progress_is_drawn_only_on_a_terminal(monkeypatch):
+def test_progress_is_drawn_only_on_a_watched_terminal(monkeypatch):
     from whiskercal.cli.app import App
-    from whiskercal.cli.commands.collect import _progress_printer
-    from whiskercal.collect.loop import Progress
+    from whiskercal.cli.progress import progress_bar
 
-    monkeypatch.setenv("CI", "1")
-    assert _progress_printer(App()) is None
-    monkeypatch.delenv("CI")
     monkeypatch.setattr("sys.stderr.isatty", lambda: True, raising=False)
-    show = _progress_printer(App())
-    assert show is not None
-    progress = Progress(done=60, total=180, taken_now=20, elapsed_s=10.0)
-    assert progress.rate_per_s == 2.0 and progress.remaining_s == 60.0
+    monkeypatch.setenv("CI", "1")
+    with progress_bar(App(), "points") as bar:
+        assert bar is None
+    monkeypatch.delenv("CI")
+    with progress_bar(App(), "points", as_json=True) as bar:
+        assert bar is None
+    with progress_bar(App(quiet=True), "points") as bar:
+        assert bar is None
+    with progress_bar(App(), "points") as bar:
+        assert bar is not None
+
+
+def test_progress_shows_done_rate_and_time_left():
+    import io
+    import re
+
+    from rich.console import Console
+
+    from whiskercal.cli.app import App
+    from whiskercal.cli.progress import progress_bar
+    from whiskercal.progress import Progress
+
+    out, clock = io.StringIO(), [0.0]
+    console = Console(file=out, force_terminal=True, width=120, color_system=None)
+    with progress_bar(App(), "points", description="collect", console=console,
+                      get_time=lambda: clock[0]) as bar:
+        # 40 points were taken before a resume: the rate counts only this session's points
+        bar.update(Progress(done=40, total=180, taken_now=0, elapsed_s=0.0))
+        for taken in (10, 20):
+            clock[0] += 10.0
+            bar.update(Progress(done=40 + taken, total=180, taken_now=taken, elapsed_s=clock[0]))
+    lines = [line for line in re.split(r"[\r\n]", out.getvalue()) if "collect" in line]
+    last = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", lines[-1])
+    # 10 points in 10 s since the previous update: 1 point/s, 120 points (2 min) to go
+    assert re.search(r"collect .* 60/180 points 1\.00 points/s 0:00:20 0:02:00 left", last), last
 
 
 def test_first_ctrl_c_asks_to_stop_and_second_interrupts():
@@ -110,3 +137,23 @@ def test_first_ctrl_c_asks_to_stop_and_second_interrupts():
         assert stop_requested()
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
+
+
+def test_named_steps_count_as_done_when_the_next_begins():
+    import io
+
+    from rich.console import Console
+
+    from whiskercal.cli.app import App
+    from whiskercal.cli.progress import progress_bar
+
+    console = Console(file=io.StringIO(), force_terminal=True)
+    with progress_bar(App(), "datasets", description="regress", total=2, console=console) as bar:
+        seen = []
+        for key, text in (("first", "first: fit"), ("first", "first: study report"),
+                          ("second", "second: fit")):
+            bar.step(key, text)
+            seen.append((bar.task.description, bar.task.completed))
+        bar.finish()
+        seen.append((bar.task.description, bar.task.completed))
+    assert seen == [("first: fit", 0), ("first: study report", 0), ("second: fit", 1), ("regress", 2)]

@@ -148,6 +148,29 @@ def check_settings_refused_while_streaming(port) -> None:
     assert link.command("CFG?") == DEFAULT_CONFIG
 
 
+def _pump_until(link: SensorLink, count: int, timeout_s: float = 5.0) -> None:
+    """Collect frames until ``count`` samples are kept (a simulator may lag the host's clock)."""
+    deadline = link.port.now_s() + timeout_s
+    while len(link.samples) < count:
+        assert link.port.now_s() < deadline, f"{len(link.samples)} of {count} samples"
+        link.pump(0.01)
+
+
+def check_start_while_streaming_is_a_sync_marker(port) -> None:
+    # the host's sync exchange (docs/protocol.md): START while streaming answers OK and changes
+    # nothing; the stream goes on through the answer without a restart or a gap
+    link = SensorLink(port)
+    assert link.command("START") == "OK"
+    _pump_until(link, 10)
+    assert link.command("START") == "OK"
+    _pump_until(link, len(link.samples) + 10)
+    samples = list(link.samples)
+    link.stop_and_drain()
+    for earlier, later in zip(samples, samples[1:]):
+        assert later.seq == (earlier.seq + 1) & 0xFFFF, "the stream restarted or lost a sample"
+        assert 3233 <= (later.t_us - earlier.t_us) & 0xFFFFFFFF <= 3433
+
+
 def check_bad_commands(port) -> None:
     link = SensorLink(port)
     assert link.command("GAIN 8") == "ERR:2"
@@ -182,5 +205,6 @@ def check_rate_setting_changes_the_period(port) -> None:
 
 
 SENSOR_CHECKS = [check_identify, check_default_configuration, check_stream_at_300_hz,
-                 check_stop_ends_the_stream, check_settings_refused_while_streaming, check_bad_commands,
+                 check_stop_ends_the_stream, check_settings_refused_while_streaming,
+                 check_start_while_streaming_is_a_sync_marker, check_bad_commands,
                  check_conversion_time_limits_the_rate, check_rate_setting_changes_the_period]

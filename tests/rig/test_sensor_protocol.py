@@ -93,3 +93,62 @@ def test_identify_repeats_id_while_the_board_boots():
     pairs = [(b"ID\n", None), (b"ID\n", encode_text("OK whisker_nano fw=0.1.0 proto=1"))]
     with expected_protocol(SensorClient, pairs) as sensor:
         assert sensor.identify().startswith("whisker_nano")
+
+
+def test_sync_marks_the_first_sample_behind_the_answer_plus_one_period():
+    # samples 0..3 were converted before the board read the sync command, 4.. after it; more of
+    # the old ones arrive with the answer than the host had seen (a backlog in the OS)
+    before, after = _samples(range(0, 4)), _samples(range(4, 7), start_us=4 * 3333)
+    pairs = [(b"CFG?\n", CFG), (b"START\n", encode_text("OK") + _samples([])),
+             (b"START\n", before + encode_text("OK") + after)]
+    with expected_protocol(SensorClient, pairs) as sensor:
+        sensor.start()
+        fresh_from_s = sensor.sync()
+        block = sensor.read(7, timeout_s=1)
+    # the first sample behind the answer may have been triggered up to a period before the
+    # board read the command: from one period after it, every sample is newer than the sync
+    assert fresh_from_s == pytest.approx((4 * 3333 + 1e6 / 300) * 1e-6)
+    np.testing.assert_array_equal(block.seq, range(7))  # nothing read on the way was lost
+
+
+def test_sync_waits_for_a_sample_behind_the_answer():
+    pairs = [(b"CFG?\n", CFG), (b"START\n", encode_text("OK")),
+             (b"START\n", _samples([0, 1]) + encode_text("OK"))]
+    with expected_protocol(SensorClient, pairs) as sensor:
+        sensor.start()
+        with pytest.raises(DeviceError, match="did not answer a sample after the sync answer"):
+            sensor.sync()
+        assert len(sensor.read_available()) == 2
+
+
+def test_sync_refuses_a_board_that_is_not_streaming():
+    with expected_protocol(SensorClient, []) as sensor:
+        with pytest.raises(DeviceError, match="not streaming"):
+            sensor.sync()
+
+
+def test_a_lost_sync_answer_is_asked_for_again_only_when_frames_were_lost():
+    corrupted = bytearray(encode_text("OK"))
+    corrupted[5] ^= 0xFF  # the answer fails its CRC
+    pairs = [(b"CFG?\n", CFG), (b"START\n", encode_text("OK")),
+             (b"START\n", _samples([0]) + bytes(corrupted)),
+             (b"START\n", encode_text("OK") + _samples([1], start_us=3333))]
+    with expected_protocol(SensorClient, pairs) as sensor:
+        sensor.start()
+        assert sensor.sync() == pytest.approx((3333 + 1e6 / 300) * 1e-6)
+    silent = [(b"CFG?\n", CFG), (b"START\n", encode_text("OK")), (b"START\n", _samples([0]))]
+    with expected_protocol(SensorClient, silent) as sensor:
+        sensor.start()
+        with pytest.raises(DeviceError, match="did not answer 'START'"):
+            sensor.sync()  # nothing was lost: the board did not answer, and is not asked twice
+
+
+def test_close_closes_the_port_and_works_as_a_context_manager():
+    from byte_pairs import ExpectedProtocolPort
+
+    closed = []
+    port = ExpectedProtocolPort([])
+    port.close = lambda: closed.append(True)
+    with SensorClient(port) as sensor:
+        assert sensor.transport.port is port
+    assert closed == [True]

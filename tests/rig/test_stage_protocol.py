@@ -104,3 +104,14 @@ def test_wait_idle_raises_in_alarm_state():
     with expected_protocol(StageClient, pairs) as stage:
         with pytest.raises(DeviceError, match="in alarm"):
             stage.wait_idle(5)
+
+
+def test_close_closes_the_port_and_works_as_a_context_manager():
+    from byte_pairs import ExpectedProtocolPort
+
+    closed = []
+    port = ExpectedProtocolPort([])
+    port.close = lambda: closed.append(True)
+    with StageClient(port) as stage:
+        assert stage.transport.port is port
+    assert closed == [True]

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from whiskercal.rig.sensor import SampleBlock
-from whiskercal.rig.stage import StageStatus
+from whiskercal.rig.stage import StageIdentity, StageStatus
 from whiskercal.study.config import PlaneGeometry, load_config
 
 STATIC_Y_UT = 1160.0
@@ -51,7 +51,7 @@ class FakeStage:
         self.homed = False
 
     def identify(self):
-        return "fake"
+        return StageIdentity("1.1h.0", "fake", "V", "whiskercal-stage-1", True)
 
     def home(self):
         self.homed = True
@@ -99,6 +99,7 @@ class FakeSensor:
     def __init__(self, rig: FakeRig, stage: FakeStage):
         self.rig, self.stage = rig, stage
         self.started = False
+        self.dropped = self.corrupt = 0
 
     def identify(self):
         return "fake"
@@ -128,6 +129,10 @@ class FakeSensor:
         counts = np.round(rows[:, 2:5] / LSB_UT).astype(np.int64)
         return SampleBlock(seq=rows[:, 0].astype(np.int64), t_s=rows[:, 1], counts=counts,
                            field_uT=counts * LSB_UT, status=np.zeros(len(rows), np.uint8))
+
+    def sync(self):
+        """Nothing is ever buffered here: the next sample read is the first fresh one."""
+        return self.rig.time_s + 1.0 / self.rig.rate_hz
 
     def read(self, n, timeout_s=1.0):
         return self._samples(n)
@@ -189,3 +194,13 @@ def fake_config(tmp_path, text=""):
                     "[contact]\nsearch_step_mm = 0.5\nsamples_per_step = 3\nbaseline_samples = 30\n"
                     + text)
     return load_config(path)
+
+
+def run_on_clients(stage, sensor, config, writer, world=None):
+    """``StudyRun`` on ready clients (fakes or serial clients) inside a rig session."""
+    from whiskercal.session import RigSession
+    from whiskercal.study.run import StudyRun, session_config
+
+    with RigSession.open(None, None, session_config(config), stage_client=stage,
+                         sensor_client=sensor) as rig:
+        return StudyRun(rig, config, writer, world=world).run()

@@ -14,9 +14,7 @@ from whiskercal.study.artifact_target import write_target
 from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.figures import write_figures
 from whiskercal.study.report import IncompleteStudyError, build_report
-from whiskercal.study.run import StudyRun
-
-from study_fakes import FakeCalibration, fake_config as _config, fake_rig
+from study_fakes import FakeCalibration, fake_config as _config, fake_rig, run_on_clients
 
 FIXTURES = Path(__file__).parents[1] / "fixtures"
 
@@ -27,7 +25,7 @@ def fake_study(tmp_path_factory):
     config = _config(tmp_path, "[safety]\nhome = false\n")
     config["trials"]["depths_mm"] = [5.0, 10.0, 15.0, 20.0]
     rig, stage, sensor = fake_rig(config)
-    StudyRun(stage, sensor, config, StudyWriter(tmp_path / "study.h5", config, "fake")).run()
+    run_on_clients(stage, sensor, config, StudyWriter(tmp_path / "study.h5", config, "fake"))
     return tmp_path / "study.h5", PlaneGeometry.from_config(config)
 
 

@@ -7,15 +7,15 @@ from whiskercal.artifacts.plane_study import PHASE_SLIDE, StudyWriter, read_stud
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.study.config import PlaneGeometry
 from whiskercal.rig.overload import OverloadError
-from whiskercal.study.run import NoContactError, StudyRun
+from whiskercal.study.run import NoContactError
 
-from study_fakes import fake_config as _config, fake_rig
+from study_fakes import fake_config as _config, fake_rig, run_on_clients
 
 
 def _run(tmp_path, config, resume=False, **rig_options):
     rig, stage, sensor = fake_rig(config, **rig_options)
     writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor", resume=resume)
-    return rig, StudyRun(stage, sensor, config, writer).run()
+    return rig, run_on_clients(stage, sensor, config, writer)
 
 
 def test_every_trial_is_recorded_at_its_depth(tmp_path):
@@ -75,7 +75,7 @@ def test_overload_guard_stops_the_run(tmp_path):
     rig, stage, sensor = fake_rig(config)
     writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor")
     with pytest.raises(OverloadError, match="over the safe limit of 2800"):
-        StudyRun(stage, sensor, config, writer).run()
+        run_on_clients(stage, sensor, config, writer)
     assert [t.depth_mm for t in read_study(tmp_path / "study.h5").trials] == [5.0]
     assert rig.z_uT(rig.position) == 0.0  # backed off clear of the whisker
 
@@ -109,7 +109,7 @@ def test_ctrl_c_stops_the_stage_and_keeps_finished_trials(tmp_path):
 
     writer.add_trial, sensor.read = add_trial, interrupted_read
     with pytest.raises(KeyboardInterrupt):
-        StudyRun(stage, sensor, config, writer).run()
+        run_on_clients(stage, sensor, config, writer)
     assert resets  # the move in progress was stopped
     study = read_study(tmp_path / "study.h5")
     assert [t.depth_mm for t in study.trials] == [5.0] and study.missing_depths() == [10.0, 15.0]

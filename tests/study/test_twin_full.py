@@ -4,11 +4,9 @@ import numpy as np
 import pytest
 
 from whiskercal import runtime
-from whiskercal.artifacts.plane_study import StudyWriter
-from whiskercal.rig import SensorClient, StageClient
 from whiskercal.study.config import load_config
 from whiskercal.study.report import build_report
-from whiskercal.study.run import StudyRun
+from whiskercal.study.run import run_study
 from whiskercal.twin.devices import simport
 
 
@@ -19,9 +17,7 @@ def test_full_default_study(tmp_path, twin_calibration, request):
     config = load_config()
     stage_port = simport.Serial("sim://study-full/stage?scene=plane&seed=11", timeout=1.0)
     sensor_port = simport.Serial("sim://study-full/sensor", timeout=1.0)
-    writer = StudyWriter(tmp_path / "STUDY.h5", config, "twin")
-    StudyRun(StageClient(stage_port), SensorClient(sensor_port), config, writer,
-             world=sensor_port.world).run()
+    run_study(stage_port, sensor_port, tmp_path / "STUDY.h5", config)
     report = build_report(tmp_path / "STUDY.h5", runtime.load(twin_calibration))
     by_depth = {row.depth_mm: row for row in report.rows}
     assert all(by_depth[d].filtered_mean_mm < 2.0 and not by_depth[d].failing

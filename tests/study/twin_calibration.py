@@ -60,17 +60,14 @@ def run_twin_study(folder: Path, config_text: str, world: str, seed: int):
 
     Returns the study file, its config and the world (for the ground truth).
     """
-    from whiskercal.artifacts.plane_study import StudyWriter
-    from whiskercal.rig import SensorClient, StageClient
     from whiskercal.study.config import load_config
-    from whiskercal.study.run import StudyRun
+    from whiskercal.artifacts.plane_study import StudyWriter
+    from whiskercal.study.run import run_study
     from whiskercal.twin.devices import simport
 
     (folder / "study.toml").write_text(config_text)
     config = load_config(folder / "study.toml")
     stage_port = simport.Serial(f"sim://{world}/stage?scene=plane&seed={seed}", timeout=1.0)
     sensor_port = simport.Serial(f"sim://{world}/sensor", timeout=1.0)
-    writer = StudyWriter(folder / "STUDY.h5", config, "twin")
-    StudyRun(StageClient(stage_port), SensorClient(sensor_port), config, writer,
-             world=sensor_port.world).run()
+    run_study(stage_port, sensor_port, folder / "STUDY.h5", config)
     return folder / "STUDY.h5", config, sensor_port.world

@@ -33,11 +33,6 @@ def abort(message: str, code: int = 1) -> NoReturn:
     sys.exit(code)
 
 
-def time_left(seconds: float) -> str:
-    """A progress line's estimate of the time left, as minutes and seconds ("--" when unknown)."""
-    return "--" if seconds == float("inf") else f"{int(seconds // 60)}m{int(seconds % 60):02d}s"
-
-
 def echo_json(payload: Any) -> None:
     """Print one JSON document on stdout (numpy values converted)."""
     click.echo(json.dumps(payload, default=jsonable, indent=2, sort_keys=False))

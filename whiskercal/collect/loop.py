@@ -1,15 +1,15 @@
 """The acquisition loop: baseline, every grid point, after-baseline, with the safety checks.
 
-The clients are injected (``StageClient``/``SensorClient`` or anything with the same methods,
-docs/architecture.md), so the loop runs the same against a real rig, the twin and test fakes.
-Nothing here sleeps: waiting is reading the sensor stream, which also keeps the serial buffer
-from overflowing while the stage moves.
+The loop runs on a ``RigSession`` (whiskercal/session), which holds the clients, the frames,
+the moves, the halt and the measurement on samples chosen by the sensor's own clock; so the loop
+runs the same against a real rig, the twin and test fakes. Nothing here sleeps: waiting is
+reading the sensor stream, which also keeps the serial buffer from overflowing while the stage
+moves.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
@@ -18,58 +18,13 @@ from whiskercal.artifacts.raw_grid import Baseline, PointRecord
 from whiskercal.collect.checkpoint import Checkpoint
 from whiskercal.collect.plan import GridPlan, Move
 from whiskercal.collect.recorder import StreamRecorder, field_stats
-from whiskercal.rig.overload import OverloadError, describe_axes
 from whiskercal.errors import DeviceError
-from whiskercal.rig.stage import StageAlarmError
+from whiskercal.progress import Progress
+from whiskercal.rig.overload import OverloadError, describe_axes
+from whiskercal.session import Devices, EncoderMismatchError, RigSession
+from whiskercal.session.rig_session import POLL_S
 
-# grbl's alarm for an encoder/step disagreement (docs/protocol.md).
-ALARM_ENCODER_MISMATCH = 10
-# How much sensor time each status poll waits for while the stage moves, s.
-_POLL_S = 0.02
-
-
-class EncoderMismatchError(DeviceError):
-    """The stage's encoders and step counters disagree: missed steps or a stall."""
-
-
-@dataclass
-class Devices:
-    """What identifying the devices found."""
-
-    stage: dict[str, Any]
-    sensor: str
-    has_encoder: bool
-    stage_settings: dict[int, float] = field(default_factory=dict)
-
-
-@dataclass
-class Progress:
-    """Where the run is: points done (total, including resumed ones), points planned, rates."""
-
-    done: int
-    total: int
-    taken_now: int
-    elapsed_s: float
-
-    @property
-    def rate_per_s(self) -> float:
-        """Points per second of wall time in this session."""
-        return self.taken_now / self.elapsed_s if self.elapsed_s > 0 else 0.0
-
-    @property
-    def remaining_s(self) -> float:
-        """Estimated wall time to finish, s (inf before the first point)."""
-        rate = self.rate_per_s
-        return (self.total - self.done) / rate if rate > 0 else float("inf")
-
-
-def identify(stage, sensor) -> Devices:
-    """Identify both devices and read the stage's settings (travel, encoder, tolerance)."""
-    identity = stage.identify()
-    settings = stage.settings()
-    stage_info = {"version": identity.version, "name": identity.name, "proto": identity.proto,
-                  "has_encoder": bool(identity.has_encoder)}
-    return Devices(stage_info, sensor.identify(), bool(identity.has_encoder), settings)
+__all__ = ["Collector", "Devices", "EncoderMismatchError", "Progress"]
 
 
 class Collector:
@@ -77,88 +32,64 @@ class Collector:
 
     Parameters
     ----------
-    stage, sensor
-        Connected clients (docs/architecture.md API).
+    rig
+        The open rig session (not yet started: ``run`` starts it).
     plan
         The grid plan; its config holds every setting.
     checkpoint
         Where each point goes, durably, as it is taken.
-    devices
-        The result of :func:`identify`.
     truth
-        Callable returning the twin's ground truth (dict of ``TRUTH_FIELDS``) at the current
-        instant, or None on a real rig.
+        ``truth(t_start_s, t_end_s)``: the twin's ground truth (dict of ``TRUTH_FIELDS``) over
+        the board times of a point's samples, or None on a real rig.
     on_progress, stop_requested
         Called after each point; ``stop_requested()`` True stops after the current point.
     """
 
-    def __init__(self, stage, sensor, plan: GridPlan, checkpoint: Checkpoint, devices: Devices,
-                 truth: Callable[[], dict[str, Any]] | None = None,
+    def __init__(self, rig: RigSession, plan: GridPlan, checkpoint: Checkpoint,
+                 truth: Callable[[float, float], dict[str, Any]] | None = None,
                  on_progress: Callable[[Progress], None] | None = None,
                  stop_requested: Callable[[], bool] | None = None) -> None:
-        self.stage, self.sensor, self.plan = stage, sensor, plan
-        self.checkpoint, self.devices, self.truth = checkpoint, devices, truth
+        self.rig, self.plan, self.checkpoint, self.truth = rig, plan, checkpoint, truth
         self.on_progress = on_progress or (lambda progress: None)
         self.stop_requested = stop_requested or (lambda: False)
         self.config = plan.config
         resume_from = None
         if checkpoint.last_device_t_s is not None:
             resume_from = (checkpoint.last_device_t_s, checkpoint.last_wall_s)
-        self.recorder = StreamRecorder(sensor, self.config.sensor.rate_hz, self.config.sensor.res,
+        self.recorder = StreamRecorder(rig.sensor, self.config.sensor.rate_hz, self.config.sensor.res,
                                        resume_from)
         self.recorder.overload_z_uT = self.config.safety.overload_z_uT
+        # every sample the session reads on its own (halts, retreats, settling) is kept too
+        rig.sink = lambda block: self.recorder.keep(block, -1, guard=False)
         self.here_mm: np.ndarray | None = None
         self.taken_now = 0
         self.stopped = False
 
+    @property
+    def devices(self) -> Devices:
+        """What identifying the boards found."""
+        return self.rig.devices
+
     # -- the run ----------------------------------------------------------------------------
     def run(self) -> bool:
         """Take every remaining point and the after-baseline; True when the file is complete."""
-        self._prepare_stage()
-        self._start_sensor()
-        try:
-            self._baseline_before()
-            started = time.monotonic()
-            for index in range(len(self.plan)):
-                if index in self.checkpoint.taken:
-                    continue
-                self._take_point(index)
-                self.taken_now += 1
-                self.on_progress(Progress(len(self.checkpoint.taken), len(self.plan),
-                                          self.taken_now, time.monotonic() - started))
-                if self.stop_requested():
-                    self.stopped = True
-                    self._retract()
-                    self.checkpoint.add_stream(self.recorder.take_chunk())
-                    return False
-            self._baseline_after()
-            return True
-        finally:
-            self._stop_sensor()
-
-    def _prepare_stage(self) -> None:
-        """Home, or require a homed stage, as configured."""
-        if self.config.motion.home:
-            self.stage.home()
-            return
-        status = self.stage.status()
-        if status.alarm:
-            raise DeviceError("stage is in alarm (not homed); home it ($H) or set "
-                              "motion.home = true in the config")
-        self.here_mm = self.plan.to_whisker(status.mpos_mm)
-
-    def _start_sensor(self) -> None:
-        settings = self.config.sensor
-        self.sensor.stop()  # a board left streaming refuses settings (ERR:3)
-        self.sensor.configure(rate_hz=settings.rate_hz, gain=settings.gain, res=settings.res,
-                              osr=settings.osr, filt=settings.filt)
-        self.sensor.start()
-
-    def _stop_sensor(self) -> None:
-        try:
-            self.sensor.stop()
-        except DeviceError:
-            pass  # an unplugged sensor: the error that ended the run is the one to report
+        self.rig.start()
+        self._baseline_before()
+        started = time.monotonic()
+        for index in range(len(self.plan)):
+            if index in self.checkpoint.taken:
+                continue
+            self._take_point(index)
+            self.taken_now += 1
+            self.on_progress(Progress(len(self.checkpoint.taken), len(self.plan),
+                                      self.taken_now, time.monotonic() - started))
+            if self.stop_requested():
+                self.stopped = True
+                self._retract()
+                self.checkpoint.add_stream(self.recorder.take_chunk())
+                return False
+        self._baseline_after()
+        return True
 
     # -- baselines --------------------------------------------------------------------------
     def _baseline_before(self) -> None:
@@ -176,10 +107,7 @@ class Collector:
 
     def _static_reading(self) -> Baseline:
         acq = self.config.acquisition
-        self.recorder.drain(guard=False)
-        if acq.settle_s > 0:
-            self.recorder.read_for(acq.settle_s, guard=False)
-        block = self.recorder.read(acq.baseline_samples, guard=False)
+        block = self.recorder.keep(self.rig.measure(acq.baseline_samples, acq.settle_s), guard=False)
         axes = self.recorder.saturated_axes(block)
         if axes:
             settings = self.config.sensor
@@ -190,28 +118,26 @@ class Collector:
         return Baseline(mean, std, float(np.mean(block.t_s)))
 
     def _park(self) -> None:
-        here = self.here_mm if self.here_mm is not None else self._position_mm()
+        here = self.here_mm if self.here_mm is not None else self.rig.position_mm()
         self._execute(self.plan.moves_to(here, self.plan.park_mm, to_park=True))
-
-    def _position_mm(self) -> np.ndarray:
-        return self.plan.to_whisker(self.stage.status().mpos_mm)
 
     # -- one point --------------------------------------------------------------------------
     def _take_point(self, index: int) -> None:
         target = self.plan.rod_center_mm[index]
-        here = self.here_mm if self.here_mm is not None else self._position_mm()
+        here = self.here_mm if self.here_mm is not None else self.rig.position_mm()
         status = self._execute(self.plan.moves_to(here, target), point=index)
         encoder = self._check_encoder(status, index)
         acq = self.config.acquisition
         try:
-            self.recorder.drain()
-            if acq.settle_s > 0:
-                self.recorder.read_for(acq.settle_s)
-            block = self.recorder.read(acq.samples_per_point, label=index)
+            samples = self.rig.measure(acq.samples_per_point, acq.settle_s,
+                                       on_stale=lambda older: self.recorder.keep(older, -1))
+            block = self.recorder.keep(samples, label=index)
         except OverloadError:
             self._retract()
             raise
-        truth = self.truth() if self.truth is not None else None
+        truth = None
+        if self.truth is not None:
+            truth = self.truth(float(samples.t_s[0]), float(samples.t_s[-1]))
         self.checkpoint.add_point(self._record(index, status, encoder, block),
                                   self.recorder.take_chunk(), truth)
 
@@ -243,63 +169,33 @@ class Collector:
         """Run moves one by one, reading the sensor while each runs; return the last status."""
         status = None
         for move in moves:
-            stage_xy = self.plan.to_stage(move.end_mm)
             try:
-                self.stage.move_to(float(stage_xy[0]), float(stage_xy[1]), move.feed_mm_min)
-                status = self.stage.wait_idle(self.config.motion.move_timeout_s,
-                                              on_poll=self._read_while_moving)
+                status = self.rig.move_to(move.end_mm, move.feed_mm_min, on_poll=self._read_while_moving,
+                                          where=f" at point {point}" if point >= 0 else "")
             except OverloadError:
                 self._back_off()
                 raise
-            except DeviceError as error:
-                explained = _explain_alarm(error, point)
-                if explained is error:
-                    raise
-                raise explained from error
             self.here_mm = move.end_mm
-        return status if status is not None else self.stage.status()
+        return status if status is not None else self.rig.status()
 
     def _read_while_moving(self, status) -> None:
-        self.recorder.read_for(_POLL_S)
+        self.recorder.read_for(POLL_S)
 
     def _back_off(self) -> None:
         """Stop a move that overloads the whisker and lift the rod clear of it."""
-        self.stage.hold()
-        self._wait_stopped()
-        self.stage.reset()
-        if self.stage.status().alarm:
-            self.stage.unlock()
         self.here_mm = None
-        self._retract()
-
-    def _wait_stopped(self) -> None:
-        """Poll until a feed hold has brought the stage to rest (``Hold:1`` or ``Idle``)."""
-        polls = int(self.config.motion.move_timeout_s / _POLL_S)
-        for _ in range(polls):
-            state = self.stage.status().state
-            if state in ("Hold:1", "Idle") or state.startswith("Alarm"):
-                return
-            self.recorder.read_for(_POLL_S, guard=False)
-        raise DeviceError("stage did not come to rest after a feed hold; check it by hand")
+        self.rig.back_off(lambda here_stage_mm: self.plan.to_stage(
+            self._safe_above(self.plan.to_whisker(here_stage_mm))),
+            self.config.motion.travel_feed_mm_min)
 
     def _retract(self) -> None:
         """Move the rod straight up (+y) to the safe height above the whisker."""
-        here = self._position_mm()
-        safe = np.array([here[0], max(here[1], self.config.approach.safe_y_mm)])
+        here = self.rig.position_mm()
+        safe = self._safe_above(here)
         if not np.allclose(here, safe):
-            stage_xy = self.plan.to_stage(safe)
-            self.stage.move_to(float(stage_xy[0]), float(stage_xy[1]),
-                               self.config.motion.travel_feed_mm_min)
-            self.stage.wait_idle(self.config.motion.move_timeout_s,
-                                 on_poll=lambda status: self.recorder.read_for(_POLL_S, guard=False))
+            self.rig.move_to(safe, self.config.motion.travel_feed_mm_min)
         self.here_mm = safe
 
-
-def _explain_alarm(error: DeviceError, point: int) -> DeviceError:
-    """Give the encoder alarm the same clear message as the host's own comparison."""
-    if isinstance(error, StageAlarmError) and error.code == ALARM_ENCODER_MISMATCH:
-        where = f" at point {point}" if point >= 0 else ""
-        return EncoderMismatchError(
-            f"stage encoder and step positions disagree{where} (ALARM:10): missed steps or a "
-            "stall; re-home the stage and continue with --resume")
-    return error
+    def _safe_above(self, here_mm: np.ndarray) -> np.ndarray:
+        """Straight above a whisker-frame position, at least at the safe y, mm."""
+        return np.array([here_mm[0], max(here_mm[1], self.config.approach.safe_y_mm)])

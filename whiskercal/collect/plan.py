@@ -15,28 +15,26 @@ import numpy as np
 
 from whiskercal.collect.config import CollectConfig, GridConfig
 from whiskercal.errors import UsageError
+from whiskercal.session.frame import RigFrame
 
 # Lattice points closer than this to a band edge would be in or out by rounding; the default
 # bands keep every lattice point more than 0.15 mm / 0.3 deg away from their edges.
 _EDGE_EPS = 1e-9
 
 
-def rotation(angle_rad: float) -> np.ndarray:
-    """2x2 counter-clockwise rotation matrix."""
-    c, s = np.cos(angle_rad), np.sin(angle_rad)
-    return np.array([[c, -s], [s, c]])
-
-
 def whisker_to_stage(points_mm: np.ndarray, origin_stage_mm, angle_deg: float) -> np.ndarray:
     """Whisker-frame points (..., 2) mm to stage machine coordinates (..., 2) mm."""
-    turn = rotation(np.radians(angle_deg))
-    return np.asarray(points_mm, float) @ turn.T + np.asarray(origin_stage_mm, float)
+    return RigFrame.from_degrees(origin_stage_mm, angle_deg).to_stage(points_mm)
 
 
 def stage_to_whisker(points_mm: np.ndarray, origin_stage_mm, angle_deg: float) -> np.ndarray:
     """Stage machine coordinates (..., 2) mm to whisker-frame points (..., 2) mm."""
-    turn = rotation(np.radians(angle_deg))
-    return (np.asarray(points_mm, float) - np.asarray(origin_stage_mm, float)) @ turn
+    return RigFrame.from_degrees(origin_stage_mm, angle_deg).to_whisker(points_mm)
+
+
+def rig_frame(config: CollectConfig) -> RigFrame:
+    """The whisker frame in stage coordinates, as the config's [rig] table states it."""
+    return RigFrame.from_degrees(config.rig.origin_stage_mm, config.rig.angle_deg)
 
 
 def angle_floor_deg(grid: GridConfig, reach_mm) -> np.ndarray:
@@ -98,15 +96,18 @@ class GridPlan:
         """Whisker-frame parking position for the static baselines, mm."""
         return np.asarray(self.config.approach.park_mm, float)
 
+    @property
+    def frame(self) -> RigFrame:
+        """This plan's rig geometry: the whisker frame in stage coordinates."""
+        return rig_frame(self.config)
+
     def to_stage(self, points_mm: np.ndarray) -> np.ndarray:
         """Whisker frame to stage coordinates with this plan's rig geometry."""
-        rig = self.config.rig
-        return whisker_to_stage(points_mm, rig.origin_stage_mm, rig.angle_deg)
+        return self.frame.to_stage(points_mm)
 
     def to_whisker(self, points_mm: np.ndarray) -> np.ndarray:
         """Stage coordinates to the whisker frame with this plan's rig geometry."""
-        rig = self.config.rig
-        return stage_to_whisker(points_mm, rig.origin_stage_mm, rig.angle_deg)
+        return self.frame.to_whisker(points_mm)
 
     def moves_to(self, start_mm: np.ndarray, target_mm: np.ndarray, to_park: bool = False) -> list[Move]:
         """The moves from ``start_mm`` to a grid point (or the park position), whisker frame.

@@ -63,22 +63,14 @@ class StreamRecorder:
     def read(self, n: int, label: int = -1, guard: bool = True) -> Block:
         """Read the next ``n`` samples (waiting on the sensor's clock), label and keep them."""
         block = self.sensor.read(n, timeout_s=n / self.rate_hz + 1.0)
-        return self._keep(block, label, guard)
-
-    def drain(self, guard: bool = True) -> Block:
-        """Keep every sample already received (possibly none), labelled as between points.
-
-        Called before each measurement: a host that fell behind the stream (a busy machine, a
-        stream paced faster than the host reads) then measures on fresh samples, never on a
-        backlog taken before the stage arrived.
-        """
-        return self._keep(self.sensor.read_available(), -1, guard)
+        return self.keep(block, label, guard)
 
     def read_for(self, seconds: float, label: int = -1, guard: bool = True) -> Block:
         """Read the samples of ``seconds`` s of sensor time (at least one)."""
         return self.read(max(1, int(round(seconds * self.rate_hz))), label, guard)
 
-    def _keep(self, block, label: int, guard: bool) -> Block:
+    def keep(self, block, label: int = -1, guard: bool = True) -> Block:
+        """Keep a block read elsewhere (a ``SampleBlock``), labelled with a plan index or -1."""
         t_s = block.t_s + self._shift(block)
         self.dropped += block.dropped
         self.corrupt += block.corrupt

@@ -6,7 +6,6 @@ directly with port URLs or open pyserial objects.
 
 from __future__ import annotations
 
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -16,13 +15,12 @@ from whiskercal.collect.checkpoint import Checkpoint, recorded_fingerprint
 from whiskercal.collect.config import CollectConfig
 from whiskercal.collect.estimate import limit_problems
 from whiskercal.collect.journal import journal_path
-from whiskercal.collect.loop import Collector, Devices, Progress, identify
-from whiskercal.collect.plan import GridPlan
+from whiskercal.collect.loop import Collector, Devices, Progress
+from whiskercal.collect.plan import GridPlan, rig_frame
 from whiskercal.collect.twin_truth import twin_truth
 from whiskercal.errors import UsageError, WhiskercalError
-
-# grbl settings the run reads from the stage: travel X/Y ($130/$131).
-_TRAVEL_SETTINGS = (130, 131)
+from whiskercal.protocol.sensor_config import SensorConfig
+from whiskercal.session import RigSession, SessionConfig
 
 
 @dataclass
@@ -46,24 +44,25 @@ class RunSummary:
         return asdict(self)
 
 
-def stage_travel_mm(devices: Devices, config: CollectConfig) -> tuple[float, float]:
-    """The stage's own travel ($130/$131) when it reports one, else the configured travel, mm."""
-    values = [devices.stage_settings.get(n) for n in _TRAVEL_SETTINGS]
-    if all(v is not None for v in values):
-        return float(values[0]), float(values[1])
-    return config.safety.travel_mm
+def session_config(config: CollectConfig) -> SessionConfig:
+    """What the rig session needs from a collection config."""
+    sensor = config.sensor
+    return SessionConfig(frame=rig_frame(config),
+                         sensor=SensorConfig(sensor.rate_hz, sensor.gain, sensor.res, sensor.osr,
+                                             sensor.filt),
+                         home=config.motion.home, move_timeout_s=config.motion.move_timeout_s,
+                         travel_mm=config.safety.travel_mm, home_setting="motion.home")
 
 
-def check_limits(plan: GridPlan, devices: Devices) -> None:
-    """Refuse, before anything moves, a plan that leaves the stage's travel.
+def check_limits(plan: GridPlan, travel_mm: tuple[float, float]) -> None:
+    """Refuse, before anything moves, a plan that leaves the stage's travel (mm).
 
     Raises
     ------
     UsageError
         Naming the first waypoint outside the travel.
     """
-    travel = stage_travel_mm(devices, plan.config)
-    problems = limit_problems(plan, travel, plan.config.safety.margin_mm)
+    problems = limit_problems(plan, travel_mm, plan.config.safety.margin_mm)
     if problems:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise UsageError(f"plan leaves the stage travel: {problems[0]}{more}; "
@@ -81,12 +80,12 @@ def make_header(plan: GridPlan, devices: Devices, sensor_id: str) -> RawHeader:
                      config=config, sensor_id=sensor_id, rod_radius_mm=plan.config.rig.rod_radius_mm)
 
 
-def _sensor_id(config: CollectConfig, devices: Devices, port) -> str:
+def _sensor_id(config: CollectConfig, rig: RigSession) -> str:
     if config.rig.sensor_id:
         return config.rig.sensor_id
-    world = getattr(port, "world", None)
+    world = getattr(rig.sensor_port, "world", None)
     twin_id = getattr(getattr(world, "sensor", None), "sensor_id", None)
-    return str(twin_id or devices.sensor)
+    return str(twin_id or rig.devices.sensor)
 
 
 def check_resumable(out: Path, plan: GridPlan) -> None:
@@ -122,6 +121,8 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
 
     ``stage_port``/``sensor_port`` are URLs, device names or open pyserial objects; tests may
     pass ready clients instead (``stage_client``/``sensor_client``), which are left open.
+    However the run ends, the stage is halted if it moves and the sensor stream is stopped
+    (``RigSession``).
 
     Raises
     ------
@@ -129,46 +130,25 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
         Device failures, alarms, the overload guard, a refused resume; every point taken
         before the failure is in the file, and the message says how to continue.
     """
-    from whiskercal.rig.sensor import SensorClient
-    from whiskercal.rig.stage import StageClient
-
     out = Path(out)
-    wall_start = time.monotonic()
     if resume:
         check_resumable(out, plan)
-    stage = stage_client or StageClient(stage_port)
-    try:
-        sensor = sensor_client or SensorClient(sensor_port)
-        try:
-            return _session(stage, sensor, out, plan, resume, on_progress, stop_requested, wall_start)
-        finally:
-            if sensor_client is None:
-                _close_port(sensor)
-    finally:
-        if stage_client is None:
-            _close_port(stage)
+    with RigSession.open(stage_port, sensor_port, session_config(plan.config),
+                         stage_client=stage_client, sensor_client=sensor_client) as rig:
+        return _session(rig, out, plan, resume, on_progress, stop_requested)
 
 
-def _close_port(client) -> None:
-    close = getattr(client.transport.port, "close", None)
-    if close is not None:
-        close()
-
-
-def _session(stage, sensor, out: Path, plan: GridPlan, resume: bool, on_progress, stop_requested,
-             wall_start: float) -> RunSummary:
-    """Identify, check, open the checkpoint and run the collector on open clients."""
-    devices = identify(stage, sensor)
-    check_limits(plan, devices)
-    header = make_header(plan, devices, _sensor_id(plan.config, devices, sensor.transport.port))
+def _session(rig: RigSession, out: Path, plan: GridPlan, resume: bool, on_progress,
+             stop_requested) -> RunSummary:
+    """Check, open the checkpoint and run the collector on an open rig session."""
+    check_limits(plan, rig.travel_mm)
+    header = make_header(plan, rig.devices, _sensor_id(plan.config, rig))
     checkpoint = open_checkpoint(out, header, resume)
     if checkpoint.complete:  # killed after completing, before the journal was removed
         checkpoint.close()
         journal_path(out).unlink(missing_ok=True)
         raise UsageError(f"{out}: the run is already complete; nothing to resume")
-    stage_start_s = stage.transport.now_s()
-    collector = Collector(stage, sensor, plan, checkpoint, devices,
-                          truth=twin_truth(sensor.transport.port, _averaging_s(plan)),
+    collector = Collector(rig, plan, checkpoint, truth=twin_truth(rig.sensor_port),
                           on_progress=on_progress, stop_requested=stop_requested)
     try:
         complete = collector.run()
@@ -182,13 +162,7 @@ def _session(stage, sensor, out: Path, plan: GridPlan, resume: bool, on_progress
         checkpoint.finish()
     else:
         checkpoint.close()
-    return _summary(collector, checkpoint, out, stage.transport.now_s() - stage_start_s,
-                    time.monotonic() - wall_start)
-
-
-def _averaging_s(plan: GridPlan) -> float:
-    """How long averaging one point takes on the sensor's clock, s."""
-    return plan.config.acquisition.samples_per_point / plan.config.sensor.rate_hz
+    return _summary(collector, checkpoint, out)
 
 
 def _with_saved_points(error: WhiskercalError, taken: int, planned: int, out: Path) -> WhiskercalError:
@@ -200,27 +174,22 @@ def _with_saved_points(error: WhiskercalError, taken: int, planned: int, out: Pa
     return wrapped
 
 
-def _summary(collector: Collector, checkpoint: Checkpoint, out: Path, stage_s: float,
-             wall_s: float) -> RunSummary:
+def _summary(collector: Collector, checkpoint: Checkpoint, out: Path) -> RunSummary:
     drift = None
     if {"before", "after"} <= set(checkpoint.baselines):
         drift = float(checkpoint.baselines["after"].field_uT[1]
                       - checkpoint.baselines["before"].field_uT[1])
+    session = collector.rig.summary()
     return RunSummary(points=len(checkpoint.taken), planned=len(collector.plan),
                       complete=checkpoint.complete, stopped=collector.stopped,
-                      taken_this_run=collector.taken_now, stage_time_s=float(stage_s),
-                      wall_time_s=float(wall_s), dropped=int(collector.recorder.total_dropped),
-                      corrupt=int(collector.recorder.total_corrupt),
-                      baseline_drift_uT=drift, output=str(out))
+                      taken_this_run=collector.taken_now, stage_time_s=session.stage_time_s,
+                      wall_time_s=session.wall_time_s, dropped=session.dropped,
+                      corrupt=session.corrupt, baseline_drift_uT=drift, output=str(out))
 
 
 def read_stage_settings(stage_port) -> dict[int, float]:
     """Open the stage only to read its settings (for ``--dry-run``), then close it."""
     from whiskercal.rig.stage import StageClient
 
-    stage = StageClient(stage_port)
-    try:
+    with StageClient(stage_port) as stage:
         return stage.settings()
-    finally:
-        _close_port(stage)
-

@@ -2,9 +2,9 @@
 
 Only a simulated sensor port carries the world (``port.world``); on a real rig there is no
 truth and :func:`twin_truth` returns None. The world records the truth of every sample its
-sensor board converts (``world.truth``, twin/world.py); a point's truth is taken from the
-samples converted while the point was being averaged (the stage stands still then, so they
-all describe one equilibrium): the middle one's state and their mean noise-free z.
+sensor board converts (``world.truth``); a point's truth is taken from the samples converted
+between the board times of the point's first and last averaged sample (the stage stands still
+then, so they all describe one equilibrium): the middle one's state and their mean noise-free z.
 """
 
 from __future__ import annotations
@@ -13,6 +13,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+# The board stamps whole µs: a sample's time may differ from its truth row's by up to half this.
+_BOARD_TICK_S = 1e-6
 # Fields of the world's truth record that map one-to-one onto TRUTH_FIELDS.
 _SAME = {"stage_mm": "stage_mm", "tool_mm": "rod_center_mm", "contact_mm": "contact_mm",
          "tip_mm": "tip_mm", "root_rotation_rad": "root_rotation_rad"}
@@ -37,19 +39,20 @@ def truth_over_window(record: dict[str, np.ndarray], t_start_s: float, t_end_s: 
     return fields
 
 
-def twin_truth(port, window_s: float) -> Callable[[], dict[str, Any]] | None:
-    """A callable giving the twin's truth for the samples just averaged, or None on a real rig.
+def twin_truth(port) -> Callable[[float, float], dict[str, Any]] | None:
+    """A callable giving the twin's truth over the board times (s) of a point's first and last
+    averaged sample, or None on a real rig.
 
-    ``window_s`` is how long (s) averaging one point takes, counted back from the world's now.
+    The twin's board stamps each sample with the simulated time of its conversion, so the
+    samples' own times find their truth rows, however late the host read them.
     """
     world = getattr(port, "world", None)
-    if world is None or not hasattr(world, "truth") or not hasattr(world, "now_s"):
+    if world is None or not hasattr(world, "truth") or not hasattr(world, "lock"):
         return None
 
-    def truth_now() -> dict[str, Any]:
+    def truth_over(t_start_s: float, t_end_s: float) -> dict[str, Any]:
         with world.lock:
-            now_s = float(world.now_s)
             record = world.truth.arrays()
-        return truth_over_window(record, now_s - window_s, now_s)
+        return truth_over_window(record, t_start_s - _BOARD_TICK_S, t_end_s + _BOARD_TICK_S)
 
-    return truth_now
+    return truth_over

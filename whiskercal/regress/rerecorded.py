@@ -77,7 +77,7 @@ def z_step_uT(study_path) -> float:
     """µT per count of z (the magnetometer's Y axis) at the settings a study was recorded with."""
     from whiskercal.rig import mlx90393
     from whiskercal.rig.overload import SENSOR_AXIS_Y
-    from whiskercal.study.dataset import read_study
+    from whiskercal.artifacts.plane_study import read_study
 
     sensor = read_study(study_path).config["sensor"]
     return float(mlx90393.lsb_uT(int(sensor["gain"]), int(sensor["res"]))[SENSOR_AXIS_Y])

@@ -21,6 +21,11 @@ from whiskercal.rig.transport import DeviceTimeout, Transport, open_port
 
 _CONFIG_FIELD = re.compile(r"(\w+)=(-?\d+)")
 _READ_CHUNK_BYTES = 4096
+# Answered "OK" by a streaming board without changing anything: the sync marker (see sync()).
+SYNC_COMMAND = "START"
+# How long a sync may wait (s) once the host has read all that arrived: the board answers at
+# once, but a host or a simulated board starved of CPU may take seconds.
+SYNC_TIMEOUT_S = 5.0
 
 
 class SensorCommandError(DeviceError):
@@ -52,6 +57,26 @@ class SampleBlock:
 
     def __len__(self) -> int:
         return len(self.seq)
+
+    def split(self, index: int) -> tuple["SampleBlock", "SampleBlock"]:
+        """The samples before ``index`` and those from it on; the frame counts go with the first."""
+        def part(sl: slice, dropped: int, corrupt: int) -> SampleBlock:
+            return SampleBlock(self.seq[sl], self.t_s[sl], self.counts[sl], self.field_uT[sl],
+                               self.status[sl], dropped, corrupt)
+
+        return (part(slice(None, index), self.dropped, self.corrupt),
+                part(slice(index, None), 0, 0))
+
+    @classmethod
+    def join(cls, blocks: list["SampleBlock"]) -> "SampleBlock":
+        """Consecutive blocks as one (frame counts added up); no blocks give an empty one."""
+        if not blocks:
+            return cls(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3), np.int64),
+                       np.zeros((0, 3)), np.zeros(0, np.uint8))
+        return cls(*(np.concatenate([getattr(b, name) for b in blocks])
+                     for name in ("seq", "t_s", "counts", "field_uT", "status")),
+                   dropped=sum(int(b.dropped) for b in blocks),
+                   corrupt=sum(int(b.corrupt) for b in blocks))
 
 
 @dataclass
@@ -100,19 +125,35 @@ class SensorClient:
         self._corrupt_reported = 0
         self.streaming = False
 
+    def close(self) -> None:
+        """Close the port. Nothing is sent: a streaming board keeps streaming (see
+        ``whiskercal.session.RigSession``, which stops it first)."""
+        self.transport.close()
+
+    def __enter__(self) -> "SensorClient":
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
     @property
     def corrupt(self) -> int:
         """Frames rejected (CRC or header) and resynchronizations since the port was opened."""
         return self._decoder.corrupt
 
     # -- commands ---------------------------------------------------------------------------
-    def command(self, line: str) -> str:
-        """Send one command line and return the text after ``OK``; ``ERR:N`` raises."""
+    def command(self, line: str, timeout_s: float | None = None) -> str:
+        """Send one command line and return the text after ``OK``; ``ERR:N`` raises.
+
+        The answer may take ``timeout_s`` (default: the client's) once the host has read all
+        that arrived before it; samples meanwhile are kept.
+        """
+        timeout_s = self.timeout_s if timeout_s is None else timeout_s
         self.transport.write(line.encode("ascii") + b"\n")
-        deadline = self.transport.now_s() + self.timeout_s
+        deadline = self.transport.now_s() + timeout_s
         while True:
             if not self._frames:
-                self._receive(deadline, repr(line))
+                self._receive(deadline, repr(line), timeout_s)
                 continue
             frame = self._frames.pop(0)
             if isinstance(frame, Sample):
@@ -122,11 +163,11 @@ class SensorClient:
             elif frame == "OK" or frame.startswith("OK "):
                 return frame[3:]
 
-    def _receive(self, deadline: float, what: str) -> None:
+    def _receive(self, deadline: float, what: str, timeout_s: float) -> None:
         remaining = deadline - self.transport.now_s()
         data = self.transport.read_some(_READ_CHUNK_BYTES, max(remaining, 0.0))
         if not data and remaining <= 0:
-            raise self.transport.timed_out(what, self.timeout_s)
+            raise self.transport.timed_out(what, timeout_s)
         self._frames += self._decoder.feed(data)
 
     def identify(self, attempts: int = 3) -> str:
@@ -164,17 +205,73 @@ class SensorClient:
 
     def start(self) -> None:
         """Start the sample stream; sequence and time unwrapping start afresh (unread samples
-        of an earlier stream are discarded)."""
+        of an earlier stream are discarded). The answer may take as long as a sync's: a board
+        simulated in real time (``whiskercal sim serve``) on a busy machine sends it only after
+        computing its first conversions."""
         if self._config is None:
             self.config()
         self._unwrapper = _Unwrapper()
-        self.command("START")
+        self.command("START", SYNC_TIMEOUT_S)
         self.streaming = True
 
     def stop(self) -> None:
         """Stop the sample stream; samples that arrived before the answer stay readable."""
         self.command("STOP")
         self.streaming = False
+
+    def sync(self, attempts: int = 3) -> float:
+        """The board time (s) from which every sample was converted after this call began.
+
+        The host cannot see how many samples wait in the OS's and the USB bridge's buffers, so
+        "what has arrived" says nothing about when a sample was taken. The board's answer to a
+        command does: it travels in the stream behind every sample converted before the board
+        read the command, and ahead of every later one. ``START`` while streaming is answered
+        ``OK`` and changes nothing (docs/protocol.md), the shortest answer there is. The first
+        sample behind the answer may have been triggered up to one period before the board read
+        the command (its conversion was under way), so the time returned is one period after
+        it. Samples read on the way stay readable.
+
+        An answer lost with other frames on the way (a full OS buffer, a corrupted frame) is
+        asked for again, up to ``attempts`` times; without such a loss a missing answer means
+        the board does not answer, and a repeat could only leave a late answer behind to be
+        mistaken for the next one's.
+
+        Raises
+        ------
+        DeviceError
+            When the board is not streaming or does not answer.
+        """
+        if not self.streaming:
+            raise DeviceError(f"sensor on {self.transport.name} is not streaming; nothing to sync on")
+        for attempt in range(1, attempts + 1):
+            lost = self._frames_lost()
+            try:
+                self.command(SYNC_COMMAND, SYNC_TIMEOUT_S)
+                break
+            except DeviceTimeout:
+                if attempt == attempts or self._frames_lost() == lost:
+                    raise
+        ahead = len(self._unwrapper.rows)  # samples kept up to the answer
+        self._take([])  # samples decoded behind the answer
+        return self._first_sample_after(ahead) + 1.0 / self._rate_hz()
+
+    def _first_sample_after(self, behind: int) -> float:
+        """Board time (s) of the first sample after the first ``behind`` kept ones, waiting for it."""
+        deadline = self.transport.now_s() + SYNC_TIMEOUT_S
+        while len(self._unwrapper.rows) <= behind:
+            remaining = deadline - self.transport.now_s()
+            data = self.transport.read_some(_READ_CHUNK_BYTES, max(remaining, 0.0))
+            if not data and remaining <= 0:
+                raise self.transport.timed_out("a sample after the sync answer", SYNC_TIMEOUT_S)
+            self._take(self._decoder.feed(data))
+        return self._unwrapper.rows[behind][1] * 1e-6
+
+    def _frames_lost(self) -> int:
+        """Corruption events and dropped samples seen so far (counted or not yet reported)."""
+        return self._decoder.corrupt + self.dropped + self._unwrapper.dropped
+
+    def _rate_hz(self) -> float:
+        return float((self._config or SensorConfig()).rate_hz)
 
     # -- samples ----------------------------------------------------------------------------
     def read(self, n: int, timeout_s: float = 1.0) -> SampleBlock:

@@ -160,6 +160,17 @@ class StageClient:
         self._pending = bytearray()
         self.banner: str | None = None
 
+    def close(self) -> None:
+        """Close the port. Nothing is sent: a stage that is moving keeps moving (see
+        ``whiskercal.session.RigSession``, which halts it first)."""
+        self.transport.close()
+
+    def __enter__(self) -> "StageClient":
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
     # -- lines ------------------------------------------------------------------------------
     def _read_line(self, timeout_s: float, what: str) -> str:
         deadline = self.transport.now_s() + timeout_s

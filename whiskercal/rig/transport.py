@@ -88,6 +88,15 @@ class Transport:
         except (serial.SerialException, OSError) as error:
             raise self.lost(error) from error
 
+    def close(self) -> None:
+        """Close the port (a port that is already closed or cannot be closed is left alone)."""
+        close = getattr(self.port, "close", None)
+        if close is not None:
+            try:
+                close()
+            except (serial.SerialException, OSError):
+                pass  # an unplugged device: nothing left to release
+
     def lost(self, error: Exception) -> DeviceError:
         """The error for a port that stopped working (unplugged cable, closed pty)."""
         return DeviceError(f"{self.device} on {self.name} is disconnected or not responding "

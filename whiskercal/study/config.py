@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from whiskercal.collect.plan import rotation
 from whiskercal.errors import UsageError
+from whiskercal.session.frame import RigFrame
 from whiskercal.tomlconfig import merge_overrides, read_toml
 
 DEFAULTS_RESOURCE = "default_study.toml"
@@ -148,9 +148,15 @@ class PlaneGeometry:
         """Unit direction (whisker frame) of the slide, along the plane."""
         return self.slide_sign * np.array([np.sin(self.tilt_rad), -np.cos(self.tilt_rad)])
 
+    @property
+    def frame(self) -> RigFrame:
+        """The whisker frame in stage coordinates."""
+        x_mm, y_mm = (float(v) for v in self.origin_stage_mm)
+        return RigFrame((x_mm, y_mm), self.angle_rad)
+
     def to_stage_vector(self, vector_whisker: np.ndarray) -> np.ndarray:
         """A direction or displacement (whisker frame) in stage coordinates."""
-        return rotation(self.angle_rad) @ np.asarray(vector_whisker, float)
+        return self.frame.vector_to_stage(vector_whisker)
 
     def contact_guess_stage_mm(self) -> np.ndarray:
         """Stage position at which the plane would pass through the undeflected tip."""
@@ -160,7 +166,7 @@ class PlaneGeometry:
     def plane_line_whisker(self, stage_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The plane's line in the whisker frame for stage positions (n, 2): points and normals."""
         stage_mm = np.atleast_2d(np.asarray(stage_mm, float))
-        points = (stage_mm + self.fixture_offset_mm - self.origin_stage_mm) @ rotation(self.angle_rad)
+        points = self.frame.to_whisker(stage_mm + self.fixture_offset_mm)
         normals = np.tile(self.push_whisker, (stage_mm.shape[0], 1))
         return points, normals
 

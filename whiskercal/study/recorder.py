@@ -47,16 +47,20 @@ class StreamRecorder:
         The stage port's clock (s): simulated time on the twin.
     res
         The configured MLX90393 resolution code (sets the axes' saturation count).
+    fresh_from_s
+        Board time (s) of the first sample to record (``RigSession.sync``): older samples still
+        queued when the trial starts are guarded and counted, not recorded.
     """
 
     def __init__(self, sensor, rate_hz: float, static_y_uT: float, overload_uT: float, clock,
-                 res: int = 2):
+                 res: int = 2, fresh_from_s: float = -np.inf):
         self.sensor = sensor
         self.chunk = max(1, int(round(rate_hz * POLL_PERIOD_S)))
         self.static_y_uT = float(static_y_uT)
         self.overload_uT = float(overload_uT)
         self.res = res
         self.clock = clock
+        self.fresh_from_s = fresh_from_s
         self.phase = 0
         self.samples = 0
         self._stream = _Chunks()
@@ -73,6 +77,13 @@ class StreamRecorder:
             self._append(block)
 
     def _append(self, block) -> None:
+        if len(block) == 0:
+            return
+        self.dropped += int(block.dropped)
+        self.corrupt += int(block.corrupt)
+        check_overload(block.field_uT, block.counts, block.status, res=self.res,
+                       static_y_uT=self.static_y_uT, limit_uT=self.overload_uT, moved="plane")
+        _, block = block.split(int(np.searchsorted(block.t_s, self.fresh_from_s)))
         n = len(block)
         if n == 0:
             return
@@ -84,10 +95,6 @@ class StreamRecorder:
         stream.status.append(block.status)
         stream.phase.append(np.full(n, self.phase, np.int8))
         self.samples += n
-        self.dropped += int(block.dropped)
-        self.corrupt += int(block.corrupt)
-        check_overload(block.field_uT, block.counts, block.status, res=self.res,
-                       static_y_uT=self.static_y_uT, limit_uT=self.overload_uT, moved="plane")
 
     def on_poll(self, status) -> None:
         """``StageClient.wait_idle`` callback: keep the status, then read the sensor meanwhile."""

@@ -2,8 +2,8 @@
 
 Order of work (docs/study.md):
 
-1. identify both devices, home the stage (or require it homed), check every waypoint of every
-   trial against the stage's travel (soft limits) before anything moves;
+1. identify both devices, check every waypoint of every trial against the stage's travel (soft
+   limits) before anything moves, home the stage (or require it homed);
 2. configure and start the sensor; park the plane clear of the whisker and measure the static
    baseline;
 3. find first contact: step the plane in along its normal until |z| exceeds the threshold; that
@@ -12,26 +12,29 @@ Order of work (docs/study.md):
    velocity along the plane (a G1 with both axes when the plane is not aligned with one) while
    recording the stream and the stage's status, back off; add the trial to the file atomically.
 
-The clients are passed in (``StageClient``/``SensorClient`` or anything with their methods), so
-the loop runs unchanged on a real rig, on the twin and against test fakes.
+The run goes through a ``RigSession`` (whiskercal/session), which halts the stage and stops the
+sensor however the run ends, so it runs unchanged on a real rig, on the twin and on test fakes.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE,
-                                              StudyWriter, TrialRecord)
-from whiskercal.collect.loop import Progress
 from whiskercal.errors import DeviceError, UsageError
+from whiskercal.progress import Progress
+from whiskercal.protocol.sensor_config import SensorConfig
+from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError
+from whiskercal.session import RigSession, SessionConfig
 from whiskercal.study import truth as truth_module
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError
-from whiskercal.study.recorder import POLL_PERIOD_S, StreamRecorder, stage_position_per_sample
+from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE, StudyWriter,
+                                      TrialRecord)
+from whiskercal.study.recorder import StreamRecorder, stage_position_per_sample
 
 ProgressCallback = Callable[[Progress], None]
 
@@ -42,7 +45,7 @@ class NoContactError(DeviceError):
 
 @dataclass
 class RunSummary:
-    """What a run did (times on the stage port's clock: simulated on the twin)."""
+    """What a run did (stage time on the stage port's clock: simulated on the twin; s)."""
 
     out: str
     trials_done: list[float] = field(default_factory=list)
@@ -52,15 +55,60 @@ class RunSummary:
     stage_time_s: float = 0.0
     dropped: int = 0
     corrupt: int = 0
+    wall_time_s: float = 0.0
+
+
+def session_config(config: dict) -> SessionConfig:
+    """What the rig session needs from a study configuration."""
+    sensor, safety = config["sensor"], config["safety"]
+    return SessionConfig(frame=PlaneGeometry.from_config(config).frame,
+                         sensor=SensorConfig(int(sensor["rate_hz"]), int(sensor["gain"]),
+                                             int(sensor["res"]), int(sensor["osr"]),
+                                             int(sensor["filt"])),
+                         home=bool(safety["home"]), move_timeout_s=float(safety["move_timeout_s"]),
+                         home_setting="safety.home")
+
+
+def run_study(stage_port, sensor_port, out_path: str | Path, config: dict, resume: bool = False,
+              progress: ProgressCallback | None = None, *, stage_client=None,
+              sensor_client=None) -> RunSummary:
+    """Run (or with ``resume`` continue) the study into ``out_path``; return what was done.
+
+    ``stage_port``/``sensor_port`` are URLs, device names or open pyserial objects; ready
+    clients (``stage_client``/``sensor_client``) are used as they are and left open. On the
+    twin (a simulated sensor port) the world's rig must carry the configured plane, and each
+    trial gets the twin's truth per sample.
+
+    Raises
+    ------
+    WhiskercalError
+        Device failures, alarms, the overload guard, no contact, a refused resume; every
+        finished trial is in the file and ``resume`` continues with the rest.
+    """
+    with RigSession.open(stage_port, sensor_port, session_config(config),
+                         stage_client=stage_client, sensor_client=sensor_client) as rig:
+        world = getattr(rig.sensor_port, "world", None)
+        if world is not None:
+            truth_module.check_world(world, PlaneGeometry.from_config(config))  # before a file
+        writer = StudyWriter(out_path, config, _sensor_id(world, rig), resume=resume)
+        return StudyRun(rig, config, writer, world=world, progress=progress).run()
+
+
+def _sensor_id(world, rig: RigSession) -> str:
+    """The twin's sensor id, else the board's identity line."""
+    sensor_params = getattr(world, "sensor", None)
+    if sensor_params is not None and getattr(sensor_params, "sensor_id", None):
+        return str(sensor_params.sensor_id)
+    return rig.devices.sensor
 
 
 class StudyRun:
-    """One run of the study against a stage and a sensor.
+    """One run of the study on an open rig session.
 
     Parameters
     ----------
-    stage, sensor
-        Open clients (see docs/architecture.md, "The rig interface").
+    rig
+        The open session (not yet started: ``run`` starts it).
     config
         The full study configuration (``whiskercal.study.config.load_config``).
     writer
@@ -68,44 +116,36 @@ class StudyRun:
     world
         The twin's world when the sensor port is simulated (for /truth), else None.
     progress
-        Called with a ``whiskercal.collect.loop.Progress`` (trials done of the total, rate, time
+        Called with a ``whiskercal.progress.Progress`` (trials done of the total, rate, time
         left) before each trial and at the end.
     """
 
-    def __init__(self, stage, sensor, config: dict, writer: StudyWriter, world=None,
+    def __init__(self, rig: RigSession, config: dict, writer: StudyWriter, world=None,
                  progress: ProgressCallback | None = None):
-        self.stage, self.sensor, self.config, self.writer = stage, sensor, config, writer
-        self.world = world
+        self.rig, self.config, self.writer, self.world = rig, config, writer, world
         self.geometry = PlaneGeometry.from_config(config)
         if world is not None:
             truth_module.check_world(world, self.geometry)
         self.progress = progress or (lambda info: None)
-        self.clock = getattr(getattr(stage, "transport", None), "now_s", None) or (lambda: 0.0)
         self.static_field_uT = np.full(3, np.nan)
         self.rate_hz = float(config["sensor"]["rate_hz"])
-        self._poll_samples = max(1, int(self.rate_hz * POLL_PERIOD_S))
 
     # -- the whole run -------------------------------------------------------------------------
     def run(self) -> RunSummary:
         """Do every trial that the file does not hold yet; return what was done."""
         summary = RunSummary(out=str(self.writer.path))
-        started = self.clock()
         # the plan with first contact where the geometry expects it, before anything moves
         self._check_travel(self.geometry.contact_guess_stage_mm())
-        self._prepare()
-        try:
-            contact = self._baseline_and_contact(self.writer.header())
-            summary.first_contact_stage_mm = contact.tolist()
-            self._check_travel(contact)
-            self._trials(contact, summary)
-            self.writer.mark_complete()
-            summary.complete = True
-        except KeyboardInterrupt:
-            self._stop_stage()  # the trial in progress is dropped; --resume redoes it
-            raise
-        finally:
-            self._stop_sensor()
-        summary.stage_time_s = float(self.clock() - started)
+        self.rig.start()
+        contact = self._baseline_and_contact(self.writer.header())
+        summary.first_contact_stage_mm = contact.tolist()
+        self._check_travel(contact)
+        self._trials(contact, summary)
+        self.writer.mark_complete()
+        summary.complete = True
+        session = self.rig.summary()
+        summary.stage_time_s, summary.wall_time_s = session.stage_time_s, session.wall_time_s
+        summary.dropped, summary.corrupt = session.dropped, session.corrupt
         return summary
 
     def _trials(self, contact: np.ndarray, summary: RunSummary) -> None:
@@ -116,83 +156,42 @@ class StudyRun:
         wall_start = time.monotonic()
         for depth in (d for d in depths if d not in done):
             self._report_progress(summary, depths, wall_start)
-            record = self._trial(contact, depth)
-            self.writer.add_trial(record)
+            self.writer.add_trial(self._trial(contact, depth))
             summary.trials_done.append(depth)
-            summary.dropped += int(record.attrs["dropped"])
-            summary.corrupt += int(record.attrs["corrupt"])
         self._report_progress(summary, depths, wall_start)
 
     def _report_progress(self, summary: RunSummary, depths: list[float], wall_start: float) -> None:
-        """Tell the progress callback how many trials are done (collect's Progress record)."""
+        """Tell the progress callback how many trials are done."""
         done = len(summary.trials_skipped) + len(summary.trials_done)
         self.progress(Progress(done=done, total=len(depths), taken_now=len(summary.trials_done),
                                elapsed_s=time.monotonic() - wall_start))
 
-    def _prepare(self) -> None:
-        self.stage.identify()
-        self.sensor.identify()
-        if self.config["safety"]["home"]:
-            self.stage.home()
-        elif self.stage.status().alarm:
-            raise DeviceError("the stage is locked in alarm (not homed); home it or set "
-                              "safety.home = true in the configuration")
-        sensor = self.config["sensor"]
-        self.sensor.configure(rate_hz=sensor["rate_hz"], gain=sensor["gain"], res=sensor["res"],
-                              osr=sensor["osr"], filt=sensor["filt"])
-        self.sensor.start()
-
-    def _stop_stage(self) -> None:
-        """Stop any move (feed hold, then flush the queue)."""
-        try:
-            self._halt()
-        except DeviceError:
-            pass  # the port is gone: the stage has stopped with it
-
-    def _stop_sensor(self) -> None:
-        try:
-            self.sensor.stop()
-        except DeviceError:
-            pass  # the port may be gone (unplugged); the file already holds every finished trial
-
     # -- soft limits ---------------------------------------------------------------------------
-    def _travel_mm(self) -> np.ndarray:
-        settings = self.stage.settings()
-        return np.array([settings.get(130, 200.0), settings.get(131, 200.0)], float)
-
     def _check_travel(self, contact_stage_mm: np.ndarray) -> None:
         """Refuse the run before moving when any waypoint leaves the stage's travel."""
-        travel = self._travel_mm()
+        travel = self.rig.travel_mm
         margin = float(self.config["safety"]["travel_margin_mm"])
         for depth in self.config["trials"]["depths_mm"]:
             points = self.geometry.trial_waypoints_stage_mm(contact_stage_mm, float(depth), self.config)
             for name, point in points.items():
-                if np.any(point < margin) or np.any(point > travel - margin):
+                if self.rig.outside_travel(point, margin):
                     raise UsageError(
                         f"the trial at {depth:g} mm needs the stage at ({point[0]:.1f}, {point[1]:.1f}) mm "
                         f"({name.replace('_', ' ')}), outside its travel 0..{travel[0]:g} x 0..{travel[1]:g} mm "
                         f"less {margin:g} mm; change geometry or trials in the configuration")
 
-    # -- moves ---------------------------------------------------------------------------------
+    # -- moves and measurements ----------------------------------------------------------------
     def _move(self, target_mm: np.ndarray, speed_mm_s: float, recorder: StreamRecorder | None,
               phase: int) -> None:
         """Move in a straight line (G1) and wait, reading the sensor meanwhile."""
         if recorder is not None:
             recorder.phase = phase
-        self.stage.move_to(float(target_mm[0]), float(target_mm[1]), speed_mm_s * 60.0)
-        timeout = float(self.config["safety"]["move_timeout_s"])
-        on_poll = recorder.on_poll if recorder is not None else self._drain
-        self.stage.wait_idle(timeout, on_poll=on_poll)
-
-    def _drain(self, status) -> None:
-        """Between polls when nothing is recorded: read and discard, so the buffer never fills."""
-        if not status.idle:
-            self.sensor.read(self._poll_samples, timeout_s=1.0)
-        self.sensor.read_available()
+        self.rig.move_to_stage(target_mm, speed_mm_s * 60.0,
+                               on_poll=recorder.on_poll if recorder is not None else None)
 
     def _mean_field(self, samples: int) -> tuple[np.ndarray, np.ndarray]:
-        self.sensor.read_available()  # older samples were taken while moving
-        block = self.sensor.read(samples, timeout_s=max(2.0, 3 * samples / self.rate_hz))
+        """Mean and spread (µT) of samples converted after the stage came to rest."""
+        block = self.rig.measure(samples)
         return block.field_uT.mean(axis=0), block.field_uT.std(axis=0)
 
     # -- baseline and first contact ------------------------------------------------------------
@@ -238,10 +237,12 @@ class StudyRun:
         trials = self.config["trials"]
         points = self.geometry.trial_waypoints_stage_mm(contact, depth_mm, self.config)
         self._move(points["retracted_start"], float(trials["rapid_speed_mm_s"]), None, PHASE_RETRACT)
-        recorder = StreamRecorder(self.sensor, self.rate_hz, self.static_field_uT[SENSOR_AXIS_Y],
-                                  float(self.config["safety"]["overload_uT"]), self.clock,
-                                  res=int(self.config["sensor"]["res"]))
-        self.sensor.read_available()
+        # the trial's stream starts with the samples converted after the stage came to rest
+        fresh_from_s = self.rig.sync()
+        recorder = StreamRecorder(self.rig.sensor, self.rate_hz, self.static_field_uT[SENSOR_AXIS_Y],
+                                  float(self.config["safety"]["overload_uT"]),
+                                  self.rig.stage_clock, res=int(self.config["sensor"]["res"]),
+                                  fresh_from_s=fresh_from_s)
         try:
             self._move(points["slide_start"], float(trials["approach_speed_mm_s"]), recorder, PHASE_APPROACH)
             self._move(points["slide_end"], float(trials["speed_mm_s"]), recorder, PHASE_SLIDE)
@@ -251,42 +252,18 @@ class StudyRun:
             raise
         return self._record(recorder, depth_mm, points)
 
-    def _behind_contact(self, contact_stage_mm: np.ndarray) -> np.ndarray:
-        """Where the stage is now, moved straight back along the normal to behind first contact."""
-        here = np.asarray(self.stage.status().mpos_mm, float)[:2]
-        depth = float(self.geometry.depth_of_stage_mm(here, contact_stage_mm)[0])
-        push = self.geometry.to_stage_vector(self.geometry.push_whisker)
-        return here - (depth + float(self.config["trials"]["retract_mm"])) * push
-
-    def _halt(self) -> None:
-        """Feed hold, wait until stopped, then flush the queue: a reset while the stage still
-        moves would lose its position (grbl's ALARM:3); after a hold it keeps it."""
-        self.stage.hold()
-        for _ in range(500):  # ~10 s of 20 ms status polls
-            state = self.stage.status().state
-            if state.startswith("Hold:1") or state in ("Idle", "Alarm"):
-                break
-            self._drain_quietly()
-        self.stage.reset()
-        self.stage.unlock()
-
-    def _drain_quietly(self) -> None:
-        try:
-            self.sensor.read(self._poll_samples, timeout_s=1.0)
-        except DeviceError:
-            pass
-
     def _back_off(self, reference_stage_mm: np.ndarray) -> None:
         """Stop, then retreat straight along the normal to ``retract_mm`` behind the reference
         (first contact) so the whisker is unloaded without sliding the plane."""
-        try:
-            self._halt()
-            safe_mm = self._behind_contact(reference_stage_mm)
-            self.stage.move_to(float(safe_mm[0]), float(safe_mm[1]),
-                               float(self.config["trials"]["approach_speed_mm_s"]) * 60.0)
-            self.stage.wait_idle(float(self.config["safety"]["move_timeout_s"]), on_poll=self._drain)
-        except DeviceError:
-            pass  # the overload is the error to report; a failed retreat must not hide it
+        push = self.geometry.to_stage_vector(self.geometry.push_whisker)
+        retract_mm = float(self.config["trials"]["retract_mm"])
+
+        def behind_reference(here_mm: np.ndarray) -> np.ndarray:
+            depth = float(self.geometry.depth_of_stage_mm(here_mm, reference_stage_mm)[0])
+            return here_mm - (depth + retract_mm) * push
+
+        self.rig.back_off(behind_reference,
+                          float(self.config["trials"]["approach_speed_mm_s"]) * 60.0)
 
     def _record(self, recorder: StreamRecorder, depth_mm: float, points: dict) -> TrialRecord:
         stream = recorder.stream_arrays()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import click
 
 from whiskercal.bench.runner import COMPARISONS
@@ -15,20 +13,9 @@ class BenchFailed(WhiskercalError):
     """One or more comparisons raised; their errors are in bench.json."""
 
 
-def _progress(app: App):
-    if not app.interactive:
-        return None, None
-    started = [time.perf_counter()]
-
-    def on_start(name: str) -> None:
-        started[0] = time.perf_counter()
-        click.echo(f"{name} ...", err=True)
-
-    def on_row(row: dict) -> None:
-        label = " ".join(str(row[k]) for k in ("method", "engine", "kind", "label", "probe",
-                                               "degree", "samples_per_point") if k in row)
-        click.echo(f"  {label}  ({time.perf_counter() - started[0]:.1f} s)", err=True)
-    return on_start, on_row
+def _row_label(row: dict) -> str:
+    return " ".join(str(row[k]) for k in ("method", "engine", "kind", "label", "probe",
+                                           "degree", "samples_per_point") if k in row)
 
 
 def _print(bench: dict, out: str) -> None:
@@ -62,10 +49,22 @@ def command(app: App, only: tuple[str, ...], quick: bool, out_dir: str, as_json:
     per call on a log axis against error; the non-dominated front dashed; the default starred).
     Exits non-zero when a comparison failed (its error is in bench.json).
     """
-    from whiskercal.bench.runner import run_bench
+    from whiskercal.bench.runner import run_bench, select
+    from whiskercal.cli.progress import progress_bar
 
-    on_start, on_row = _progress(app)
-    bench = run_bench(out_dir, only, quick, on_start, on_row)
+    with progress_bar(app, "comparisons", total=len(select(only)), as_json=as_json) as bar:
+        current = {"name": ""}
+
+        def on_start(name: str) -> None:
+            current["name"] = name
+            bar.step(name)
+
+        def on_row(row: dict) -> None:
+            bar.step(current["name"], f"{current['name']}: {_row_label(row)}")
+
+        bench = run_bench(out_dir, only, quick, on_start if bar else None, on_row if bar else None)
+        if bar:
+            bar.finish()
     if as_json:
         echo_json(bench)
     else:

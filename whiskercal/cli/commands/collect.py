@@ -8,7 +8,7 @@ from contextlib import contextmanager
 
 import click
 
-from whiskercal.cli.app import App, abort, echo_json, pass_app, time_left
+from whiskercal.cli.app import App, abort, echo_json, pass_app
 from whiskercal.errors import UsageError
 
 
@@ -29,17 +29,6 @@ def _stop_on_ctrl_c():
         yield lambda: requested["stop"]
     finally:
         signal.signal(signal.SIGINT, previous)
-
-
-def _progress_printer(app: App):
-    if not app.interactive:
-        return None
-
-    def show(progress) -> None:
-        click.echo(f"\r  {progress.done}/{progress.total} points  {progress.rate_per_s:.2f} pt/s  "
-                   f"{time_left(progress.remaining_s)} left ", err=True,
-                   nl=progress.done == progress.total)
-    return show
 
 
 def _print_plan(summary: dict, as_json: bool) -> None:
@@ -123,11 +112,13 @@ def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json)
         return
     if not (stage and sensor and out):
         raise UsageError("collect needs --stage, --sensor and --out (or --dry-run)")
+    from whiskercal.cli.progress import progress_bar
     from whiskercal.collect.run import collect
 
-    with _stop_on_ctrl_c() as stop_requested:
+    with _stop_on_ctrl_c() as stop_requested, \
+            progress_bar(app, "points", description="collect", as_json=as_json) as bar:
         summary = collect(stage, sensor, out, plan, resume=resume,
-                          on_progress=_progress_printer(app), stop_requested=stop_requested)
+                          on_progress=bar.update if bar else None, stop_requested=stop_requested)
     _print_run(summary, as_json)
     if summary.stopped:
         click.echo(f"stopped: {summary.points} of {summary.planned} points saved in "

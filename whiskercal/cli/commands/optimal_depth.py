@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import click
 
-from whiskercal.cli.app import App, abort, echo_json, pass_app, time_left
+from whiskercal.cli.app import App, abort, echo_json, pass_app
 
 
 @click.group("optimal-depth")
@@ -19,17 +18,6 @@ def command() -> None:
     error against the plane, flags slips and tangential contact, chooses the target and writes it
     into a new version of the artifact.
     """
-
-
-def _progress_printer(app: App, enabled: bool):
-    """A progress line on stderr (trials done, time left) on a terminal; None otherwise."""
-    if not (enabled and app.interactive):
-        return None
-
-    def show(progress) -> None:
-        click.echo(f"\r  {progress.done}/{progress.total} trials  {time_left(progress.remaining_s)} "
-                   "left ", err=True, nl=progress.done == progress.total)
-    return show
 
 
 @command.command("run")
@@ -47,38 +35,21 @@ def _progress_printer(app: App, enabled: bool):
 def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, config_path: Path | None,
                 resume: bool, as_json: bool) -> None:
     """Run the flat-plane study: first contact, then one constant-velocity slide per depth."""
-    from whiskercal.artifacts.plane_study import StudyWriter
-    from whiskercal.rig import SensorClient, StageClient
-    from whiskercal.study.config import PlaneGeometry, load_config
-    from whiskercal.study.run import StudyRun
-    from whiskercal.study.truth import check_world
+    from whiskercal.cli.progress import progress_bar
+    from whiskercal.study.config import load_config
+    from whiskercal.study.run import run_study
 
     config = load_config(config_path)
-    stage = StageClient(stage_url)
-    sensor = SensorClient(sensor_url)
-    world = getattr(sensor.transport.port, "world", None)
-    if world is not None:
-        check_world(world, PlaneGeometry.from_config(config))  # before a file is created
-    sensor_id = _sensor_id(world, sensor)
-    writer = StudyWriter(out_path, config, sensor_id, resume=resume)
-    wall_started = time.monotonic()
-    summary = StudyRun(stage, sensor, config, writer, world=world,
-                       progress=_progress_printer(app, not as_json)).run()
-    result = {**summary.__dict__, "wall_time_s": round(time.monotonic() - wall_started, 3)}
+    with progress_bar(app, "trials", description="study", as_json=as_json) as bar:
+        summary = run_study(stage_url, sensor_url, out_path, config, resume=resume,
+                            progress=bar.update if bar else None)
+    result = {**summary.__dict__, "wall_time_s": round(summary.wall_time_s, 3)}
     if as_json:
         echo_json(result)
         return
     click.echo(f"{out_path}: {len(summary.trials_done)} trials done, "
                f"{len(summary.trials_skipped)} kept from before; "
                f"stage time {summary.stage_time_s:.1f} s, wall time {result['wall_time_s']:.1f} s")
-
-
-def _sensor_id(world, sensor) -> str:
-    """The twin's sensor id, else the board's identity line."""
-    sensor_params = getattr(world, "sensor", None)
-    if sensor_params is not None and getattr(sensor_params, "sensor_id", None):
-        return str(sensor_params.sensor_id)
-    return sensor.identify()
 
 
 @command.command("report")

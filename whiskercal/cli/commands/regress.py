@@ -23,10 +23,15 @@ def command(app: App, data_dir: Path, update: bool, as_json: bool) -> None:
     Each quantity must stay within the tolerance its golden file states; the command exits
     non-zero naming every quantity that moved and by how much.
     """
-    from whiskercal.regress import regress
+    from whiskercal.cli.progress import progress_bar
+    from whiskercal.regress import find_datasets, regress
 
-    say = (lambda message: click.echo(f"  {message} ...", err=True)) if app.interactive else None
-    results = regress(data_dir, update=update, say=say)
+    with progress_bar(app, "datasets", total=len(find_datasets(data_dir)), as_json=as_json) as bar:
+        # the steps are named "<dataset>: <stage>": a new dataset means the previous one is done
+        say = (lambda message: bar.step(message.split(":")[0], message)) if bar else None
+        results = regress(data_dir, update=update, say=say)
+        if bar:
+            bar.finish()
     moved = [(r.name, c) for r in results for c in r.changes]
     if as_json:
         echo_json({"data_dir": str(data_dir), "update": update, "ok": update or not moved,
