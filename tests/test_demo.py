@@ -10,6 +10,9 @@ import pytest
 from whiskercal import runtime
 
 ROOT = Path(__file__).resolve().parents[1]
+# Only a hang must end the test: the small demo takes about 30 s alone, and a machine busy with
+# the rest of the suite (or a fresh checkout compiling the twin's numba kernels) runs it slower.
+DEMO_TIMEOUT_S = 600
 
 
 @pytest.mark.slow
@@ -17,7 +20,7 @@ def test_small_demo_runs_every_stage_and_leaves_a_loadable_artifact(tmp_path):
     env = {**os.environ, "OUT": str(tmp_path), "PY": sys.executable, "DEMO_SIZE": "small",
            "CI": "1"}
     done = subprocess.run(["bash", str(ROOT / "scripts" / "demo.sh")], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=180)
+                          capture_output=True, text=True, timeout=DEMO_TIMEOUT_S)
     assert done.returncode == 0, done.stderr[-2000:]
     outputs = ["raw_grid.h5", "calibration.h5", "plane_study.h5", "calibration-target.h5",
                "report.html", "study/errors.png"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from whiskercal.atomic import atomic_path
 from whiskercal.paths import ensure_dir
 
 
@@ -19,10 +20,16 @@ def pyplot():
 
 
 def save_png(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Lay out ``fig``, write it as a PNG (creating the directory), close it; return the path."""
+    """Lay out ``fig``, write it as a PNG (creating the directory), close it; return the path.
+
+    The file is replaced atomically: a process killed while drawing leaves the old figure or none.
+    """
     path = Path(path)
     ensure_dir(path.parent)
-    fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
-    pyplot().close(fig)
+    try:
+        fig.tight_layout()
+        with atomic_path(path) as scratch:
+            fig.savefig(scratch, dpi=dpi, format="png")  # the scratch name has no .png suffix
+    finally:
+        pyplot().close(fig)
     return path

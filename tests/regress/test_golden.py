@@ -1,6 +1,7 @@
 """Finding datasets, refusing missing or corrupt ones, golden files, and compact copies."""
 
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -82,5 +83,8 @@ def test_compact_copy_keeps_measurements_exact_and_truth_to_float32(tmp_path):
 
 def test_compact_copy_refuses_to_overwrite_its_source(tmp_path):
     shutil.copy(SHORT / "raw_grid.h5", tmp_path / "raw.h5")
-    with pytest.raises(ValueError):
+    with pytest.raises(UsageError, match="is the input"):
         compact_copy(tmp_path / "raw.h5", tmp_path / "raw.h5")
+    os.link(tmp_path / "raw.h5", tmp_path / "linked.h5")
+    with pytest.raises(UsageError, match="is the input"):
+        compact_copy(tmp_path / "raw.h5", tmp_path / "linked.h5")

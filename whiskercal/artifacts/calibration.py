@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,7 +38,8 @@ import numpy as np
 
 from whiskercal.artifacts.h5io import (as_text, check_schema, now_iso, open_h5, read_array,
                                        read_json_attr, sha256_file, write_array, write_provenance)
-from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.atomic import atomic_path, refuse_input_as_output
+from whiskercal.errors import ArtifactError
 from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
@@ -132,10 +132,9 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
         When the file or its directory cannot be written.
     """
     path = Path(path)
-    scratch = path.with_name(path.name + ".partial")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with h5py.File(scratch, "w") as handle:
+        with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
             write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
                              sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
             handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
@@ -144,7 +143,6 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
             _write_lookup(handle.create_group("lookup"), data)
             _write_settings(handle, data)
             _write_metrics(handle.create_group("metrics"), data)
-        scratch.replace(path)
     except OSError as error:
         raise ArtifactError(f"{path}: cannot write the calibration artifact ({error})") from None
     return path
@@ -375,20 +373,17 @@ def write_with_target(calibration_path: str | Path, out_path: str | Path, target
         When the input cannot be read as HDF5.
     """
     calibration_path, out_path = Path(calibration_path), Path(out_path)
-    if out_path.resolve() == calibration_path.resolve():
-        raise UsageError("the artifact with the target must be a new file, not the input artifact")
+    refuse_input_as_output(out_path, [calibration_path], "the artifact with the target")
     ensure_dir(out_path.parent)
-    scratch = out_path.with_name(out_path.name + ".partial")
-    shutil.copyfile(calibration_path, scratch)
     input_sha = sha256_file(calibration_path)
     try:
-        with h5py.File(scratch, "r+") as handle:
-            _add_target(handle, target, input_sha)
+        with atomic_path(out_path) as scratch:
+            shutil.copyfile(calibration_path, scratch)
+            with h5py.File(scratch, "r+") as handle:
+                _add_target(handle, target, input_sha)
     except OSError as error:
-        scratch.unlink(missing_ok=True)
         raise ArtifactError(f"{calibration_path}: cannot write a copy with the target "
                             f"({error})") from None
-    os.replace(scratch, out_path)
     return out_path
 
 

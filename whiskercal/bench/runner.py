@@ -18,7 +18,7 @@ from typing import Callable
 
 import numpy as np
 
-from whiskercal import __version__
+from whiskercal import __version__, atomic
 from whiskercal.artifacts.h5io import now_iso
 from whiskercal.bench.pareto import draw_pareto, front_rows
 from whiskercal.bench.timing import machine_info
@@ -169,8 +169,7 @@ def _jsonable(value):
 
 def write_json(path: Path, payload: dict) -> Path:
     """Write JSON with numpy values converted (NaN stays NaN, as Python's json writes it)."""
-    path.write_text(json.dumps(payload, indent=2, default=_jsonable))
-    return path
+    return atomic.write_text(path, json.dumps(payload, indent=2, default=_jsonable))
 
 
 def run_one(comparison: Comparison, out_dir: Path, quick: bool,

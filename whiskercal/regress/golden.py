@@ -14,8 +14,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from whiskercal import __version__
+from whiskercal import __version__, atomic
 from whiskercal.artifacts.h5io import now_iso, sha256_file
+from whiskercal.atomic import inside, refuse_input_as_output
 from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.regress.tolerances import CLASSES, tolerance_for
 
@@ -176,7 +177,21 @@ def write_golden(dataset: Dataset, quantities: dict[str, Any], pipeline: dict[st
         "quantities": {name: {"value": _json_value(value), "tolerance": used[name].name}
                        for name, value in quantities.items()},
     }
-    dataset.golden_path.write_text(_dumps(document), encoding="utf-8")
+    return atomic.write_text(writable_golden_path(dataset), _dumps(document))
+
+
+def writable_golden_path(dataset: Dataset) -> Path:
+    """``golden.json``, checked before it is replaced: it must lie inside the dataset directory
+    (not a link out of it) and must not be one of the recorded files (a hard or symbolic link).
+
+    Raises
+    ------
+    UsageError
+        When either check fails.
+    """
+    inside(dataset.path, GOLDEN_FILE, f"{dataset.name}: {GOLDEN_FILE}")
+    refuse_input_as_output(dataset.golden_path, [dataset.raw_grid, dataset.study],
+                           f"{dataset.name}: {GOLDEN_FILE}")
     return dataset.golden_path
 
 

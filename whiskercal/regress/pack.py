@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 from whiskercal.artifacts.h5io import open_h5
+from whiskercal.atomic import atomic_path, refuse_input_as_output
 
 # Float64 datasets stored as float32 (twin ground truth and the plane's per-sample line point).
 FLOAT32_PATTERNS = ("truth/*/tip_mm", "truth/*/contact_mm", "truth/*/z_uT",
@@ -33,12 +34,12 @@ def compact_copy(source: str | Path, destination: str | Path) -> Path:
     source
         A raw grid or study file, as written by ``whiskercal collect`` / ``optimal-depth run``.
     destination
-        The compact copy to write (replaced if it exists); must differ from ``source``.
+        The compact copy to write (replaced atomically if it exists); must not be ``source``
+        (refused with UsageError).
     """
     source, destination = Path(source), Path(destination)
-    if source.resolve() == destination.resolve():
-        raise ValueError("compact_copy needs a destination other than its source")
-    with open_h5(source) as src, h5py.File(destination, "w") as dst:
+    refuse_input_as_output(destination, [source], "the compact copy")
+    with open_h5(source) as src, atomic_path(destination) as scratch, h5py.File(scratch, "w") as dst:
         _copy_attrs(src, dst)
         src.visititems(lambda name, item: _copy_item(name, item, dst))
     return destination

@@ -10,7 +10,7 @@ from typing import Callable
 
 from whiskercal.regress.compare import Change, compare
 from whiskercal.regress.golden import (DEFAULT_PIPELINE, Dataset, check_inputs, find_datasets,
-                                       read_golden, write_golden)
+                                       read_golden, writable_golden_path, write_golden)
 from whiskercal.regress.pipeline import recompute
 
 
@@ -62,6 +62,9 @@ def regress(data_dir: str | Path, update: bool = False,
     the run at once with its name.
     """
     datasets = find_datasets(data_dir)
+    if update:  # refuse a golden file that would be written out of place before any work starts
+        for dataset in datasets:
+            writable_golden_path(dataset)
     checked = [(dataset, check_inputs(dataset), read_golden(dataset, required=not update))
                for dataset in datasets]
     with tempfile.TemporaryDirectory(prefix="whiskercal-regress-") as scratch:

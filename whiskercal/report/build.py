@@ -15,10 +15,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from whiskercal import __version__
+from whiskercal import __version__, atomic
 from whiskercal.artifacts.calibration import (CalibrationData, lookup_of, read_calibration,
                                               surface_of)
 from whiskercal.artifacts.h5io import now_iso, sha256_file
+from whiskercal.atomic import inside, refuse_input_as_output
 from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.paths import ensure_dir
 from whiskercal.report import figures
@@ -145,8 +146,9 @@ def _bench(bench_dir: Path | None) -> Section | None:
                     if not isinstance(v, (dict, list))}
         body += key_values(supports) if supports else ""
         for chart in entry.get("charts", []):
-            if (bench_dir / chart).is_file():
-                body += figure((bench_dir / chart).read_bytes(), f"{name}: {chart}")
+            chart_path = inside(bench_dir, str(chart), f"{index}: the chart")  # named by a data file
+            if chart_path.is_file():
+                body += figure(chart_path.read_bytes(), f"{name}: {chart}")
     return Section("Speed against accuracy", body)
 
 
@@ -191,11 +193,19 @@ def build_html(cal_path: str | Path, raw_path: str | Path | None = None,
 
 
 def write_report(out_path: str | Path, cal_path, raw_path=None, study_path=None, bench_dir=None) -> Path:
-    """Write the report to ``out_path`` (the file is replaced whole)."""
+    """Write the report to ``out_path`` (replaced atomically; refused when it is one of the
+    files the report reads)."""
     out_path = Path(out_path)
+    refuse_input_as_output(out_path, report_inputs(cal_path, raw_path, study_path, bench_dir),
+                           "the report")
     page = build_html(cal_path, raw_path, study_path, bench_dir)
     ensure_dir(out_path.parent)
-    scratch = out_path.with_name(out_path.name + ".partial")
-    scratch.write_text(page, encoding="utf-8")
-    scratch.replace(out_path)
-    return out_path
+    return atomic.write_text(out_path, page)
+
+
+def report_inputs(cal_path, raw_path=None, study_path=None, bench_dir=None) -> list[Path]:
+    """Every file the report reads: the artifact, raw grid, study, bench.json and its charts."""
+    inputs = [Path(p) for p in (cal_path, raw_path, study_path) if p is not None]
+    if bench_dir is not None and Path(bench_dir).is_dir():
+        inputs += [Path(bench_dir) / "bench.json", *sorted(Path(bench_dir).glob("*.png"))]
+    return inputs

@@ -103,7 +103,12 @@ def z_over_time(series: list[TrialSeries], rows: list[TrialMetrics], path: Path)
 
 def write_figures(series: list[TrialSeries], rows: list[TrialMetrics], out_dir: Path) -> list[Path]:
     """Draw the three figures into ``out_dir``; returns their paths."""
-    out_dir = Path(out_dir)
-    return [error_distribution(series, rows, out_dir / "errors.png"),
-            estimates_against_plane(series, out_dir / "estimates.png"),
-            z_over_time(series, rows, out_dir / "z_over_time.png")]
+    errors, estimates, over_time = figure_paths(out_dir)
+    return [error_distribution(series, rows, errors),
+            estimates_against_plane(series, estimates),
+            z_over_time(series, rows, over_time)]
+
+
+def figure_paths(out_dir: Path) -> list[Path]:
+    """Where :func:`write_figures` draws: errors.png, estimates.png, z_over_time.png."""
+    return [Path(out_dir) / name for name in ("errors.png", "estimates.png", "z_over_time.png")]

@@ -8,6 +8,7 @@ from contextlib import contextmanager
 
 import click
 
+from whiskercal.atomic import refuse_input_as_output
 from whiskercal.cli.app import App, abort, echo_json, pass_app
 from whiskercal.errors import UsageError
 
@@ -106,6 +107,8 @@ def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json)
     from whiskercal.collect.config import load_config
     from whiskercal.collect.plan import build_plan
 
+    if out:
+        refuse_input_as_output(out, [config_path], "the raw dataset")
     plan = build_plan(load_config(config_path))
     if dry_run:
         _dry_run(plan, stage, as_json)

@@ -7,6 +7,7 @@ import time
 import click
 import numpy as np
 
+from whiskercal.atomic import refuse_input_as_output
 from whiskercal.cli.app import App, echo_json, pass_app
 
 
@@ -98,6 +99,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     from whiskercal.artifacts.raw_grid import read_raw_grid
     from whiskercal.fit import FitOptions, fit
 
+    refuse_input_as_output(out_path, [raw], "the calibration artifact")
     started = time.perf_counter()
     grid = read_raw_grid(raw)
     options = FitOptions(

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from whiskercal.atomic import refuse_input_as_output
 from whiskercal.cli.app import App, abort, echo_json, pass_app
 
 
@@ -39,6 +40,7 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
     from whiskercal.study.config import load_config
     from whiskercal.study.run import run_study
 
+    refuse_input_as_output(out_path, [config_path], "the study file")
     config = load_config(config_path)
     with progress_bar(app, "trials", description="study", as_json=as_json) as bar:
         summary = run_study(stage_url, sensor_url, out_path, config, resume=resume,
@@ -76,17 +78,19 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
     """
     from whiskercal import runtime
     from whiskercal.study.artifact_target import target_artifact_path, write_target
-    from whiskercal.study.figures import write_figures
+    from whiskercal.study.figures import figure_paths, write_figures
     from whiskercal.study.report import build_report
 
+    out_dir = out_dir or Path(study_path).parent
+    destination = out_artifact or target_artifact_path(artifact_path, out_dir)
+    for output in [destination] + ([] if no_figures else figure_paths(out_dir)):
+        refuse_input_as_output(output, [study_path, artifact_path])  # before any work
     calibration = runtime.load(artifact_path)
     report = build_report(study_path, calibration, margin_weight_mm=margin_weight_mm,
                           allow_missing=allow_missing)
-    out_dir = out_dir or Path(study_path).parent
     if not no_figures:
         report.figures = write_figures(report.series, report.rows, out_dir)
     if report.choice is not None:
-        destination = out_artifact or target_artifact_path(artifact_path, out_dir)
         report.artifact_out = write_target(artifact_path, destination, report.choice,
                                            report.study.sha256)
     if as_json:
