@@ -75,7 +75,7 @@ def runtime_tip_class(z_step_uT: float, tip_per_uT: float) -> ToleranceClass:
 
 def z_step_uT(study_path) -> float:
     """µT per count of z (the magnetometer's Y axis) at the settings a study was recorded with."""
-    from whiskercal.rig import mlx90393
+    from whiskercal.protocol import mlx90393
     from whiskercal.rig.overload import SENSOR_AXIS_Y
     from whiskercal.artifacts.plane_study import read_study
 
