@@ -114,6 +114,13 @@ def test_a_kink_in_the_push_in_is_found_where_it_is(slope_after):
     assert 41.0 <= depth <= 41.0 + 2 * 1.25
 
 
+@pytest.mark.parametrize("depth_mm", [0.0, 5.0])
+def test_a_push_in_at_one_depth_has_no_kink(depth_mm):
+    """All samples at the same depth (a stalled stage): no slope to judge, so NaN, not a crash."""
+    z = np.linspace(0.0, -100.0, 50)
+    assert np.isnan(detect_kink(np.full(50, depth_mm), z))
+
+
 def test_sparse_noisy_push_in_is_not_a_kink():
     rng = np.random.default_rng(5)
     depth = np.linspace(0, 45, 200)  # 0.2 mm a sample

@@ -74,6 +74,8 @@ def window_slopes(depth_mm: np.ndarray, z_uT: np.ndarray, window_mm: float,
     for low, high in zip(edges[:-1], edges[1:]):
         inside = (depth_mm >= low) & (depth_mm < high)
         rows.append((0.5 * (low + high), *_slope(depth_mm[inside], z_uT[inside], window_mm, min_samples)))
+    if not rows:  # all depths equal (within rounding): no window spans any depth
+        return np.zeros(0), np.zeros(0), np.zeros(0)
     centres, slopes, errors = (np.asarray(column) for column in zip(*rows))
     return centres, slopes, errors
 
