@@ -179,3 +179,25 @@ def test_the_fit_stage_imports_without_click():
     result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                             timeout=120)
     assert result.returncode == 0, result.stderr or "click was imported"
+
+
+def test_fit_on_a_raw_file_without_points_is_one_line(tmp_path):
+    from click.testing import CliRunner
+
+    from whiskercal.cli import cli
+
+    path = tmp_path / "empty.h5"
+    write_raw_grid(path, np.zeros((0, 2)), np.zeros(0), 0.0, "analytic-rigid",
+                   config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
+    result = CliRunner().invoke(cli, ["fit", str(path), "--out", str(tmp_path / "cal.h5")])
+    assert result.exit_code == 2
+    assert result.output.strip() == "error: only 0 grid points with contact: too few to calibrate"
+    assert not (tmp_path / "cal.h5").exists()
+
+
+@pytest.mark.parametrize("radius_mm", [35.0, 50.0, 0.0, -3.0])
+def test_an_entry_radius_outside_half_the_trace_length_is_refused(rigid_raw, radius_mm):
+    # the trace looks for its entry on circles out to half the length (35 mm of 70 mm)
+    with pytest.raises(UsageError, match=r"--entry-radius-mm must lie between 0 and half the "
+                                         r"trace length \(35 mm\)"):
+        fit(rigid_raw, FitOptions(trace_length_mm=70.0, entry_radius_mm=radius_mm))

@@ -147,9 +147,9 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     rod_center_mm, z_uT = np.asarray(rod_center_mm, float), np.asarray(z_uT, float)
     z_sem_uT = None if z_sem_uT is None else np.asarray(z_sem_uT, float)
     used = contact_mask(z_uT, z_sem_uT, options.min_standard_errors)
+    _check_enough(used)  # before the traced region: an empty grid has no nearest point
     used &= _traced_region(rod_center_mm, options)
-    if used.sum() < 10:
-        raise FitError(f"only {int(used.sum())} grid points with contact: too few to calibrate")
+    _check_enough(used)
     points, z = rod_center_mm[used], z_uT[used]
     say("fitting the surface")
     if options.correct_rod_radius and rod_radius_mm > 0:
@@ -169,6 +169,12 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     say("redrawing the grid's scatter")
     _check_scatter(calibration, options.seed)
     return calibration
+
+
+def _check_enough(used: np.ndarray, least: int = 10) -> None:
+    """Refuse a grid with fewer than ``least`` usable points (FitError)."""
+    if used.sum() < least:
+        raise FitError(f"only {int(used.sum())} grid points with contact: too few to calibrate")
 
 
 def _check_extrapolation(calibration: Calibration, options: CalibrationOptions) -> None:
