@@ -201,3 +201,24 @@ def test_an_entry_radius_outside_half_the_trace_length_is_refused(rigid_raw, rad
     with pytest.raises(UsageError, match=r"--entry-radius-mm must lie between 0 and half the "
                                          r"trace length \(35 mm\)"):
         fit(rigid_raw, FitOptions(trace_length_mm=70.0, entry_radius_mm=radius_mm))
+
+
+def test_one_untraceable_level_inside_the_range_is_a_warning_not_an_abort(rigid_raw, monkeypatch):
+    from whiskercal.model import trace as trace_module
+    from whiskercal.model.errors import NonConvergenceError
+
+    clean = fit(rigid_raw, FitOptions(samples=8)).calibration.lookup
+    bad = float(clean.z_knots_uT[4])
+    original = trace_module.TRACERS["fast"]
+
+    def tracer(problem, z):
+        if abs(z - bad) < 1e-9:
+            raise NonConvergenceError(f"no convergence at z = {z:.1f} µT")
+        return original(problem, z)
+    monkeypatch.setitem(trace_module.TRACERS, "fast", tracer)
+    result = fit(rigid_raw, FitOptions(samples=8))
+    assert np.array_equal(result.calibration.lookup.z_knots_uT, clean.z_knots_uT)
+    assert np.max(np.abs(result.calibration.lookup.tips_mm - clean.tips_mm)) < 0.01
+    assert [w for w in result.warnings if "could not be traced" in w] == [
+        f"the level set at z = {bad:.0f} µT could not be traced (no convergence at z = "
+        f"{bad:.1f} µT); skipped: the lookup bridges it from the traced levels beside it"]
