@@ -442,6 +442,8 @@ class World:
                 self._motion_sign = 1 if along > 0 else -1
         if not self._equilibrium.in_contact:
             if not fixture.touches(self._free_shape_mm, tool):
+                if getattr(self._equilibrium, "slipped_past", False):
+                    self._equilibrium = self.physics.free()  # the obstacle has cleared the wire
                 return  # nothing touches: no solve (the solver refuses far-off poses)
             # a rod pushes the whisker away from the side it arrives from
             self._side = 1 if tool[1] >= 0 else -1
