@@ -5,7 +5,7 @@ import pytest
 
 from whiskercal.study.analysis import (
     Criteria, TrialSeries, analyse_study, analyse_trial, distance_to_line_mm)
-from whiskercal.study.detect import (detect_kink, detect_slips, monotone_breaks,
+from whiskercal.study.detect import (contact_onset_mm, detect_kink, detect_slips, monotone_breaks,
                                      stiffening_breaks)
 
 NORMAL = np.array([np.cos(np.radians(20)), np.sin(np.radians(20))])
@@ -173,3 +173,29 @@ def test_a_stiffening_trial_is_reported_tangential():
     assert rows[-1].failing and any("stiffened" in reason and reason.startswith("tangential")
                                     for reason in rows[-1].reasons)
     assert not any(row.failing for row in rows[:-1])
+
+
+def _contact_search(onset_mm, gain_uT_per_mm, threshold_uT=300.0, step_mm=0.1, noise_uT=1.5,
+                    seed=3):
+    """The steps of a contact search up to the first past the threshold: z grows from the onset,
+    ever more slowly (concave, as a tip contact does), plus the noise of a step's mean."""
+    rng = np.random.default_rng(seed)
+    distance = np.arange(1, 400) * step_mm
+    depth = np.clip(distance - onset_mm, 0.0, None)
+    z = -(gain_uT_per_mm * depth - 0.006 * gain_uT_per_mm * depth ** 2) \
+        + rng.normal(0.0, noise_uT, distance.size)
+    last = int(np.argmax(np.abs(z) > threshold_uT))
+    return distance[:last + 1], z[:last + 1], noise_uT
+
+
+@pytest.mark.parametrize("gain_uT_per_mm", [330.0, 50.0])
+def test_the_contact_onset_is_where_z_leaves_zero_not_where_it_passes_the_threshold(
+        gain_uT_per_mm):
+    distance, z, noise = _contact_search(5.0, gain_uT_per_mm)
+    assert distance[-1] - 5.0 > 300.0 / gain_uT_per_mm - 0.1  # the threshold step: 1 to 6 mm late
+    assert contact_onset_mm(distance, z, noise) == pytest.approx(5.0, abs=0.1)
+
+
+def test_a_contact_search_without_two_steps_in_contact_keeps_the_threshold_step():
+    distance, z = np.array([0.1, 0.2, 0.3]), np.array([0.5, -1.0, -400.0])
+    assert contact_onset_mm(distance, z, 1.0) == 0.3

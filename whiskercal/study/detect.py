@@ -10,6 +10,11 @@
   arm shortens and the slope jumps (measured on the twin: about -170 µT/mm near 40 mm in tip
   contact, -380 µT/mm once tangential); when the contact snaps to another equilibrium, z stalls
   or falls back. Either way the slope leaves its trend.
+- :func:`contact_onset_mm`: where the plane first touched the tip during the contact search. The
+  step where |z| first exceeds the collision threshold lies threshold/slope past it (about 1 mm
+  on the default sensor, 6 mm on a build that reads 50 µT per mm of depth); in tip contact z
+  grows linearly with depth at first, so the steps between the noise and the threshold,
+  extrapolated back to z = 0, place the onset.
 - :func:`monotone_breaks`: across trials, the median |z| must grow with depth.
 - :func:`stiffening_breaks`: across trials, in tip contact |z| grows ever more slowly with depth
   (z(depth) is concave: the bent whisker turns its root less per mm the deeper it is pushed).
@@ -128,6 +133,38 @@ def detect_kink(depth_mm: np.ndarray, z_uT: np.ndarray, window_mm: float = 1.25,
         if deviation > tolerance * abs(trend) and deviation > sigmas * errors[i]:
             return float(centres[i])
     return float("nan")
+
+
+def contact_onset_mm(distance_mm: np.ndarray, z_uT: np.ndarray, noise_uT: float,
+                     sigmas: float = 5.0) -> float:
+    """Where contact began (mm, in ``distance_mm``'s units) from a stepped contact search.
+
+    ``distance_mm`` and ``z_uT`` are the search's steps up to the first one past the threshold
+    (the last), ``noise_uT`` the standard error of a step's mean z. A straight line through the
+    steps whose |z| stands ``sigmas`` noise above zero (the lower half of their rise, when that
+    holds two), extrapolated to z = 0, gives the onset; it is kept between the first and the
+    last step. With fewer than two such steps the last step is the estimate, as before.
+    """
+    distance_mm, magnitude = np.asarray(distance_mm, float), np.abs(np.asarray(z_uT, float))
+    touching = magnitude > sigmas * max(float(noise_uT), 0.0)
+    # the steps in contact: the run of touching steps that ends at the last one
+    start = distance_mm.size
+    while start > 0 and touching[start - 1]:
+        start -= 1
+    last = float(distance_mm[-1])
+    # z(depth) is concave (the gain per mm falls with depth): the lower half of the rise keeps
+    # the line's extrapolation nearest the onset
+    near = np.arange(start, distance_mm.size)
+    lower_half = near[magnitude[near] <= 0.5 * magnitude[-1]]
+    near = lower_half if lower_half.size >= 2 else near
+    if near.size < 2:
+        return last
+    slope, intercept = np.polyfit(distance_mm[near], magnitude[near], 1)
+    if not slope > 0:
+        return last
+    # a step below the noise guard may already touch (weak builds read a few µT per 0.1 mm),
+    # so the onset is only kept within the search
+    return float(np.clip(-intercept / slope, distance_mm[0], last))
 
 
 def monotone_breaks(depths_mm: np.ndarray, median_z_uT: np.ndarray,
