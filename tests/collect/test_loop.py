@@ -165,6 +165,17 @@ def test_an_existing_output_is_not_overwritten(tmp_path):
         run(tmp_path, resume=True)
 
 
+def test_a_journal_alone_is_named_as_an_interrupted_run(tmp_path):
+    # a run killed before its HDF5 file was written leaves only the journal
+    journal_path(tmp_path / "raw.h5").write_bytes(b"")
+    with pytest.raises(UsageError) as refused:
+        run(tmp_path)
+    message = str(refused.value)
+    assert "already exists" not in message
+    assert "journal of an interrupted run" in message
+    assert "--resume" in message and "delete the journal to discard it" in message
+
+
 def test_an_unhomed_stage_is_refused_when_homing_is_off(tmp_path):
     plan = small_plan(motion={"home": False})
     with pytest.raises(DeviceError, match="not homed"):

@@ -179,3 +179,46 @@ def test_the_fit_stage_imports_without_click():
     result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                             timeout=120)
     assert result.returncode == 0, result.stderr or "click was imported"
+
+
+def test_fit_on_a_raw_file_without_points_is_one_line(tmp_path):
+    from click.testing import CliRunner
+
+    from whiskercal.cli import cli
+
+    path = tmp_path / "empty.h5"
+    write_raw_grid(path, np.zeros((0, 2)), np.zeros(0), 0.0, "analytic-rigid",
+                   config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
+    result = CliRunner().invoke(cli, ["fit", str(path), "--out", str(tmp_path / "cal.h5")])
+    assert result.exit_code == 2
+    assert result.output.strip() == "error: only 0 grid points with contact: too few to calibrate"
+    assert not (tmp_path / "cal.h5").exists()
+
+
+@pytest.mark.parametrize("radius_mm", [35.0, 50.0, 0.0, -3.0])
+def test_an_entry_radius_outside_half_the_trace_length_is_refused(rigid_raw, radius_mm):
+    # the trace looks for its entry on circles out to half the length (35 mm of 70 mm)
+    with pytest.raises(UsageError, match=r"--entry-radius-mm must lie between 0 and half the "
+                                         r"trace length \(35 mm\)"):
+        fit(rigid_raw, FitOptions(trace_length_mm=70.0, entry_radius_mm=radius_mm))
+
+
+def test_one_untraceable_level_inside_the_range_is_a_warning_not_an_abort(rigid_raw, monkeypatch):
+    from whiskercal.model import trace as trace_module
+    from whiskercal.model.errors import NonConvergenceError
+
+    clean = fit(rigid_raw, FitOptions(samples=8)).calibration.lookup
+    bad = float(clean.z_knots_uT[4])
+    original = trace_module.TRACERS["fast"]
+
+    def tracer(problem, z):
+        if abs(z - bad) < 1e-9:
+            raise NonConvergenceError(f"no convergence at z = {z:.1f} µT")
+        return original(problem, z)
+    monkeypatch.setitem(trace_module.TRACERS, "fast", tracer)
+    result = fit(rigid_raw, FitOptions(samples=8))
+    assert np.array_equal(result.calibration.lookup.z_knots_uT, clean.z_knots_uT)
+    assert np.max(np.abs(result.calibration.lookup.tips_mm - clean.tips_mm)) < 0.01
+    assert [w for w in result.warnings if "could not be traced" in w] == [
+        f"the level set at z = {bad:.0f} µT could not be traced (no convergence at z = "
+        f"{bad:.1f} µT); skipped: the lookup bridges it from the traced levels beside it"]

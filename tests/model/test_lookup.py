@@ -72,3 +72,51 @@ def test_bad_knots_are_refused():
         TipLookup(Z[::-1], TIPS, "cubic")
     with pytest.raises(ModelError):
         TipLookup(Z, TIPS, "quintic")
+
+
+def _rigid_problem():
+    points = paper_grid_mm(reach=(12.5, 90.0), angle_deg=(-50.0, 5.0))
+    surface, _ = fit_surface(points, rigid_z(points), 5, "polar")
+    z = rigid_z(points)
+    return LevelSetProblem(surface, Domain.from_points(points, 1.0), 78.0,
+                           (float(z.min()), float(z.max())), 26.0)
+
+
+def _failing_at(monkeypatch, bad_z):
+    """The fast tracer, made to fail at the given levels (a saddle the trace cannot cross)."""
+    from whiskercal.model import trace as trace_module
+    from whiskercal.model.errors import NonConvergenceError
+
+    original = trace_module.TRACERS["fast"]
+
+    def tracer(problem, z):
+        if np.any(np.isclose(z, bad_z, rtol=0.0, atol=1e-9)):
+            raise NonConvergenceError(f"no convergence at z = {z:.1f} µT")
+        return original(problem, z)
+    monkeypatch.setitem(trace_module.TRACERS, "fast", tracer)
+
+
+@pytest.mark.parametrize("which", ["knot", "holdout"])
+def test_one_untraceable_level_inside_the_range_is_bridged_and_reported(monkeypatch, which):
+    problem = _rigid_problem()
+    clean, _ = build_lookup(problem, 10)
+    knots = clean.z_knots_uT
+    bad = knots[5] if which == "knot" else knots[5] + 0.3 * (knots[6] - knots[5])
+    dense = np.linspace(knots[0], knots[-1], 9 * 10 + 1)
+    bad = dense[np.argmin(np.abs(dense - bad))]
+    _failing_at(monkeypatch, [bad])
+    lookup, report = build_lookup(problem, 10)
+    assert np.allclose(report.untraced_z_uT, [bad]) and "no convergence" in report.untraced_reason
+    assert np.array_equal(lookup.z_knots_uT, knots)
+    assert bad not in report.holdout_z_uT
+    # the bridged knot is where the trace would have put it, to a micrometre
+    assert np.max(np.abs(lookup.tips_mm - clean.tips_mm)) < 1e-3
+
+
+def test_untraceable_levels_in_a_row_are_refused(monkeypatch):
+    problem = _rigid_problem()
+    clean, _ = build_lookup(problem, 10)
+    dense = np.linspace(clean.z_min_uT, clean.z_max_uT, 91)
+    _failing_at(monkeypatch, dense[40:42])
+    with pytest.raises(ModelError, match="not isolated ones"):
+        build_lookup(problem, 10)

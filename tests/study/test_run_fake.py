@@ -25,9 +25,10 @@ def test_every_trial_is_recorded_at_its_depth(tmp_path):
     study = read_study(tmp_path / "study.h5")
     geometry = PlaneGeometry.from_config(config)
     contact = study.header["first_contact_stage_mm"]
-    # the fake's z passes -300 µT 1.2 mm past the true contact; the search steps 0.5 mm
+    # the fake's z passes -300 µT 1.2 mm past the true contact (the search steps 0.5 mm): depth 0
+    # is where z leaves zero, not that step
     depth_at_contact = geometry.depth_of_stage_mm(contact, geometry.contact_guess_stage_mm())[0]
-    assert 1.2 <= depth_at_contact <= 1.2 + 0.5 + 1e-9
+    assert abs(depth_at_contact) < 0.05
     for trial in study.trials:
         slide = trial.stream["phase"] == PHASE_SLIDE
         z = trial.stream["field_uT"][slide, 1] - study.header["baseline_field_uT"][1]
@@ -71,10 +72,11 @@ def test_no_contact_is_a_clear_error(tmp_path):
 
 
 def test_overload_guard_stops_the_run(tmp_path):
-    config = _config(tmp_path, "[safety]\noverload_uT = 2800.0\n")
+    # -250 µT/mm: the trial at 10 mm reaches -2500 µT
+    config = _config(tmp_path, "[safety]\noverload_uT = 2400.0\n")
     rig, stage, sensor = fake_rig(config)
     writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor")
-    with pytest.raises(OverloadError, match="over the safe limit of 2800"):
+    with pytest.raises(OverloadError, match="over the safe limit of 2400"):
         run_on_clients(stage, sensor, config, writer)
     assert [t.depth_mm for t in read_study(tmp_path / "study.h5").trials] == [5.0]
     assert rig.z_uT(rig.position) == 0.0  # backed off clear of the whisker

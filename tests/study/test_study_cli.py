@@ -53,7 +53,7 @@ def test_report_json_and_the_artifact_with_the_target(tmp_path, twin_study, twin
                      str(twin_calibration), "--out", str(tmp_path), "--json")
     assert result.exit_code == 0
     payload = json.loads(result.output)
-    assert len(payload["trials"]) == 9 and payload["failing_depths_mm"]
+    assert len(payload["trials"]) == 10 and payload["failing_depths_mm"]
     assert payload["choice"]["depth_mm"] not in payload["failing_depths_mm"]
     assert payload["artifact"] == str(tmp_path / "CAL-target.h5")
     assert sorted(p.name for p in tmp_path.glob("*.png")) == ["errors.png", "estimates.png",
@@ -68,7 +68,7 @@ def test_report_names_missing_trials_in_one_line(tmp_path, twin_study, twin_cali
     result = _invoke("optimal-depth", "report", str(partial), "--artifact", str(twin_calibration),
                      "--no-figures")
     assert result.exit_code == 4
-    assert result.output == (f"error: {partial}: the study lacks the trials at 40, 45 mm (7 of 9 "
+    assert result.output == (f"error: {partial}: the study lacks the trials at 40, 45 mm (8 of 10 "
                              "done); finish it with `whiskercal optimal-depth run --resume` or pass "
                              "--allow-missing\n")
 

@@ -112,3 +112,30 @@ def test_a_coarse_sweep_lands_on_the_same_equilibria_as_a_dense_one():
 def test_tip_curve_needs_a_few_samples():
     with pytest.raises(UsageError, match="at least 4"):
         tip_curve(DEFAULT_SENSOR, 3)
+
+
+def _soft_sensor():
+    from pathlib import Path
+
+    from whiskercal.twin.sensor_file import load_sensor
+
+    return load_sensor(Path(__file__).resolve().parents[2] / "sensors" / "short-45mm-soft.toml")
+
+
+def test_a_soft_suspension_has_a_truth_up_to_where_its_tip_contact_holds():
+    # k_θ·L/EI about 1: the wire swings round its root before its tip turns 1.9 rad
+    from whiskercal.twin.truth import MAX_TIP_SLOPE_RAD
+
+    soft = _soft_sensor()
+    sweep = tip_contact_sweep(soft.whisker, 41)
+    assert 1.0 < abs(sweep.tip_slope_rad[-1]) < MAX_TIP_SLOPE_RAD
+    assert np.all(np.diff(np.abs(sweep.tip_slope_rad)) > 0)
+    z, tips = tip_curve(soft, 41)
+    assert z.shape == (41,) and np.all(np.isfinite(tips))
+    # the inverse holds over the first branch, up to where z folds back, and refuses past it
+    fold = int(np.argmin(z))
+    assert 3 < fold < 40
+    for k in (1, fold // 2, fold - 1):
+        assert true_tip(soft, z[k], n=41) == pytest.approx(tips[k], abs=1e-6)
+    with pytest.raises(UsageError, match="range"):
+        true_tip(soft, z[fold] - 100.0, n=41)

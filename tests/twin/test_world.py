@@ -132,6 +132,25 @@ def test_real_physics_rod_contact_matches_a_direct_solve():
     assert world.solver_failures == 0
 
 
+@pytest.mark.slow  # the first use of the real physics builds its field table
+def test_a_wire_that_slipped_past_the_rod_meets_it_again_once_it_has_cleared():
+    world, stage, sensor = _rig(physics=None)
+    reach = world.sensor.whisker.reach_mm
+    sensor.start()
+    _move(world, stage, sensor, [reach - 1.0, 8.0], feed=3000)
+    _move(world, stage, sensor, [reach - 1.0, -20.0], feed=600)  # the tip springs past the rod
+    sensor.read_available()
+    kinds = list(world.truth.arrays()["kind"])
+    assert {"shaft", "tip"} & set(kinds) and kinds[-1] == "free"
+    # round the tip, well clear of the wire, and back over it from +y: it meets the rod again
+    for point in ([reach + 15.0, -20.0], [reach + 15.0, 8.0], [reach - 1.0, 8.0]):
+        _move(world, stage, sensor, point, feed=3000)
+    _move(world, stage, sensor, [reach - 1.0, -2.0], feed=600)
+    again = world.equilibrium_at(world.now_s)
+    assert again.kind in ("shaft", "tip") and not again.slipped_past
+    assert world.solver_failures == 0
+
+
 def test_plane_scene_contacts_at_the_tip():
     world, stage, sensor = _rig(physics=None, fixture=fixture_for_scene("plane"))
     normal = np.array([np.cos(np.pi + np.radians(20)), np.sin(np.pi + np.radians(20))])

@@ -108,8 +108,11 @@ def open_checkpoint(out: Path, header: RawHeader, resume: bool) -> Checkpoint:
         raise UsageError(f"{out.parent}: no such directory for the output file")
     if resume:
         return Checkpoint.resume(out, header)
-    if out.exists() or journal_path(out).exists():
+    if out.exists():
         raise UsageError(f"{out} already exists; continue it with --resume or choose another --out")
+    if journal_path(out).exists():
+        raise UsageError(f"{journal_path(out)} is the journal of an interrupted run of {out}; "
+                         "continue it with --resume, or delete the journal to discard it")
     return Checkpoint.start(out, header)
 
 

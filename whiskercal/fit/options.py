@@ -76,7 +76,19 @@ class FitOptions:
             raise UsageError(f"max_extension_mm must be at least 0 mm, not {self.max_extension_mm}")
 
     def calibration_options(self, trace_length_mm: float) -> CalibrationOptions:
-        """The model's options for this fit, with the trace length (mm) already resolved."""
+        """The model's options for this fit, with the trace length (mm) already resolved.
+
+        Raises
+        ------
+        UsageError
+            The entry radius is not inside half the trace length: the trace looks for its
+            entry on circles out to half the length (``model.trace.find_entry``), so a larger
+            radius leaves no circle to try.
+        """
+        entry = self.entry_radius_mm
+        if entry is not None and not 0 < entry < trace_length_mm / 2:
+            raise UsageError(f"--entry-radius-mm must lie between 0 and half the trace length "
+                             f"({trace_length_mm / 2:g} mm), not {entry:g} mm")
         return CalibrationOptions(
             degree=self.degree, coordinates=self.coordinates, samples=self.samples,
             tracer=self.tracer, lookup_kind=self.interpolant, trace_length_mm=trace_length_mm,

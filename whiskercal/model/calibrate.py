@@ -147,9 +147,9 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     rod_center_mm, z_uT = np.asarray(rod_center_mm, float), np.asarray(z_uT, float)
     z_sem_uT = None if z_sem_uT is None else np.asarray(z_sem_uT, float)
     used = contact_mask(z_uT, z_sem_uT, options.min_standard_errors)
+    _check_enough(used)  # before the traced region: an empty grid has no nearest point
     used &= _traced_region(rod_center_mm, options)
-    if used.sum() < 10:
-        raise FitError(f"only {int(used.sum())} grid points with contact: too few to calibrate")
+    _check_enough(used)
     points, z = rod_center_mm[used], z_uT[used]
     say("fitting the surface")
     if options.correct_rod_radius and rod_radius_mm > 0:
@@ -164,11 +164,29 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
                                          options.lookup_kind)
     calibration = Calibration(surface, report, problem, lookup, lookup_report, points, z, used,
                               points - rod_center_mm[used], float(options.max_extension_mm))
+    _note_untraced(calibration)
     _check_extrapolation(calibration, options)
     _check_fit(calibration, None if z_sem_uT is None else z_sem_uT[used])
     say("redrawing the grid's scatter")
     _check_scatter(calibration, options.seed)
     return calibration
+
+
+def _note_untraced(calibration: Calibration) -> None:
+    """Warn of the levels inside the range the tracer could not follow (bridged in the lookup)."""
+    report = calibration.lookup_report
+    if report.untraced_z_uT.size == 0:
+        return
+    where = ", ".join(f"{z:.0f}" for z in report.untraced_z_uT)
+    calibration.warnings.append(
+        f"the level set at z = {where} µT could not be traced ({report.untraced_reason}); "
+        "skipped: the lookup bridges it from the traced levels beside it")
+
+
+def _check_enough(used: np.ndarray, least: int = 10) -> None:
+    """Refuse a grid with fewer than ``least`` usable points (FitError)."""
+    if used.sum() < least:
+        raise FitError(f"only {int(used.sum())} grid points with contact: too few to calibrate")
 
 
 def _check_extrapolation(calibration: Calibration, options: CalibrationOptions) -> None:
@@ -223,7 +241,9 @@ def trusted_z_range(problem: LevelSetProblem, lookup: TipLookup, report: LookupR
         return full
     capped = replace(problem, z_range_uT=full,
                      tip_extension_mm=min(problem.tip_extension_mm, options.max_extension_mm))
-    seed = float(lookup.z_knots_uT[int(np.argmin(report.knot_extension_mm))])
+    bridged = np.isin(lookup.z_knots_uT, report.untraced_z_uT)  # no trace to start from there
+    seed = float(lookup.z_knots_uT[int(np.argmin(np.where(bridged, np.inf,
+                                                          report.knot_extension_mm)))])
     if not traces_ok(capped, options.tracer, seed):
         return None
     return (bisect_end(capped, options.tracer, seed, full[0], 12),

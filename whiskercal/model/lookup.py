@@ -11,7 +11,7 @@ sample, numpy for a batch.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator, PPoly
@@ -22,6 +22,9 @@ from whiskercal.model.trace import TRACERS, LevelSetProblem, get_tracer
 KINDS = ("linear", "cubic", "pchip", "akima", "polynomial")
 POLYNOMIAL_DEGREE = 5  # the authors' characterized model: one 5th-order polynomial per axis
 OUT_OF_RANGE_POLICIES = ("raise", "nan", "clip")
+# Most levels of the lookup's dense set (samples and hold-out) that may be bridged rather than
+# traced: isolated failures inside the range are skipped, a broken range is refused.
+MAX_UNTRACED_FRACTION = 0.05
 
 
 def check_out_of_range(policy: str) -> None:
@@ -167,6 +170,10 @@ class LookupReport:
     holdout_tips_mm: np.ndarray
     knot_extension_mm: np.ndarray | None = None  # straight extension past the grid per sample
     max_extension_mm: float = float("nan")       # the longest among all traces (samples, hold-out)
+    # levels inside the range the tracer could not follow, bridged from the traced levels beside
+    # them (``bridge_untraced``), and why the first of them failed
+    untraced_z_uT: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    untraced_reason: str = ""
 
 
 def supported_z_range(problem: LevelSetProblem, tracer: str = "fast", iterations: int = 12,
@@ -230,12 +237,11 @@ def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "f
     low, high = supported_z_range(problem, tracer)
     problem = _with_range(problem, (low, high))
     dense_z = np.linspace(low, high, (n_samples - 1) * (holdout_per_interval + 1) + 1)
-    results = [trace(problem, float(z)) for z in dense_z]
-    dense_tips = np.array([result.tip_mm for result in results])
-    extensions = np.array([result.extension_mm for result in results])
+    dense_tips, extensions, traced, reason = _trace_levels(trace, problem, dense_z)
+    dense_tips, extensions = bridge_untraced(dense_z, dense_tips, extensions, traced)
     every = holdout_per_interval + 1
     z_knots, tips = dense_z[::every], dense_tips[::every]
-    holdout = np.ones(len(dense_z), bool)
+    holdout = traced.copy()  # a bridged level is no evidence against the interpolant
     holdout[::every] = False
     holdout_z, holdout_tips = dense_z[holdout], dense_tips[holdout]
     errors = {k: _holdout_error(TipLookup(z_knots, tips, k), holdout_z, holdout_tips)
@@ -243,8 +249,50 @@ def build_lookup(problem: LevelSetProblem, n_samples: int = 20, tracer: str = "f
     chosen = min(errors, key=lambda k: errors[k][0]) if kind == "auto" else kind
     report = LookupReport(chosen, errors[chosen][0], errors[chosen][1],
                           {k: e[0] for k, e in errors.items()}, holdout_z, holdout_tips,
-                          extensions[::every], float(extensions.max()))
+                          extensions[::every], float(extensions.max()),
+                          dense_z[~traced], reason)
     return TipLookup(z_knots, tips, chosen), report
+
+
+def _trace_levels(trace, problem: LevelSetProblem, z_uT: np.ndarray,
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Tips (n, 2) mm and extensions (n,) mm of each level (NaN where the trace failed), which
+    levels traced, and why the first failure failed ("" when none did)."""
+    tips, extensions = np.full((len(z_uT), 2), np.nan), np.full(len(z_uT), np.nan)
+    traced, reason = np.zeros(len(z_uT), bool), ""
+    for i, z in enumerate(z_uT):
+        try:
+            result = trace(problem, float(z))
+        except TraceError as error:
+            reason = reason or str(error)
+            continue
+        tips[i], extensions[i], traced[i] = result.tip_mm, result.extension_mm, True
+    return tips, extensions, traced, reason
+
+
+def bridge_untraced(z_uT: np.ndarray, tips_mm: np.ndarray, extensions_mm: np.ndarray,
+                    traced: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fill the tips (mm) and extensions (mm) of untraced levels from the traced ones.
+
+    A level set the tracer cannot follow inside a range whose neighbours trace (a saddle or a
+    grid hole the trace steps into) says nothing about the tips beside it; a cubic spline
+    through the traced levels, a tenth of a sample interval apart, bridges it. The lookup stays
+    sound only while every gap is a single level between traced ones, and few: two untraced
+    levels in a row, an untraced end, or more than :data:`MAX_UNTRACED_FRACTION` of the levels
+    is refused (ModelError), as the lookup would then rest on tips nobody traced.
+    """
+    if traced.all():
+        return tips_mm, extensions_mm
+    gaps = ~traced
+    if gaps[0] or gaps[-1] or np.any(gaps[1:] & gaps[:-1]) or gaps.mean() > MAX_UNTRACED_FRACTION:
+        where = ", ".join(f"{z:.0f}" for z in z_uT[gaps][:5])
+        raise ModelError(f"the level sets at z = {where} µT cannot be traced ({int(gaps.sum())} "
+                         f"of {len(z_uT)} levels, not isolated ones): the lookup over this "
+                         "range would not be sound; collect a denser grid there")
+    tips_mm, extensions_mm = tips_mm.copy(), extensions_mm.copy()
+    tips_mm[gaps] = CubicSpline(z_uT[traced], tips_mm[traced])(z_uT[gaps])
+    extensions_mm[gaps] = np.interp(z_uT[gaps], z_uT[traced], extensions_mm[traced])
+    return tips_mm, extensions_mm
 
 
 def _holdout_error(lookup: TipLookup, z: np.ndarray, tips: np.ndarray) -> tuple[float, np.ndarray]:

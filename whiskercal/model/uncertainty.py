@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from whiskercal.model.errors import ModelError
+from whiskercal.model.errors import ModelError, TraceError
 from whiskercal.model.surface import fit_fixed
 from whiskercal.model.trace import LevelSetProblem, trace_fast
 
@@ -47,8 +47,7 @@ def tip_spread_mm(problem: LevelSetProblem, points_mm: np.ndarray, scatter_uT: f
     """
     surface = problem.surface
     rng = np.random.default_rng(seed)
-    z_probes = np.linspace(*z_range_uT, Z_PROBES + 2)[1:-1]
-    nominal = [trace_fast(problem, z).tip_mm for z in z_probes]
+    z_probes, nominal = _nominal_tips(problem, np.linspace(*z_range_uT, Z_PROBES + 2)[1:-1])
     fitted = surface(points_mm)
     squared = []
     for _ in range(BOOTSTRAP_SURFACES):
@@ -58,6 +57,19 @@ def tip_spread_mm(problem: LevelSetProblem, points_mm: np.ndarray, scatter_uT: f
         for z, tip in zip(z_probes, nominal):
             squared.append(_squared_move(perturbed, z, tip, problem.trace_length_mm))
     return float(np.sqrt(np.mean(squared)))
+
+
+def _nominal_tips(problem: LevelSetProblem, z_uT: np.ndarray) -> tuple[np.ndarray, list]:
+    """The probes that trace on the calibration's own surface, and their tips (mm): a level the
+    lookup bridged (``lookup.bridge_untraced``) has no nominal tip to move."""
+    kept, tips = [], []
+    for z in z_uT:
+        try:
+            tips.append(trace_fast(problem, float(z)).tip_mm)
+        except TraceError:
+            continue
+        kept.append(z)
+    return np.asarray(kept), tips
 
 
 def _squared_move(problem: LevelSetProblem, z_uT: float, tip_mm: np.ndarray, length_mm: float) -> float:

@@ -25,6 +25,8 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE,
+                                              StudyWriter, TrialRecord)
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.progress import Progress
 from whiskercal.protocol.sensor_config import SensorConfig
@@ -32,8 +34,7 @@ from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError
 from whiskercal.session import RigSession, SessionConfig
 from whiskercal.study import truth as truth_module
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE, StudyWriter,
-                                      TrialRecord)
+from whiskercal.study.detect import contact_onset_mm
 from whiskercal.study.recorder import StreamRecorder, stage_position_per_sample
 
 ProgressCallback = Callable[[Progress], None]
@@ -211,22 +212,30 @@ class StudyRun:
         return contact
 
     def _search_contact(self, start: np.ndarray, push: np.ndarray) -> tuple[np.ndarray, float]:
-        """Step in along the normal until |z| passes the threshold; return that stage position."""
+        """Step in along the normal until |z| passes the threshold; return where contact began.
+
+        The onset is the steps' z extrapolated back to zero (``detect.contact_onset_mm``), not
+        the step past the threshold, which lies threshold/slope deeper.
+        """
         cfg = self.config["contact"]
         step, limit = float(cfg["search_step_mm"]), float(cfg["search_max_mm"])
         speed = float(self.config["trials"]["approach_speed_mm_s"])
+        steps: list[tuple[float, float, float]] = []  # (distance mm, z µT, sample std µT)
         for k in range(1, int(np.ceil(limit / step)) + 1):
             position = start + k * step * push
             self._move(position, speed, None, PHASE_APPROACH)
-            mean, _ = self._mean_field(int(cfg["samples_per_step"]))
+            mean, std = self._mean_field(int(cfg["samples_per_step"]))
             z_uT = float(mean[SENSOR_AXIS_Y] - self.static_field_uT[SENSOR_AXIS_Y])
+            steps.append((k * step, z_uT, float(std[SENSOR_AXIS_Y])))
             if abs(z_uT) > float(self.config["safety"]["overload_uT"]):
                 self._back_off(start)  # straight back to retract_mm behind the search start
                 raise OverloadError(f"deflection |z| reached {abs(z_uT):.0f} µT during the contact "
                                     "search, beyond the overload guard; the plane was backed off")
             if abs(z_uT) > float(cfg["threshold_uT"]):
                 self._move(start, speed, None, PHASE_RETRACT)
-                return position, z_uT
+                distance, z_steps, std = np.array(steps).T
+                noise = float(np.median(std)) / np.sqrt(int(cfg["samples_per_step"]))
+                return start + contact_onset_mm(distance, z_steps, noise) * push, z_uT
         self._move(start, speed, None, PHASE_RETRACT)
         raise NoContactError(f"the plane did not touch the whisker within {limit:g} mm of the search "
                              f"start ({start[0]:.1f}, {start[1]:.1f}) mm; check the geometry in the "

@@ -30,6 +30,9 @@ _TIP_OFFSET_TOL_MM = 1e-6
 _MAX_NEWTON = 20
 _MAX_STEP_MM = 3.0
 _MAX_SLOPE_STEP_RAD = 0.025
+# The shortest sweep accepted when tip contact cannot be held to the wanted slope (rad): a
+# quarter of MAX_TIP_SLOPE_RAD, as `describe.held_sweep` tries at the least.
+MIN_TIP_SLOPE_RAD = 0.475
 
 
 def static_field_uT(sensor: SensorParams) -> np.ndarray:
@@ -184,20 +187,42 @@ class _March:
 def tip_contact_sweep(whisker: WhiskerParams, n: int, max_tip_slope_rad: float = MAX_TIP_SLOPE_RAD) -> TipSweep:
     """Frictionless tip-contact equilibria at n tip slopes evenly spaced in [-max, 0].
 
-    The first sample is the free whisker. Raises UsageError if tip contact cannot be held that
-    far (the rod would slip off).
+    The first sample is the free whisker. On a soft suspension (k_θ·L/EI about 1) a push mostly
+    turns the root, and the wire swings round it before its tip turns that far: the rod would
+    have to stand at the clamp. The sweep then ends short, at the largest tip slope whose
+    contact the march held less one march step (``tip_slope_rad[-1]`` says where). Raises
+    UsageError if tip contact cannot be held even to :data:`MIN_TIP_SLOPE_RAD`.
     """
     if n < 4:
         raise UsageError(f"a tip curve needs at least 4 samples, got {n}.")
+    while True:
+        sweep, held_rad = _march_sweep(whisker, n, max_tip_slope_rad)
+        if sweep is not None:
+            return sweep
+        # another march, to what the first held: its in-between slopes differ, hence the margin
+        max_tip_slope_rad = held_rad - _MAX_SLOPE_STEP_RAD
+        if max_tip_slope_rad < MIN_TIP_SLOPE_RAD:
+            raise UsageError(f"tip contact cannot be held even to a tip slope of "
+                             f"{MIN_TIP_SLOPE_RAD:g} rad (it is lost at {held_rad:.3f} rad).")
+
+
+def _march_sweep(whisker: WhiskerParams, n: int, max_tip_slope_rad: float,
+                 ) -> tuple[TipSweep | None, float]:
+    """(the sweep, None) when the march holds tip contact to the end, else (None, the largest
+    tip slope magnitude it held, rad)."""
     targets = -np.linspace(0.0, max_tip_slope_rad, n)
     free = mechanics.free(whisker)
     states, centers = [free], [np.array([whisker.reach_mm, TIP_ROD_RADIUS_MM])]
-    march = _March(whisker)
+    march, held = _March(whisker), 0.0
     for low, high in zip(targets[:-1], targets[1:]):
         # Warm starts only hold over small moves of the rod: step through in-between slopes.
         n_steps = int(np.ceil(abs(high - low) / _MAX_SLOPE_STEP_RAD))
         for target in np.linspace(low, high, n_steps + 1)[1:]:
-            march.advance(target)
+            try:
+                march.advance(target)
+            except (UsageError, np.linalg.LinAlgError):  # lost, or the rod reached the clamp
+                return None, held
+            held = abs(float(target))
         states.append(march.previous)
         centers.append(march.centers[-1])
     return TipSweep(
@@ -206,7 +231,7 @@ def tip_contact_sweep(whisker: WhiskerParams, n: int, max_tip_slope_rad: float =
         root_shift_mm=np.array([state.root_shift_mm for state in states]),
         tip_mm=np.array([state.tip_mm for state in states]),
         rod_center_mm=np.array(centers),
-    )
+    ), None
 
 
 def tip_curve(sensor: SensorParams, n: int = 161) -> tuple[np.ndarray, np.ndarray]:
@@ -217,7 +242,7 @@ def tip_curve(sensor: SensorParams, n: int = 161) -> tuple[np.ndarray, np.ndarra
     sensor : SensorParams
     n : int
         Number of samples, evenly spaced in the wire's slope at the tip from the free whisker
-        to `MAX_TIP_SLOPE_RAD`.
+        to `MAX_TIP_SLOPE_RAD`, or as far as tip contact holds (`tip_contact_sweep`).
 
     Returns
     -------
@@ -232,10 +257,18 @@ def tip_curve(sensor: SensorParams, n: int = 161) -> tuple[np.ndarray, np.ndarra
 
 @functools.lru_cache(maxsize=16)
 def _tip_interpolant(sensor: SensorParams, n: int) -> tuple[CubicSpline, float]:
+    """The tip as a function of z over the curve's first branch, and that branch's lowest z.
+
+    On a soft suspension z folds back (the wire swings round its root and the magnet turns past
+    its steepest reading): beyond the fold two tips share one z, so the truth ends there.
+    """
     z, tip = tip_curve(sensor, n)
-    if np.any(np.diff(z) >= 0):
+    turned = np.flatnonzero(np.diff(z) >= 0)
+    end = int(turned[0]) if turned.size else z.size - 1  # the last sample of the first branch
+    if end < 3:
         raise UsageError(f"z of sensor {sensor.sensor_id!r} is not monotonic in the deflection; "
                          "its tip curve cannot be inverted.")
+    z, tip = z[:end + 1], tip[:end + 1]
     return CubicSpline(z[::-1], tip[::-1], axis=0), float(z[-1])
 
 
@@ -246,7 +279,7 @@ def true_tip(sensor: SensorParams, z_uT, n: int = 161) -> np.ndarray:
     ----------
     sensor : SensorParams
     z_uT : array_like, shape (...)
-        Must lie within [z at `MAX_TIP_SLOPE_RAD`, 0].
+        Must lie within [z at `MAX_TIP_SLOPE_RAD` or at the fold, whichever comes first, 0].
     n : int
         Samples of the underlying tip curve.
 
