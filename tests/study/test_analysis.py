@@ -226,3 +226,10 @@ def test_a_weak_builds_slope_doubling_is_still_a_kink():
         z = z - 60.0 * np.clip(depth - 18.0, 0.0, None)  # the shaft meets the plane at 18 mm
         found += abs(detect_kink(depth, z) - 18.0) <= 1.5
     assert found >= 30
+
+
+def test_the_last_window_of_a_push_in_cannot_kink_alone():
+    """A change of contact lasts: a deviation in the push-in's final window (where the stage
+    stops) has no next window to confirm it; one a window earlier does."""
+    assert np.isnan(detect_kink(*_push_in(kink_at_mm=44.0, slope_after=150.0)))
+    assert 43.0 <= detect_kink(*_push_in(kink_at_mm=43.0, slope_after=150.0)) <= 43.0 + 2 * 1.25

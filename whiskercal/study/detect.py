@@ -132,11 +132,12 @@ def detect_kink(depth_mm: np.ndarray, z_uT: np.ndarray, window_mm: float = 1.25,
     centres, slopes, errors = window_slopes(depth_mm[keep], z_uT[keep], window_mm)
     valid = np.isfinite(slopes)
     centres, slopes, errors = centres[valid], slopes[valid], errors[valid]
-    for i in range(history, slopes.size):
+    # a change of contact lasts; the tip's stick-slip on a weak build moves one window. So the
+    # next window must confirm, and the push-in's last window, which has none, cannot kink alone.
+    for i in range(history, slopes.size - 1):
         trend = float(np.median(slopes[i - history:i]))
         wander = _wander(slopes[:i])
-        # a change of contact lasts; the tip's stick-slip on a weak build moves one window
-        following = range(i, min(i + 2, slopes.size))
+        following = (i, i + 1)
         if all(_leaves(slopes[j] - trend, trend, max(sigmas * errors[j], wander_sigmas * wander),
                        tolerance) for j in following) and len({np.sign(slopes[j] - trend) for j in following}) == 1:
             return float(centres[i])

@@ -74,7 +74,7 @@ class ContactPath:
     def _step(self, tool: np.ndarray, previous_tool: np.ndarray) -> None:
         self.scene.moved(previous_tool, tool)
         if not self.equilibrium.in_contact and not self.scene.touches(self._clearance_mm, tool):
-            if self.equilibrium.slipped_past:
+            if getattr(self.equilibrium, "slipped_past", False):
                 self.equilibrium = self.physics.free()  # the obstacle has cleared the wire
             return  # nothing touches: no solve (the solver refuses far-off poses)
         try:
