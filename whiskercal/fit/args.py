@@ -13,7 +13,8 @@ from whiskercal.errors import UsageError
 from whiskercal.fit.options import FitOptions
 
 
-def _degree(word: str) -> int | str:
+def parse_degree(word: str) -> int | str:
+    """``auto`` or a whole degree, from the word of a command line; UsageError otherwise."""
     if word == "auto":
         return word
     try:
@@ -33,7 +34,7 @@ def _number(kind: type, flag: str) -> Callable[[str], float | int]:
 
 # option -> (FitOptions field, how its value word converts)
 VALUED: dict[str, tuple[str, Callable[[str], object]]] = {
-    "--degree": ("degree", _degree),
+    "--degree": ("degree", parse_degree),
     "--coordinates": ("coordinates", str),
     "--samples": ("samples", _number(int, "--samples")),
     "--tracer": ("tracer", str),

@@ -11,15 +11,6 @@ from whiskercal.atomic import refuse_input_as_output
 from whiskercal.cli.app import App, echo_json, pass_app
 
 
-def _degree(value: str) -> int | str:
-    if value == "auto":
-        return value
-    try:
-        return int(value)
-    except ValueError:
-        raise click.BadParameter("a degree 1..8 or 'auto'") from None
-
-
 def _trusted_or_none(trusted) -> list[float] | None:
     trusted = np.asarray(trusted, float)
     return None if np.any(np.isnan(trusted)) else trusted.tolist()
@@ -98,12 +89,13 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     """
     from whiskercal.artifacts.raw_grid import read_raw_grid
     from whiskercal.fit import FitOptions, fit
+    from whiskercal.fit.args import parse_degree
 
     refuse_input_as_output(out_path, [raw], "the calibration artifact")
     started = time.perf_counter()
     grid = read_raw_grid(raw)
     options = FitOptions(
-        degree=_degree(degree), coordinates=coordinates, samples=samples, tracer=tracer,
+        degree=parse_degree(degree), coordinates=coordinates, samples=samples, tracer=tracer,
         interpolant=interpolant, trace_length_mm=trace_length_mm,
         entry_radius_mm=entry_radius_mm, allow_extrapolation=allow_extrapolation,
         max_extension_mm=(FitOptions.max_extension_mm if max_extension_mm is None
