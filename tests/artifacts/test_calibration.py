@@ -100,7 +100,7 @@ def test_other_schemas_and_broken_files_are_refused(tmp_path):
     with pytest.raises(ArtifactError, match="not a whiskercal.calibration file"):
         read_calibration(path)
     (tmp_path / "junk.h5").write_bytes(b"not hdf5")
-    with pytest.raises(ArtifactError, match="cannot open as HDF5"):
+    with pytest.raises(ArtifactError, match="not an HDF5 file"):
         read_calibration(tmp_path / "junk.h5")
 
 

@@ -8,6 +8,7 @@ import serial
 from test_world_standin import FIELD_PER_RAD_UT, RigidWhiskerPhysics
 
 import whiskercal.rig  # noqa: F401  (registers sim://)
+from whiskercal.errors import UsageError
 from whiskercal.rig.sensor import SensorClient
 from whiskercal.rig.stage import StageClient
 from whiskercal.twin.geometry import RigGeometry
@@ -60,8 +61,12 @@ def test_url_options_build_the_world():
     assert world.config.stage_faults.stall_at_s == 2.5
     with pytest.raises(serial.SerialException, match="unknown sim:// option"):
         serial.serial_for_url(f"sim://{_name()}/stage?colour=red")
-    with pytest.raises(serial.SerialException, match="bad fault"):
+    with pytest.raises(UsageError, match="bad fault"):
         serial.serial_for_url(f"sim://{_name()}/stage?fault=melt@3")
+    with pytest.raises(UsageError, match="seed must be an integer"):
+        serial.serial_for_url(f"sim://{_name()}/stage?seed=abc")
+    with pytest.raises(UsageError, match="speed .* must be a finite number"):
+        serial.serial_for_url(f"sim://{_name()}/stage?speed=nan")
     with pytest.raises(serial.SerialException, match="expected sim://NAME/stage"):
         serial.serial_for_url(f"sim://{_name()}/printer")
 

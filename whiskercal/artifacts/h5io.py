@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import datetime as _dt
 import hashlib
 import json
@@ -103,4 +105,15 @@ def open_h5(path: str | Path, mode: str = "r") -> h5py.File:
     try:
         return h5py.File(path, mode)
     except OSError as error:
-        raise ArtifactError(f"{path}: cannot open as HDF5 ({error})") from None
+        raise ArtifactError(f"{path}: {_why_unreadable(error)}") from None
+
+
+def _why_unreadable(error: OSError) -> str:
+    """HDF5's reason in a user's words: a file cut short says how much of it is there."""
+    cut = re.search(r"truncated file: eof = (\d+).*stored_eof = (\d+)", str(error))
+    if cut:
+        return (f"truncated: {int(cut[1])} of its {int(cut[2])} bytes are there "
+                "(the write that made it was cut short)")
+    if "file signature not found" in str(error):
+        return "not an HDF5 file"
+    return f"cannot open as HDF5 ({error})"

@@ -253,6 +253,34 @@ class RawGridWriter:
             self._file.close()
 
 
+@dataclass(frozen=True)
+class FrameQuality:
+    """Sensor frames of a run: samples received, frames dropped (sequence gaps) and corrupt."""
+
+    received: int
+    dropped: int
+    corrupt: int
+
+    @property
+    def loss_fraction(self) -> float:
+        """Frames lost (dropped or corrupt) per frame sent."""
+        sent = self.received + self.dropped + self.corrupt
+        return (self.dropped + self.corrupt) / sent if sent else 0.0
+
+    def warning(self, limit: float) -> str | None:
+        """One line when more than ``limit`` (a fraction) of the frames were lost, else None."""
+        if self.loss_fraction <= limit:
+            return None
+        return (f"{100 * self.loss_fraction:.1f} % of the sensor's frames were lost "
+                f"({self.dropped} dropped, {self.corrupt} corrupt, {self.received} received; "
+                f"limit {100 * limit:g} %): check the cable, the USB hub and the host's load")
+
+    def to_dict(self) -> dict:
+        """Plain values for JSON."""
+        return {"received": self.received, "dropped": self.dropped, "corrupt": self.corrupt,
+                "loss_fraction": self.loss_fraction}
+
+
 @dataclass
 class RawGrid:
     """A raw calibration dataset as numpy arrays (mm, µT, s).
@@ -294,6 +322,18 @@ class RawGrid:
 
     def __len__(self) -> int:
         return len(self.z_uT)
+
+    @property
+    def z_sem_uT(self) -> np.ndarray:
+        """Standard error (n,) µT of each grid point's mean z."""
+        return self.z_std_uT / np.sqrt(np.maximum(self.n_samples, 1))
+
+    @property
+    def frames(self) -> "FrameQuality":
+        """Samples kept in the stream and frames lost on the line (read with ``stream=True``)."""
+        if self.stream is None:
+            raise ValueError("frame counts need the stream: read_raw_grid(path, stream=True)")
+        return FrameQuality(len(self.stream), int(np.sum(self.dropped)), int(np.sum(self.corrupt)))
 
     @property
     def baseline_before_uT(self) -> np.ndarray:

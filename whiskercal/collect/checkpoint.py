@@ -17,6 +17,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from whiskercal.artifacts.h5io import open_h5
 from whiskercal.artifacts.raw_grid import (POINT_FIELDS, STREAM_FIELDS, Baseline, PointRecord,
                                            RawGridWriter, RawHeader, StreamChunk,
                                            read_plan_fingerprint, read_raw_grid)
@@ -161,6 +162,12 @@ def recorded_fingerprint(path: str | Path) -> str:
     fingerprint = read_plan_fingerprint(path) if path.exists() else None
     if fingerprint is not None:
         return fingerprint
+    if path.exists():
+        try:
+            open_h5(path).close()
+        except ArtifactError as error:
+            raise UsageError(f"{error}; its journal {journal_file.name} is gone, so nothing "
+                             "can be resumed: start a new --out") from None
     raise UsageError(f"{path}: nothing to resume (no readable file or journal)")
 
 

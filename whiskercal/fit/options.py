@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from whiskercal.checks import number, positive
 from whiskercal.errors import UsageError
 from whiskercal.model.calibrate import MAX_EXTENSION_MM, CalibrationOptions
 from whiskercal.model.collision import CollisionParams
@@ -72,8 +73,10 @@ class FitOptions:
         low, high = SAMPLES_RANGE
         if not (isinstance(self.samples, int) and low <= self.samples <= high):
             raise UsageError(f"samples must be an integer {low}..{high}, not {self.samples!r}")
-        if not self.max_extension_mm >= 0:
-            raise UsageError(f"max_extension_mm must be at least 0 mm, not {self.max_extension_mm}")
+        number(self.max_extension_mm, "max_extension_mm", low=0, unit="mm")
+        positive(self.threshold_uT, "threshold_uT (the collision threshold)", unit="µT")
+        if self.trace_length_mm is not None:
+            positive(self.trace_length_mm, "trace_length_mm (root to tip)", high=1000, unit="mm")
 
     def calibration_options(self, trace_length_mm: float) -> CalibrationOptions:
         """The model's options for this fit, with the trace length (mm) already resolved.

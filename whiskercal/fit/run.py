@@ -58,7 +58,7 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
 
 def z_sem_uT(raw: RawGrid) -> np.ndarray:
     """Standard error (n,) µT of each grid point's mean z."""
-    return raw.z_std_uT / np.sqrt(np.maximum(raw.n_samples, 1))
+    return raw.z_sem_uT
 
 
 def calibrate_raw(raw: RawGrid, options: CalibrationOptions,

@@ -7,6 +7,8 @@ adds hysteresis, so noise at the threshold does not chatter between contact and 
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,8 +25,8 @@ class CollisionParams:
     static_uT: float = 0.0
 
     def __post_init__(self) -> None:
-        if not self.threshold_uT > 0:
-            raise ModelError("the collision threshold must be positive")
+        if not 0 < self.threshold_uT < math.inf:
+            raise ModelError(f"the collision threshold must be a finite number > 0 µT, not {self.threshold_uT!r}")
         if self.release_uT is not None and not 0 < self.release_uT <= self.threshold_uT:
             raise ModelError("the release threshold must lie in (0, threshold]")
 

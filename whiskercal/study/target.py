@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from whiskercal.checks import number
 from whiskercal.errors import WhiskercalError
 from whiskercal.study.analysis import TrialMetrics
 
@@ -85,7 +86,10 @@ def choose_target(rows: list[TrialMetrics], margin_weight_mm: float = 0.1) -> Ta
     ------
     NoTargetError
         When every trial fails or is adjacent to a failure.
+    UsageError
+        When ``margin_weight_mm`` is negative or not finite.
     """
+    margin_weight_mm = number(margin_weight_mm, "the margin weight", low=0, unit="mm")
     rows = sorted(rows, key=lambda row: row.depth_mm)
     depths = np.array([row.depth_mm for row in rows], float)
     failing = np.array([row.failing for row in rows], bool)

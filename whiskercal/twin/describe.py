@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from whiskercal.checks import positive
 from whiskercal.errors import UsageError
 from whiskercal.twin.params import SensorParams
 from whiskercal.twin.physics.magnet import field_uT
@@ -102,8 +103,8 @@ def root_ratio(sensor: SensorParams) -> float:
 
 def push(sensor: SensorParams, depth_mm: float = PAPER_DEPTH_MM) -> Push:
     """The study's plane (20°, μ_s 0.30, μ_k 0.22) `depth_mm` past the tip, solved without history."""
-    if not (math.isfinite(depth_mm) and depth_mm > 0):
-        raise UsageError(f"the depth must be a positive number of mm, got {depth_mm!r}.")
+    # past the wire's length the plane would cross behind the root: no contact is left to solve
+    positive(depth_mm, "the depth (mm past the undeflected tip)", high=sensor.whisker.length_mm, unit="mm")
     settings = (depth_mm, math.degrees(DEFAULT_PLANE_TILT_RAD), DEFAULT_MU_STATIC, DEFAULT_MU_KINETIC)
     try:
         eq = solve_plane(sensor.whisker, plane_for_depth(sensor.whisker, depth_mm))

@@ -123,6 +123,8 @@ def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json)
         summary = collect(stage, sensor, out, plan, resume=resume,
                           on_progress=bar.update if bar else None, stop_requested=stop_requested)
     _print_run(summary, as_json)
+    for warning in summary.warnings:
+        click.echo(f"warning: {warning}", err=True)
     if summary.stopped:
         click.echo(f"stopped: {summary.points} of {summary.planned} points saved in "
                    f"{summary.output}; continue with --resume", err=True)

@@ -77,10 +77,12 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
     STUDY_PATH is the file `optimal-depth run` wrote.
     """
     from whiskercal import runtime
+    from whiskercal.checks import number
     from whiskercal.study.artifact_target import target_artifact_path, write_target
     from whiskercal.study.figures import figure_paths, write_figures
     from whiskercal.study.report import build_report
 
+    number(margin_weight_mm, "--margin-weight", low=0, unit="mm")  # before any work
     out_dir = out_dir or Path(study_path).parent
     destination = out_artifact or target_artifact_path(artifact_path, out_dir)
     for output in [destination] + ([] if no_figures else figure_paths(out_dir)):

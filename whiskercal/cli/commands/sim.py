@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 
@@ -42,19 +43,18 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
     Prints the stage's and the sensor's pty paths; open them with any serial tool or pass
     them to whiskercal commands as device names.
     """
-    from whiskercal.errors import UsageError
+    from whiskercal.checks import number, positive
     from whiskercal.twin.devices.simport import PtyBridge, world_from_options
 
-    if speed <= 0:
-        raise UsageError("--speed must be positive (1 = real time).")
+    positive(speed, "--speed (simulated seconds per real second)")
+    number(rod_radius, "--rod-radius", low=0, unit="mm")
+    if duration is not None:
+        number(duration, "--duration (leave it out to run until Ctrl-C)", low=0, unit="s")
     options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
                "stock": ["1" if stock else "0"], "fault": list(faults)}
     if sensor is not None:
         options["sensor"] = [sensor]
-    try:
-        world = world_from_options("serve", options)
-    except Exception as error:  # noqa: BLE001  (a bad --fault is the user's to fix)
-        raise UsageError(str(error)) from None
+    world = world_from_options("serve", options)
     bridge = PtyBridge(world, speed)
     info = {"stage": bridge.paths["stage"], "sensor": bridge.paths["sensor"], "scene": scene,
             "seed": seed, "speed": speed, "sensor_id": world.sensor.sensor_id}
@@ -63,7 +63,7 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
     else:
         click.echo(f"stage  {info['stage']}\nsensor {info['sensor']}\n(Ctrl-C to stop)")
     sys.stdout.flush()
-    end = time.monotonic() + duration if duration is not None else float("inf")
+    end = time.monotonic() + duration if duration is not None else math.inf
     try:
         bridge.serve(lambda: time.monotonic() >= end)
     except KeyboardInterrupt:

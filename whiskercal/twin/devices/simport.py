@@ -23,6 +23,8 @@ import urllib.parse
 import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
+from whiskercal.checks import integer, number
+from whiskercal.errors import UsageError
 from whiskercal.twin.world import World, create_world, get_world
 
 RECEIVE_BUFFER_BYTES = 4096
@@ -56,9 +58,9 @@ def _faults(options: dict[str, list[str]]) -> list[tuple[str, float, str]]:
         name, _, rest = entry.partition("@")
         when, _, argument = rest.partition(":")
         if name not in (*_STAGE_FAULTS, "disconnect") or not when:
-            raise SerialException(f"bad fault {entry!r}; use NAME@SECONDS with NAME one of "
-                                  f"{', '.join((*_STAGE_FAULTS, 'disconnect'))}")
-        faults.append((name, float(when), argument))
+            raise UsageError(f"bad fault {entry!r}; use NAME@SECONDS with NAME one of "
+                             f"{', '.join((*_STAGE_FAULTS, 'disconnect'))}")
+        faults.append((name, number(when, f"the time of fault {entry!r}", low=0, unit="s"), argument))
     return faults
 
 
@@ -71,26 +73,37 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         """The last value given for ``key``."""
         return options.get(key, [default])[-1]
 
-    stage_faults, sensor_faults = StageFaults(), SensorFaults(float(value("corrupt", 0)),
-                                                              float(value("drop", 0)))
+    def fraction(key):
+        return number(value(key, 0), f"sim:// option {key} (a fraction of frames)", low=0, high=1)
+
+    stage_faults, sensor_faults = StageFaults(), SensorFaults(fraction("corrupt"), fraction("drop"))
     for fault, when, argument in _faults(options):
         if fault == "disconnect":
             continue  # a property of the port that names it, see Serial.open
         setattr(stage_faults, _STAGE_FAULTS[fault], when)
         if fault == "missed_steps" and argument:
-            stage_faults.missed_steps_mm = float(argument)
+            stage_faults.missed_steps_mm = number(argument, "the missed_steps fault's size", unit="mm")
     sensor = None
     if "sensor" in options:  # a shipped id or the path of a .toml sensor file (percent-decoded)
         from whiskercal.twin.sensor_file import resolve_sensor
 
         sensor = resolve_sensor(value("sensor", ""))
-    world = create_world(name, scene=value("scene", "rod"), sensor=sensor, seed=int(value("seed", 0)),
-                         rod_radius_mm=float(value("rod_radius", 1.5)), stock=value("stock", "0") == "1",
-                         speed=float(value("speed", 0)), backlash_mm=float(value("backlash", 0.02)),
-                         clock_drift_ppm=float(value("drift_ppm", 0)), stage_faults=stage_faults,
-                         sensor_faults=sensor_faults)
+    world = create_world(
+        name, scene=value("scene", "rod"), sensor=sensor,
+        seed=integer(value("seed", 0), "sim:// option seed", low=0),
+        rod_radius_mm=number(value("rod_radius", 1.5), "sim:// option rod_radius", low=0, unit="mm"), stock=_flag(value("stock", "0"), "stock"),
+        speed=number(value("speed", 0), "sim:// option speed (0: as fast as the host allows)", low=0),
+        backlash_mm=number(value("backlash", 0.02), "sim:// option backlash", low=0, unit="mm"),
+        clock_drift_ppm=number(value("drift_ppm", 0), "sim:// option drift_ppm", low=-1e4, high=1e4),
+        stage_faults=stage_faults, sensor_faults=sensor_faults)
     world.url_options = _world_level(options)
     return world
+
+
+def _flag(text: str, key: str) -> bool:
+    if text not in ("0", "1"):
+        raise UsageError(f"sim:// option {key} must be 0 or 1, not {text!r}")
+    return text == "1"
 
 
 def _world_level(options: dict[str, list[str]]) -> dict[str, list[str]]:

@@ -1,0 +1,192 @@
+"""The bad-input sweep, kept: every bad command line gets one clear line and a non-zero exit.
+
+Each row is a command line a hostile or hurried user may type, the exit code it must give
+(2 bad input, 3 device, 4 file; click's own usage errors are 2 too) and words its one error
+line must hold. No row may end in a traceback or hang; `--debug` still shows the traceback.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import uuid
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from whiskercal.cli import cli
+
+REPO = Path(__file__).resolve().parents[1]
+RAW = REPO / "data" / "twin-paper-75mm" / "raw_grid.h5"
+STUDY = REPO / "data" / "twin-paper-75mm" / "plane_study.h5"
+CAL = REPO / "tests" / "fixtures" / "calibration-1.3.0-target.h5"
+
+FILES = {
+    "empty.h5": b"",
+    "text.h5": b"hello\n",
+    "garbage.toml": b"[grid\nfoo",
+    "nan.toml": b"[grid]\nreach_min_mm = nan\n",
+    "neg.toml": b"[grid]\nreach_min_mm = -5\n",
+    "str.toml": b"[grid]\nreach_min_mm = \"a\"\n",
+    "unknown.toml": b"[nosuch]\nx = 1\n",
+    "inverted.toml": b"[grid]\nreach_min_mm = 60\nreach_max_mm = 50\n",
+    "loss.toml": b"[acquisition]\nmax_frame_loss = 2\n",
+    "nodepths.toml": b"[trials]\ndepths_mm = []\n",
+    "nandepth.toml": b"[trials]\ndepths_mm = [5, nan]\n",
+    "negtravel.toml": b"[trials]\ntravel_mm = -1\n",
+    "tiny.csv": b"time,field\n0,1\n",
+    "headeronly.csv": b"t,y\n",
+    "empty.csv": b"",
+}
+
+STAGE, SENSOR = "sim://{w}/stage", "sim://{w}/sensor"
+COLLECT = ["collect", "--stage", STAGE, "--sensor", SENSOR]
+STUDY_RUN = ["optimal-depth", "run", "--stage", STAGE + "?scene=plane", "--sensor", SENSOR]
+
+# (command line, exit code, words the error line holds)
+CASES = [
+    ("fit nosuch.h5 --out o.h5", 4, "no such file"),
+    ("fit empty.h5 --out o.h5", 4, "not an HDF5 file"),
+    ("fit text.h5 --out o.h5", 4, "not an HDF5 file"),
+    ("fit trunc_raw.h5 --out o.h5", 4, "truncated: 20000 of its"),
+    ("fit cal.h5 --out o.h5", 4, "not a whiskercal.raw_grid file"),
+    ("fit study.h5 --out o.h5", 4, "not a whiskercal.raw_grid file"),
+    ("fit raw.h5 --out raw.h5", 2, "an input is never overwritten"),
+    ("fit adir --out o.h5", 2, "is a directory"),
+    ("fit raw.h5 --out o.h5 --degree -3", 2, "degree must be 1..8"),
+    ("fit raw.h5 --out o.h5 --degree nan", 2, "--degree must be"),
+    ("fit raw.h5 --out o.h5 --samples 1", 2, "not in the range"),
+    ("fit raw.h5 --out o.h5 --trace-length-mm nan", 2, "trace_length_mm"),
+    ("fit raw.h5 --out o.h5 --trace-length-mm -5", 2, "trace_length_mm"),
+    ("fit raw.h5 --out o.h5 --trace-length-mm inf", 2, "trace_length_mm"),
+    ("fit raw.h5 --out o.h5 --entry-radius-mm nan", 2, "--entry-radius-mm"),
+    ("fit raw.h5 --out o.h5 --max-extension-mm nan", 2, "max_extension_mm"),
+    ("fit raw.h5 --out o.h5 --threshold-uT -5", 2, "collision threshold"),
+    ("fit raw.h5 --out o.h5 --threshold-uT inf", 2, "collision threshold"),
+    ("inspect nosuch.h5", 4, "no such file"),
+    ("inspect trunc_raw.h5", 4, "truncated"),
+    ("inspect text.h5", 4, "not an HDF5 file"),
+    ("inspect study.h5", 4, "not a whiskercal calibration artifact or raw grid"),
+    ("report raw.h5 --out r.html", 4, "not a whiskercal.calibration file"),
+    ("report cal.h5 --out cal.h5", 2, "an input is never overwritten"),
+    ("report cal.h5 --out r.html --raw cal.h5", 4, "not a whiskercal.raw_grid file"),
+    ("report cal.h5 --out r.html --study trunc_study.h5", 4, "truncated"),
+    ("report cal.h5 --out r.html --bench nosuch", 2, "holds no bench.json"),
+    ("optimal-depth report study.h5 --artifact raw.h5 --out od", 4, "not a whiskercal.calibration"),
+    ("optimal-depth report raw.h5 --artifact cal.h5 --out od", 4, "not a whiskercal.plane_study"),
+    ("optimal-depth report study.h5 --artifact cal.h5 --out od --margin-weight nan", 2, "--margin-weight"),
+    ("optimal-depth report study.h5 --artifact cal.h5 --out od --margin-weight -1", 2, "--margin-weight"),
+    ("optimal-depth report study.h5 --artifact cal.h5 --out od --out-artifact cal.h5", 2, "never overwritten"),
+    ("replay nosuch.csv --artifact cal.h5 --out rp", 2, "cannot read the stream"),
+    ("replay empty.csv --artifact cal.h5 --out rp", 2, "no header line"),
+    ("replay headeronly.csv --artifact cal.h5 --out rp", 2, "no samples"),
+    ("replay tiny.csv --artifact cal.h5 --out rp", 2, "no field column"),
+    ("replay tiny.csv --artifact cal.h5 --out rp --field-column field --rest-uT nan", 2, "rest reading"),
+    ("replay tiny.csv --artifact cal.h5 --out rp --delimiter xyz", 2, "delimiter must be"),
+    ("replay tiny.csv --artifact raw.h5 --out rp", 4, "not a whiskercal.calibration"),
+    ("replay cal.h5 --artifact cal.h5 --out rp", 4, "holds no stream to replay"),
+    ("twin describe nosuch", 2, "unknown sensor"),
+    ("twin describe garbage.toml", 2, "not valid TOML"),
+    ("twin describe twin-paper-75mm --depth nan", 2, "the depth"),
+    ("twin describe twin-paper-75mm --depth 1000", 2, "the depth"),
+    ("regress nosuch", 2, "no such directory"),
+    ("regress adir", 2, "no dataset directories"),
+    ("bench --out cal.h5 --quick --only model-speed", 2, "is a file"),
+] + [(" ".join(COLLECT + extra.split()), code, words) for extra, code, words in [
+    ("--out c.h5 --config nosuch.toml", 2, "no such config file"),
+    ("--out c.h5 --config garbage.toml", 2, "not valid TOML"),
+    ("--out c.h5 --config nan.toml", 2, "reach_min_mm = nan must be a finite number"),
+    ("--out c.h5 --config neg.toml", 2, "grid.reach_min_mm must be >= 0"),
+    ("--out c.h5 --config str.toml", 2, "must be a finite number"),
+    ("--out c.h5 --config unknown.toml", 2, "unknown setting 'nosuch'"),
+    ("--out c.h5 --config inverted.toml", 2, "reach_min_mm < reach_max_mm"),
+    ("--out c.h5 --config loss.toml", 2, "max_frame_loss"),
+    ("--out raw.h5", 2, "already exists"),
+    ("--out c.h5 --resume", 2, "nothing to resume"),
+    ("--out trunc_raw.h5 --resume", 2, "truncated"),
+    ("--out study.h5 --resume", 2, "cannot resume"),
+    ("--out adir", 2, "is a directory"),
+]] + [
+    ("collect --stage sim://{w}/stage?nosuch=1 --sensor " + SENSOR + " --out c.h5", 3, "unknown sim:// option"),
+    ("collect --stage sim://{w}/stage?seed=abc --sensor " + SENSOR + " --out c.h5", 2, "seed must be an integer"),
+    ("collect --stage sim://{w}/stage?speed=nan --sensor " + SENSOR + " --out c.h5", 2, "speed"),
+    ("collect --stage sim://{w}/stage?drop=2 --sensor " + SENSOR + " --out c.h5", 2, "drop"),
+    ("collect --stage sim://{w}/stage?stock=yes --sensor " + SENSOR + " --out c.h5", 2, "stock must be 0 or 1"),
+    ("collect --stage sim://{w}/stage?scene=teapot --sensor " + SENSOR + " --out c.h5", 2, "unknown scene"),
+    ("collect --stage sim://{w}/stage?fault=bogus --sensor " + SENSOR + " --out c.h5", 2, "bad fault"),
+    ("collect --stage sim://{w}/stage?fault=stall@nan --sensor " + SENSOR + " --out c.h5", 2, "time of fault"),
+    ("collect --stage sim://{w}/stage?sensor=nosuch.toml --sensor " + SENSOR + " --out c.h5", 2, "no such sensor file"),
+    ("collect --stage sim://{w}/sensor --sensor sim://{w}/stage --out c.h5", 3, "did not answer"),
+    ("collect --stage /dev/nosuch-port --sensor " + SENSOR + " --out c.h5", 3, "cannot open serial port"),
+] + [(" ".join(STUDY_RUN + extra.split()), code, words) for extra, code, words in [
+    ("--out s.h5 --config nodepths.toml", 2, "depths_mm"),
+    ("--out s.h5 --config nandepth.toml", 2, "depths_mm"),
+    ("--out s.h5 --config negtravel.toml", 2, "travel_mm must be positive"),
+    ("--out study.h5", 2, "pass --resume"),
+    ("--out trunc_study.h5 --resume", 4, "truncated"),
+    ("--out raw.h5 --resume", 4, "not a whiskercal.plane_study file"),
+]]
+
+# `sim serve` runs until Ctrl-C when its checks fail to stop it: a subprocess with a time limit
+SERVE_CASES = [
+    ("--duration nan", "--duration"),
+    ("--duration -1", "--duration"),
+    ("--speed nan --duration 1", "--speed"),
+    ("--speed 0 --duration 1", "--speed"),
+    ("--rod-radius -1 --duration 1", "--rod-radius"),
+    ("--fault missed_steps@nan --duration 1", "time of fault"),
+    ("--fault bogus --duration 1", "bad fault"),
+    ("--sensor nosuch --duration 1", "unknown sensor"),
+]
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory) -> Path:
+    """Good and broken inputs side by side (a truncated copy keeps its first 20000 bytes)."""
+    folder = tmp_path_factory.mktemp("sweep")
+    for name, content in FILES.items():
+        (folder / name).write_bytes(content)
+    for source, name in ((RAW, "raw.h5"), (STUDY, "study.h5"), (CAL, "cal.h5")):
+        shutil.copy(source, folder / name)
+    for name in ("raw.h5", "study.h5"):
+        (folder / f"trunc_{name}").write_bytes((folder / name).read_bytes()[:20000])
+    (folder / "adir").mkdir()
+    return folder
+
+
+def _invoke(workdir: Path, line: str, *flags: str):
+    words = line.format(w=f"sweep{uuid.uuid4().hex[:8]}").split()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(workdir)
+        return CliRunner().invoke(cli, [*flags, "-q", *words])
+
+
+@pytest.mark.parametrize("line, code, words", CASES, ids=[case[0] for case in CASES])
+def test_a_bad_command_line_gets_one_clear_error_line(workdir, line, code, words):
+    before = {p.name: p.stat().st_mtime_ns for p in workdir.iterdir()}
+    result = _invoke(workdir, line)
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.exc_info
+    assert result.exit_code == code, result.output
+    errors = [text for text in result.stderr.splitlines() if text.lower().startswith("error:")]
+    assert len(errors) == 1 and words in errors[0], result.stderr
+    if not result.stderr.startswith("Usage:"):  # click's usage errors add their usage lines
+        assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    for name, stamp in before.items():  # a refused command changed no input
+        assert (workdir / name).stat().st_mtime_ns == stamp, name
+
+
+@pytest.mark.parametrize("options, words", SERVE_CASES, ids=[case[0] for case in SERVE_CASES])
+def test_sim_serve_refuses_bad_options_at_once(options, words):
+    done = subprocess.run([sys.executable, "-m", "whiskercal", "sim", "serve", *options.split()],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and words in lines[0], done.stderr
+
+
+def test_debug_shows_the_traceback(workdir):
+    result = _invoke(workdir, "fit nosuch.h5 --out o.h5", "--debug")
+    assert result.exit_code != 0 and result.exception is not None
+    assert type(result.exception).__name__ == "ArtifactError"
