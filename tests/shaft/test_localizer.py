@@ -1,0 +1,93 @@
+"""The shaft localizer on synthetic surfaces where the contact point is known exactly."""
+
+import time
+
+import numpy as np
+
+from whiskercal.model.shaft import REASON_SIGNAL, REASON_TRAVEL, ShaftLocalizer, ShaftParams
+
+
+class AngleSurface:
+    """z = -k θ (60 / r): deflection grows with the contact's angle, falls with its reach (µT)."""
+
+    k_uT = 8000.0
+
+    def __call__(self, points):
+        points = np.asarray(points, float)
+        r = np.hypot(points[..., 0], points[..., 1])
+        return -self.k_uT * np.arctan2(points[..., 1], points[..., 0]) * 60.0 / r
+
+    def gradient(self, points):
+        points = np.asarray(points, float)
+        x, y = points[..., 0], points[..., 1]
+        r2 = x * x + y * y
+        r = np.sqrt(r2)
+        theta = np.arctan2(y, x)
+        dtheta = np.stack([-y / r2, x / r2], axis=-1)
+        dinv_r = np.stack([-x / r ** 3, -y / r ** 3], axis=-1)
+        return -self.k_uT * 60.0 * (dtheta / r[..., None] + theta[..., None] * dinv_r)
+
+
+def _path(start, push_mm=4.0, slide=(-10.0, 0.0), step=0.05):
+    """Contact points: pushed in along -y, then slid; (n, 2) mm."""
+    start = np.asarray(start, float)
+    push = [start + [0.0, -step * k] for k in range(int(push_mm / step) + 1)]
+    direction = np.asarray(slide) / np.hypot(*slide)
+    slide_pts = [push[-1] + direction * step * k for k in range(1, int(np.hypot(*slide) / step) + 1)]
+    return np.array(push + slide_pts)
+
+
+def _run(start, noise_uT=5.0, seed=0, **path_kw):
+    surface = AngleSurface()
+    localizer = ShaftLocalizer(surface, ShaftParams(noise_uT=noise_uT, search_x_mm=(10.0, 80.0)))
+    rng = np.random.default_rng(seed)
+    path = _path(start, **path_kw)
+    object_offset = np.array([123.0, -45.0])  # the object's position is known up to a constant
+    states = []
+    for contact in path:
+        z = float(surface(contact)) + rng.normal(0.0, noise_uT)
+        states.append(localizer.update(z, contact + object_offset))
+    return path, states
+
+
+def test_recovers_the_contact_point_within_a_quarter_millimetre():
+    for start in ([25.0, 0.0], [45.0, 0.0], [70.0, 0.0]):
+        path, states = _run(start)
+        late = [np.hypot(*(s.contact_mm - p)) for p, s in zip(path, states) if s.travel_mm > 5.0]
+        assert all(s.localized for s in states if s.travel_mm > 5.0)
+        assert np.median(late) < 0.25, (start, np.median(late))
+
+
+def test_uncertainty_covers_the_error():
+    path, states = _run([50.0, 0.0], noise_uT=20.0, seed=3)
+    final = states[-1]
+    error = np.abs(final.contact_mm - path[-1])
+    assert np.all(error < 4.0 * final.sd_mm + 0.02), (error, final.sd_mm)
+
+
+def test_withholds_an_estimate_before_enough_travel():
+    _, states = _run([40.0, 0.0])
+    assert not states[0].localized
+    assert states[3].reason in (REASON_TRAVEL, REASON_SIGNAL)
+    assert all(np.isnan(s.contact_mm).all() for s in states if not s.localized)
+
+
+def test_withholds_an_estimate_when_z_stays_in_the_noise():
+    surface = AngleSurface()
+    localizer = ShaftLocalizer(surface, ShaftParams(noise_uT=5.0))
+    rng = np.random.default_rng(1)
+    for k in range(200):
+        state = localizer.update(float(rng.normal(0.0, 5.0)), [0.05 * k, 0.0])
+    assert not state.localized and state.reason == REASON_SIGNAL
+
+
+def test_costs_well_under_a_millisecond_per_sample():
+    path = _path([40.0, 0.0], push_mm=5.0, slide=(-20.0, 0.0))
+    surface = AngleSurface()
+    localizer = ShaftLocalizer(surface, ShaftParams(noise_uT=5.0))
+    z = surface(path)
+    start = time.perf_counter()
+    for point, value in zip(path, z):
+        localizer.update(float(value), point)
+    per_sample_s = (time.perf_counter() - start) / len(path)
+    assert per_sample_s < 1e-3, per_sample_s
