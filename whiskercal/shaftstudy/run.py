@@ -52,6 +52,7 @@ def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
         writer = ShaftStudyWriter(out_path, config, sensor_id, resume=resume)
         done = set(writer.done())
         rig.start()
+        _rise_clear(rig, config)
         rig.move_to(config["safety"]["park_mm"], _feed(config, "travel_speed_mm_s"))
         static = rig.measure(int(config["safety"]["baseline_samples"]), settle_s=0.2).field_uT.mean(0)
         writer.write_baseline(static)
@@ -67,6 +68,19 @@ def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
         writer.mark_complete()
         summary.complete = True
     return summary
+
+
+def _rise_clear(rig: RigSession, config: dict) -> None:
+    """From wherever homing left the rod (below the whisker, -y), pass beyond the whisker's reach
+    before rising to the trials' side (+y), so the rod never crosses the shaft."""
+    here = rig.position_mm()
+    safe_y = float(config["trials"]["safe_y_mm"])
+    if here[1] >= safe_y:
+        return
+    beyond = max(float(here[0]), float(config["rig"]["trace_length_mm"]) + 10.0)
+    feed = _feed(config, "travel_speed_mm_s")
+    rig.move_to([beyond, here[1]], feed)
+    rig.move_to([beyond, safe_y], feed)
 
 
 def _feed(config: dict, key: str) -> float:
