@@ -38,6 +38,8 @@ TIP_MARGIN_MM = 3.0
 """A localized contact this close to the trace's end (mm of reach) is the tip's, not the shaft's."""
 TIP_EVIDENCE_TRAVEL_MM = 3.0
 """Travel since contact (mm) after which a shaft model that still fits no point means the tip."""
+MIN_FIT_UT = 0.0
+"""|z| below which a sample adds nothing to the fit (µT): there the surface is extrapolated."""
 MISFIT_RMS = 3.0
 """RMS residual (in noise units) above which the shaft model does not explain z."""
 
@@ -84,11 +86,20 @@ class ShaftTracker:
         return ShaftState(True, self._kind, state)
 
     def _decide(self, state: LocalizerState) -> str:
-        """The contact's kind from the localizer's state; a decision, once made, is kept unless
-        the data later say otherwise."""
+        """The contact's kind from the localizer's state: where it puts the contact (roughly,
+        two standard deviations clear of the tip's end, before the estimate is given), or a
+        shaft model that explains nothing; a decision, once made, is kept until the data say
+        otherwise."""
         if state.localized:
             reach = float(np.hypot(*state.contact_mm))
             return KIND_TIP if reach > self.trace_length_mm - TIP_MARGIN_MM else KIND_SHAFT
+        rough = self.localizer.rough()
+        if rough is not None:
+            reach, sd = float(np.hypot(*rough[0])), 2.0 * rough[1]
+            if reach + sd < self.trace_length_mm - TIP_MARGIN_MM:
+                return KIND_SHAFT
+            if reach - sd > self.trace_length_mm - TIP_MARGIN_MM:
+                return KIND_TIP
         misfit = state.rms_residual == state.rms_residual and state.rms_residual > MISFIT_RMS
         unexplained = state.reason in (REASON_WIDE, REASON_AMBIGUOUS) or misfit
         if state.travel_mm >= TIP_EVIDENCE_TRAVEL_MM and unexplained:
@@ -101,7 +112,7 @@ def shaft_params_of(calibration, **overrides) -> ShaftParams:
     metrics = calibration.data.metrics
     noise = float(metrics.get("expected_noise_uT") or 5.6)
     misfit = float(metrics.get("rmse_uT") or 0.0)
-    params = ShaftParams(noise_uT=float(np.hypot(noise, misfit)),
+    params = ShaftParams(noise_uT=float(np.hypot(noise, misfit)), min_fit_uT=MIN_FIT_UT,
                          search_x_mm=(5.0, float(calibration.data.trace_length_mm)))
     return replace(params, **overrides)
 

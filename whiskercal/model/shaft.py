@@ -51,6 +51,7 @@ class ShaftParams:
     """
 
     noise_uT: float = 15.0
+    min_fit_uT: float = 0.0
     start_y_mm: float = 0.0
     search_x_mm: tuple[float, float] = (10.0, 80.0)
     search_step_mm: float = 1.0
@@ -144,7 +145,8 @@ class ShaftLocalizer:
         self._travel += float(np.hypot(*(position - self._last)))
         self._last = position
         d = position - self._origin
-        self._batch.add(d, z_uT)
+        if abs(z_uT) >= self.params.min_fit_uT:
+            self._batch.add(d, z_uT)
         self._peak = max(self._peak, abs(z_uT))
         self._solve()
         return self._state(d)
@@ -196,6 +198,15 @@ class ShaftLocalizer:
         rms = float(np.sqrt(np.mean(residual * residual)))
         covariance = np.linalg.inv(information) * max(1.0, rms * rms)
         return p0 + step, covariance, rms
+
+    def rough(self) -> tuple[np.ndarray, float] | None:
+        """The current best contact point (mm) and its widest standard deviation (mm), even
+        while the estimate is withheld: enough to tell a contact near the root from one at the
+        tip, never a localization. None before the first solve."""
+        if self._cov is None or self._last is None:
+            return None
+        sd = float(np.sqrt(np.max(np.linalg.eigvalsh(self._cov))))
+        return self._p0 + (self._last - self._origin), sd
 
     def _withheld_reason(self) -> str:
         params = self.params

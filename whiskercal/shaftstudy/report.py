@@ -16,7 +16,7 @@ import numpy as np
 
 from whiskercal.artifacts.shaft_study import ShaftTrial, read_shaft_study
 from whiskercal.errors import ArtifactError
-from whiskercal.runtime_shaft import KIND_UNKNOWN, shaft_tracker
+from whiskercal.runtime_shaft import KIND_UNKNOWN, ONSET_UT, shaft_tracker
 
 SETTLED_TRAVEL_MM = 5.0
 """Travel since contact (mm) after which ``median_error_mm`` is taken."""
@@ -35,6 +35,7 @@ class TrialSeries:
     travel_mm: np.ndarray
     kind: np.ndarray
     true_kind: np.ndarray
+    true_z_uT: np.ndarray
     seconds_per_sample: float
 
 
@@ -51,6 +52,7 @@ class TrialRow:
     travel_to_1mm: float
     localized_share_after_5mm: float
     kind_accuracy: float
+    kind_accuracy_all: float
     kind_decided_share: float
     ms_per_sample: float
 
@@ -91,7 +93,8 @@ def track_trial(calibration, trial: ShaftTrial) -> TrialSeries:
     true = np.asarray(trial.truth["contact_mm"], float)
     error = np.hypot(*(estimate - true).T)
     return TrialSeries(trial.name, trial.radial_mm, estimate, true, error, travel, kind,
-                       np.asarray(trial.truth["kind"]).astype(str), seconds)
+                       np.asarray(trial.truth["kind"]).astype(str),
+                       np.asarray(trial.truth["z_true_uT"], float), seconds)
 
 
 def trial_row(series: TrialSeries, approach_deg: float) -> TrialRow:
@@ -108,7 +111,8 @@ def trial_row(series: TrialSeries, approach_deg: float) -> TrialRow:
         final_error_mm=float(final[-1]) if final.size else np.nan,
         travel_to_1mm=_travel_to_good(series, contact),
         localized_share_after_5mm=float(localized[settled].mean()) if settled.any() else np.nan,
-        kind_accuracy=_kind_accuracy(series),
+        kind_accuracy=_kind_accuracy(series, detectable=True),
+        kind_accuracy_all=_kind_accuracy(series, detectable=False),
         kind_decided_share=float(np.mean(series.kind[contact] != KIND_UNKNOWN)) if contact.any() else np.nan,
         ms_per_sample=series.seconds_per_sample * 1e3)
 
@@ -127,10 +131,13 @@ def _travel_to_good(series: TrialSeries, contact: np.ndarray) -> float:
     return float(series.travel_mm[index[bad[-1] + 1]])
 
 
-def _kind_accuracy(series: TrialSeries) -> float:
-    """Share of samples in true shaft or tip contact whose kind the tracker named rightly
-    (an undecided or missed sample counts as wrong)."""
+def _kind_accuracy(series: TrialSeries, detectable: bool) -> float:
+    """Share of samples in true shaft or tip contact whose kind the tracker named rightly (an
+    undecided or missed sample counts as wrong); with ``detectable``, only samples whose
+    noise-free |z| passes the tracker's contact onset, which no detector sees below."""
     judged = np.isin(series.true_kind, ("shaft", "tip"))
+    if detectable:
+        judged &= np.abs(series.true_z_uT) > ONSET_UT
     if not judged.any():
         return np.nan
     return float(np.mean(series.kind[judged] == series.true_kind[judged]))
