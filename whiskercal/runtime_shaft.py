@@ -62,8 +62,10 @@ class ShaftTracker:
     """Streaming contact detection, shaft localization and contact kind (module docstring)."""
 
     def __init__(self, surface, params: ShaftParams, trace_length_mm: float,
-                 onset_uT: float = ONSET_UT, release_uT: float = RELEASE_UT) -> None:
-        self.localizer = ShaftLocalizer(surface, params)
+                 onset_uT: float = ONSET_UT, release_uT: float = RELEASE_UT,
+                 localizer=None) -> None:
+        """``localizer``: another localizer with ShaftLocalizer's interface (bench candidates)."""
+        self.localizer = localizer if localizer is not None else ShaftLocalizer(surface, params)
         self.trace_length_mm = float(trace_length_mm)
         self.onset_uT, self.release_uT = float(onset_uT), float(release_uT)
         self.contact = False

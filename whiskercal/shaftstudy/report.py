@@ -73,11 +73,12 @@ class ShaftReport:
                 "trials": [asdict(row) for row in self.rows], "figures": self.figures}
 
 
-def track_trial(calibration, trial: ShaftTrial) -> TrialSeries:
-    """Run a fresh shaft tracker over one trial's stream and line it up with the truth."""
+def track_trial(calibration, trial: ShaftTrial, tracker=None) -> TrialSeries:
+    """Run a fresh shaft tracker (of ``calibration``, unless one is given) over one trial's
+    stream and line it up with the truth."""
     if trial.truth is None:
         raise ArtifactError(f"trial {trial.name} has no twin truth: the report needs a twin run")
-    tracker = shaft_tracker(calibration)
+    tracker = tracker if tracker is not None else shaft_tracker(calibration)
     z, position = trial.stream["z_uT"], trial.stream["position_mm"]
     n = len(z)
     estimate, travel = np.full((n, 2), np.nan), np.full(n, np.nan)
