@@ -91,3 +91,15 @@ def test_costs_well_under_a_millisecond_per_sample():
         localizer.update(float(value), point)
     per_sample_s = (time.perf_counter() - start) / len(path)
     assert per_sample_s < 1e-3, per_sample_s
+
+
+def test_the_shipped_shaft_study_fixture_reads():
+    from pathlib import Path
+
+    from whiskercal.artifacts.shaft_study import read_shaft_study
+
+    study = read_shaft_study(Path(__file__).parents[1] / "fixtures" / "shaft_study-1.0.0.h5")
+    assert study.complete and [t.name for t in study.trials] == ["r039.0mm_a00deg"]
+    trial = study.trials[0]
+    assert trial.stream["z_uT"].shape == trial.stream["t_s"].shape
+    assert trial.truth["contact_mm"].shape == (len(trial.stream["t_s"]), 2)

@@ -44,7 +44,7 @@ def _candidates(quick: bool) -> list[tuple[str, int, callable]]:
     """(method, degree, make localizer from surface and params)."""
     methods = [("batch-gn-96", lambda s, p: ShaftLocalizer(s, p)),
                ("batch-gn-48", lambda s, p: ShaftLocalizer(s, replace(p, max_points=48))),
-               ("particles-400", lambda s, p: ParticleLocalizer(s, p, particles=400))]
+               ("particles-1000", lambda s, p: ParticleLocalizer(s, p, particles=1000))]
     degrees = (5,) if quick else (5, 7)
     return [(name, degree, make) for degree in degrees for name, make in methods]
 

@@ -20,10 +20,11 @@ class ParticleLocalizer:
     """Streaming p0 particle filter with the :class:`~whiskercal.model.shaft.ShaftLocalizer`
     interface (``update``, ``reset``, ``rough``)."""
 
-    def __init__(self, surface, params: ShaftParams = ShaftParams(), particles: int = 400,
+    def __init__(self, surface, params: ShaftParams = ShaftParams(), particles: int = 1000, inflate: float = 2.0,
                  jitter_mm: float = 0.05, seed: int = 0) -> None:
         self.surface, self.params = surface, params
         self.n, self.jitter_mm, self.seed = int(particles), float(jitter_mm), int(seed)
+        self.inflate = float(inflate)  # likelihoods tempered: the surface misfit is not white noise
         self.reset()
 
     def reset(self) -> None:
@@ -47,7 +48,7 @@ class ParticleLocalizer:
         d = position - self._origin
         self._peak = max(self._peak, abs(z_uT))
         if abs(z_uT) >= self.params.min_fit_uT:
-            residual = (z_uT - self.surface(self._p + d)) / self.params.noise_uT
+            residual = (z_uT - self.surface(self._p + d)) / (self.params.noise_uT * self.inflate)
             self._logw -= 0.5 * residual * residual
             self._logw -= self._logw.max()
             self._resample_if_needed()
