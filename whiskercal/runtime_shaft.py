@@ -36,6 +36,8 @@ ONSET_UT = 40.0
 RELEASE_UT = 25.0
 TIP_MARGIN_MM = 3.0
 """A localized contact this close to the trace's end (mm of reach) is the tip's, not the shaft's."""
+KIND_SD = 2.0
+"""How many standard deviations of the rough contact point must clear the tip's margin."""
 TIP_EVIDENCE_TRAVEL_MM = 3.0
 """Travel since contact (mm) after which a shaft model that still fits no point means the tip."""
 MIN_FIT_UT = 0.0
@@ -88,16 +90,15 @@ class ShaftTracker:
         return ShaftState(True, self._kind, state)
 
     def _decide(self, state: LocalizerState) -> str:
-        """The contact's kind from the localizer's state: where it puts the contact (roughly,
-        two standard deviations clear of the tip's end, before the estimate is given), or a
-        shaft model that explains nothing; a decision, once made, is kept until the data say
-        otherwise."""
+        """The contact's kind from the localizer's state, afresh each sample: where it puts the
+        contact (roughly, three standard deviations clear of the tip's end, before the estimate is
+        given), or a shaft model that explains nothing; else unknown."""
         if state.localized:
             reach = float(np.hypot(*state.contact_mm))
             return KIND_TIP if reach > self.trace_length_mm - TIP_MARGIN_MM else KIND_SHAFT
         rough = self.localizer.rough()
         if rough is not None:
-            reach, sd = float(np.hypot(*rough[0])), 2.0 * rough[1]
+            reach, sd = float(np.hypot(*rough[0])), KIND_SD * rough[1]
             if reach + sd < self.trace_length_mm - TIP_MARGIN_MM:
                 return KIND_SHAFT
             if reach - sd > self.trace_length_mm - TIP_MARGIN_MM:
@@ -106,7 +107,7 @@ class ShaftTracker:
         unexplained = state.reason in (REASON_WIDE, REASON_AMBIGUOUS) or misfit
         if state.travel_mm >= TIP_EVIDENCE_TRAVEL_MM and unexplained:
             return KIND_TIP
-        return self._kind
+        return KIND_UNKNOWN
 
 
 def shaft_params_of(calibration, **overrides) -> ShaftParams:

@@ -1,40 +1,15 @@
 """The shaft localizer on synthetic surfaces where the contact point is known exactly."""
 
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (shaft_synthetic)
+from shaft_synthetic import AngleSurface, contact_path as _path  # noqa: E402
+
 from whiskercal.model.shaft import REASON_SIGNAL, REASON_TRAVEL, ShaftLocalizer, ShaftParams
-
-
-class AngleSurface:
-    """z = -k θ (60 / r): deflection grows with the contact's angle, falls with its reach (µT)."""
-
-    k_uT = 8000.0
-
-    def __call__(self, points):
-        points = np.asarray(points, float)
-        r = np.hypot(points[..., 0], points[..., 1])
-        return -self.k_uT * np.arctan2(points[..., 1], points[..., 0]) * 60.0 / r
-
-    def gradient(self, points):
-        points = np.asarray(points, float)
-        x, y = points[..., 0], points[..., 1]
-        r2 = x * x + y * y
-        r = np.sqrt(r2)
-        theta = np.arctan2(y, x)
-        dtheta = np.stack([-y / r2, x / r2], axis=-1)
-        dinv_r = np.stack([-x / r ** 3, -y / r ** 3], axis=-1)
-        return -self.k_uT * 60.0 * (dtheta / r[..., None] + theta[..., None] * dinv_r)
-
-
-def _path(start, push_mm=4.0, slide=(-10.0, 0.0), step=0.05):
-    """Contact points: pushed in along -y, then slid; (n, 2) mm."""
-    start = np.asarray(start, float)
-    push = [start + [0.0, -step * k] for k in range(int(push_mm / step) + 1)]
-    direction = np.asarray(slide) / np.hypot(*slide)
-    slide_pts = [push[-1] + direction * step * k for k in range(1, int(np.hypot(*slide) / step) + 1)]
-    return np.array(push + slide_pts)
 
 
 def _run(start, noise_uT=5.0, seed=0, **path_kw):
