@@ -40,6 +40,9 @@ KIND_SD = 2.0
 """How many standard deviations of the rough contact point must clear the tip's margin."""
 TIP_EVIDENCE_TRAVEL_MM = 3.0
 """Travel since contact (mm) after which a shaft model that still fits no point means the tip."""
+SAMPLE_NOISE_UT = 5.6
+"""One sample's noise, µT: the MLX90393's at the default settings (docs/twin.md); the artifact
+holds only the grid's averaged noise. Override with ``noise_uT=`` for another sensor."""
 MIN_FIT_UT = 0.0
 """|z| below which a sample adds nothing to the fit (µT): there the surface is extrapolated."""
 MISFIT_RMS = 3.0
@@ -111,11 +114,10 @@ class ShaftTracker:
 
 
 def shaft_params_of(calibration, **overrides) -> ShaftParams:
-    """Localizer settings for a loaded calibration: its noise and surface misfit, its reach."""
-    metrics = calibration.data.metrics
-    noise = float(metrics.get("expected_noise_uT") or 5.6)
-    misfit = float(metrics.get("rmse_uT") or 0.0)
-    params = ShaftParams(noise_uT=float(np.hypot(noise, misfit)), min_fit_uT=MIN_FIT_UT,
+    """Localizer settings for a loaded calibration: a sample's noise and the surface's misfit
+    (its fit RMSE) in quadrature, its trace length."""
+    misfit = float(calibration.data.metrics.get("rmse_uT") or 0.0)
+    params = ShaftParams(noise_uT=float(np.hypot(SAMPLE_NOISE_UT, misfit)), min_fit_uT=MIN_FIT_UT,
                          search_x_mm=(5.0, float(calibration.data.trace_length_mm)))
     return replace(params, **overrides)
 

@@ -48,7 +48,8 @@ def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
     summary = ShaftRunSummary(out=str(out_path))
     with RigSession.open(stage_port, sensor_port, session_config(config)) as rig:
         world = getattr(rig.sensor_port, "world", None)
-        sensor_id = str(getattr(getattr(world, "sensor", None), "sensor_id", "") or "")
+        sensor_id = str(getattr(getattr(world, "sensor", None), "sensor_id", "") or
+                        rig.devices.sensor)
         writer = ShaftStudyWriter(out_path, config, sensor_id, resume=resume)
         done = set(writer.done())
         rig.start()
