@@ -58,3 +58,12 @@ def test_run_and_report_on_the_twin(tmp_path):
         assert row["ms_per_sample"] < 1.0
     assert all((tmp_path / "rep" / name).exists()
                for name in ("shaft_error_vs_travel.png", "shaft_estimates.png"))
+
+
+def test_a_twin_without_the_rod_is_refused_before_a_file_is_written(tmp_path):
+    out = tmp_path / "RUN.h5"
+    result = CliRunner().invoke(cli, ["shaft-study", "run", "--stage",
+                                      "sim://shaft-plane/stage?scene=plane", "--sensor",
+                                      "sim://shaft-plane/sensor", "--out", str(out)])
+    assert result.exit_code != 0 and "not the rod" in result.output
+    assert not out.exists()

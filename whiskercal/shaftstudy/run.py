@@ -17,7 +17,8 @@ import numpy as np
 
 from whiskercal.artifacts.shaft_study import ShaftStudyWriter, ShaftTrial
 from whiskercal.protocol.sensor_config import SensorConfig
-from whiskercal.rig.overload import SENSOR_AXIS_Y, check_overload
+from whiskercal.errors import UsageError
+from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError, check_overload
 from whiskercal.session import RigFrame, RigSession, SessionConfig
 from whiskercal.shaftstudy.config import trial_plan
 
@@ -48,6 +49,8 @@ def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
     summary = ShaftRunSummary(out=str(out_path))
     with RigSession.open(stage_port, sensor_port, session_config(config)) as rig:
         world = getattr(rig.sensor_port, "world", None)
+        if world is not None:
+            _check_world(world, config)  # before a file is written
         sensor_id = str(getattr(getattr(world, "sensor", None), "sensor_id", "") or
                         rig.devices.sensor)
         writer = ShaftStudyWriter(out_path, config, sensor_id, resume=resume)
@@ -69,6 +72,20 @@ def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
         writer.mark_complete()
         summary.complete = True
     return summary
+
+
+def _check_world(world, config: dict) -> None:
+    """Refuse a simulated rig that carries no rod, or sits elsewhere than the configuration says
+    (the recorded positions would not be the rod's)."""
+    if world.config.fixture.name != "rod":
+        raise UsageError(f"the simulated rig carries a {type(world.config.fixture).__name__}, not "
+                         "the rod: open the stage as sim://NAME/stage (scene=rod)")
+    geometry = world.config.geometry
+    frame = RigFrame.from_degrees(config["rig"]["origin_stage_mm"], float(config["rig"]["angle_deg"]))
+    if (np.max(np.abs(np.asarray(geometry.origin_stage_mm) - frame.origin)) > 1e-6
+            or abs(geometry.angle_rad - frame.angle_rad) > 1e-9):
+        raise UsageError("the configuration's [rig] origin and angle differ from the simulated "
+                         "rig's; set them to match docs/twin.md")
 
 
 def _rise_clear(rig: RigSession, config: dict) -> None:
@@ -120,6 +137,12 @@ def _trial(rig: RigSession, config: dict, trial: dict, static: np.ndarray, world
                                                  ("leave", "push_speed_mm_s")]):
             recorder.phase = phase
             rig.move_to(trial[target], _feed(config, speed), on_poll=recorder.on_poll)
+    except OverloadError:
+        rig.sink = lambda block: None
+        safe_y = float(config["trials"]["safe_y_mm"])
+        rig.back_off(lambda here: rig.to_stage([rig.to_whisker(here)[0], safe_y]),
+                     _feed(config, "push_speed_mm_s"))  # straight off the whisker, not along it
+        raise
     finally:
         rig.sink = lambda block: None
     return _record(rig, trial, recorder, static, world)
