@@ -117,7 +117,8 @@ def shaft_params_of(calibration, **overrides) -> ShaftParams:
     """Localizer settings for a loaded calibration: a sample's noise and the surface's misfit
     (its fit RMSE) in quadrature, its trace length."""
     misfit = float(calibration.data.metrics.get("rmse_uT") or 0.0)
-    params = ShaftParams(noise_uT=float(np.hypot(SAMPLE_NOISE_UT, misfit)), min_fit_uT=MIN_FIT_UT,
+    params = ShaftParams(noise_uT=float(np.hypot(SAMPLE_NOISE_UT, misfit)), systematic_uT=misfit,
+                         min_fit_uT=MIN_FIT_UT,
                          search_x_mm=(5.0, float(calibration.data.trace_length_mm)))
     return replace(params, **overrides)
 

@@ -41,7 +41,8 @@ class ShaftParams:
     """Settings of the shaft localizer (mm, µT).
 
     ``noise_uT`` is the per-sample noise plus the surface's own misfit (added in quadrature by
-    the caller); ``start_y_mm`` where contact begins across the whisker (0: on the straight,
+    the caller); ``systematic_uT`` the misfit's part, which does not average out over samples
+    (it widens the covariance, not the fit's weights); ``start_y_mm`` where contact begins across the whisker (0: on the straight,
     undeflected whisker; the calibrated surface is over contact points, the grid's rod centres
     moved one rod radius onto the shaft); ``search_x_mm`` the range of the coarse search along
     the whisker for the first contact; ``prior_y_sd_mm`` how far from ``start_y_mm`` contact may
@@ -51,6 +52,8 @@ class ShaftParams:
     """
 
     noise_uT: float = 15.0
+    systematic_uT: float = 0.0
+    misfit_length_mm: float = 3.0
     min_fit_uT: float = 0.0
     start_y_mm: float = 0.0
     search_x_mm: tuple[float, float] = (10.0, 80.0)
@@ -132,7 +135,7 @@ class ShaftLocalizer:
         self._travel = 0.0
         self._peak = 0.0
         self._p0 = None
-        self._cov = None
+        self._cov = self._cov_noise = None
         self._rms = np.nan
         self._ambiguous = True
 
@@ -195,21 +198,38 @@ class ShaftLocalizer:
         try:
             step = np.linalg.solve(information, gradient)
         except np.linalg.LinAlgError:
+            self._cov_noise = None
             return p0, None, np.nan
         step_norm = float(np.hypot(*step))
         if step_norm > 5.0:  # a trust region: the surface is only locally quadratic
             step *= 5.0 / step_norm
         rms = float(np.sqrt(np.mean(residual * residual)))
         covariance = np.linalg.inv(information) * max(1.0, rms * rms)
-        return p0 + step, covariance, rms
+        self._cov_noise = covariance
+        return p0 + step, covariance + self._systematic_covariance(jacobian, prior_j), rms
+
+    def _systematic_covariance(self, jacobian: np.ndarray, prior_j: np.ndarray) -> np.ndarray:
+        """The covariance the surface's own misfit leaves: it repeats from sample to sample
+        rather than averaging out, so it counts as one sample's worth of information (mm²)."""
+        systematic = self.params.systematic_uT
+        if systematic <= 0.0:
+            return np.zeros((2, 2))
+        noise = self.params.noise_uT
+        mean_information = (jacobian.T @ jacobian) * (noise * noise) / len(jacobian)
+        prior = np.outer(prior_j, prior_j) * (systematic * systematic)
+        # the misfit changes over a few millimetres of the surface: each such stretch of travel
+        # adds about one independent sample of it
+        independent = 1.0 + self._travel / self.params.misfit_length_mm
+        return np.linalg.inv(mean_information + prior) * (systematic * systematic) / independent
 
     def rough(self) -> tuple[np.ndarray, float] | None:
-        """The current best contact point (mm) and its widest standard deviation (mm), even
-        while the estimate is withheld: enough to tell a contact near the root from one at the
-        tip, never a localization. None before the first solve."""
+        """The current best contact point (mm) and its widest standard deviation (mm) from the
+        noise alone, even while the estimate is withheld: enough to tell a contact near the root
+        from one at the tip (the surface's systematic misfit, a fraction of a millimetre, does
+        not matter against that), never a localization. None before the first solve."""
         if self._cov is None or self._last is None:
             return None
-        sd = float(np.sqrt(np.max(np.linalg.eigvalsh(self._cov))))
+        sd = float(np.sqrt(np.max(np.linalg.eigvalsh(self._cov_noise))))
         return self._p0 + (self._last - self._origin), sd
 
     def _withheld_reason(self) -> str:
