@@ -19,14 +19,13 @@ import numpy as np
 from whiskercal.bench.twin_grid import calibrate_grid, simulate_grid
 from whiskercal.model.shaft import ShaftLocalizer, ShaftParams
 from whiskercal.model.shaft_pf import ParticleLocalizer
-from whiskercal.runtime_shaft import ShaftTracker
+from whiskercal.runtime_shaft import SAMPLE_NOISE_UT, ShaftTracker
 from whiskercal.shaftstudy.config import load_config
 from whiskercal.shaftstudy.report import track_trial, trial_row
 from whiskercal.shaftstudy.run import run_shaft_study
 from whiskercal.artifacts.shaft_study import read_shaft_study
 
 TRAVEL_BINS_MM = (1.0, 2.0, 3.0, 5.0, 8.0, 12.0)
-SAMPLE_NOISE_UT = 5.6
 
 
 def _study(quick: bool) -> list:
@@ -51,6 +50,7 @@ def _candidates(quick: bool) -> list[tuple[str, int, callable]]:
 
 def _row(name: str, degree: int, make, model, trials) -> dict:
     params = ShaftParams(noise_uT=float(np.hypot(SAMPLE_NOISE_UT, model.fit.rmse_uT)),
+                         systematic_uT=float(model.fit.rmse_uT),
                          search_x_mm=(5.0, model.problem.trace_length_mm))
     length = model.problem.trace_length_mm
     series = [track_trial(None, trial, ShaftTracker(model.surface, params, length,
