@@ -117,6 +117,8 @@ COMPARISONS = {c.name: c for c in (
                _module_run("whiskercal.bench.tracker_speed")),
     Comparison("stability", "where each method fails, and whether it is detected",
                _module_run("whiskercal.bench.stability")),
+    Comparison("shaft-localizer", "contact anywhere on the shaft: batch Gauss-Newton vs particles",
+               _module_run("whiskercal.bench.shaft_localizer")),
 )}
 
 

@@ -1,0 +1,23 @@
+"""``whiskercal bench --quick --only shaft-localizer``: rows, chart and the default's accuracy."""
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from whiskercal.cli import cli
+
+
+@pytest.mark.slow
+def test_the_shaft_localizer_comparison(tmp_path):
+    result = CliRunner().invoke(cli, ["bench", "--quick", "--only", "shaft-localizer", "--out",
+                                      str(tmp_path)], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    measured = json.loads((tmp_path / "shaft-localizer.json").read_text())
+    rows = {row["label"]: row for row in measured["rows"]}
+    default = rows["batch-gn-96 deg 5"]
+    assert default["default"]
+    # against the twin's true contact point, trials at 40 % and 70 % of the trace
+    assert default["median_error_mm"] < 0.5
+    assert default["ms_per_sample"] < 1.0
+    assert (tmp_path / "shaft-localizer.png").read_bytes().startswith(b"\x89PNG")
