@@ -85,7 +85,7 @@ bool system_locked() { return sys.locked; }
 const char* system_state_name() {
     if (homing_active()) return "Home";
     if (sys.locked) return "Alarm";
-    if (stepper_holding()) return stepper_hold_complete() ? "Hold:1" : "Hold:0";
+    if (stepper_holding()) return stepper_hold_complete() ? "Hold:0" : "Hold:1";  // as GRBL 1.1: 0 complete, 1 decelerating
     return stepper_busy() ? "Run" : "Idle";
 }
 

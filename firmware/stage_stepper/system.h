@@ -1,6 +1,6 @@
 // Machine state of stage_stepper: alarms and the lock, encoder supervision, the '$' system
 // commands and soft reset; the homing cycle itself is homing.cpp. The state reported is derived
-// from these and from the stepper (Idle, Run, Hold:0, Hold:1, Home, Alarm).
+// from these and from the stepper (Idle, Run, Hold:1 decelerating, Hold:0 held, Home, Alarm).
 #ifndef STAGE_SYSTEM_H
 #define STAGE_SYSTEM_H
 

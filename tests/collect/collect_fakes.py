@@ -176,7 +176,7 @@ class FakeStage:
     def hold(self) -> None:
         self.commands.append("!")
         self._advance()
-        self.state = "Hold:1"
+        self.state = "Hold:0"
         self.move_end_s = self.world.t_s
         self.target_mm = self.mpos_mm.copy()
 

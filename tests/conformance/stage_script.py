@@ -246,9 +246,9 @@ def check_feed_hold_and_resume(port) -> None:
     port.write(b"!")
     state, _ = link.status()
     assert state in ("Hold:0", "Hold:1"), state
-    held = link.wait_state("Hold:1", timeout_s=2.0)["MPos"]
+    held = link.wait_state("Hold:0", timeout_s=2.0)["MPos"]  # GRBL 1.1: Hold:0 = hold complete
     link.lines_for(0.3)
-    assert link.status()[1]["MPos"] == held, "the stage moved during Hold:1"
+    assert link.status()[1]["MPos"] == held, "the stage moved during Hold:0"
     assert x0 < held[0] < x0 + 80
     port.write(b"~")
     fields = link.wait_state("Idle", timeout_s=5.0)

@@ -56,7 +56,7 @@ class Stage:
 
     def hold(self) -> None:
         self.log.append("!")
-        self.state = "Hold:1"
+        self.state = "Hold:0"
 
     def reset(self) -> None:
         self.log.append("reset")
@@ -238,13 +238,13 @@ def test_a_failing_sensor_does_not_keep_the_stage_from_being_stopped():
     class SlowHold(Stage):
         def hold(self) -> None:
             super().hold()
-            self.state, self.polls_to_rest = "Hold:0", 3
+            self.state, self.polls_to_rest = "Hold:1", 3  # GRBL 1.1: still decelerating
 
         def status(self) -> StageStatus:
-            if self.state == "Hold:0":
+            if self.state == "Hold:1":
                 self.polls_to_rest -= 1
                 if self.polls_to_rest == 0:
-                    self.state = "Hold:1"
+                    self.state = "Hold:0"
             return super().status()
 
     class Unplugged(Sensor):

@@ -137,8 +137,14 @@ def test_feed_hold_resume_and_status_while_moving():
     moving = stage.status()
     assert moving.state == "Run" and moving.feed == pytest.approx(1200)
     stage.hold()
-    states = {stage.status().state for _ in range(40)}
-    assert {"Hold:0", "Hold:1"} <= states
+    reports = [stage.status() for _ in range(40)]
+    states = [report.state for report in reports]
+    assert states[0] == "Hold:1" and states[-1] == "Hold:0"  # GRBL 1.1: 1 decelerating, 0 complete
+    first_rest = states.index("Hold:0")
+    assert set(states[:first_rest]) == {"Hold:1"} and set(states[first_rest:]) == {"Hold:0"}
+    assert not np.array_equal(reports[0].mpos_mm, reports[first_rest - 1].mpos_mm)  # still moving
+    for report in reports[first_rest:]:
+        np.testing.assert_array_equal(report.mpos_mm, reports[first_rest].mpos_mm)
     held = stage.status().mpos_mm
     stage.transport.read_some(1, 0.5)
     np.testing.assert_array_equal(stage.status().mpos_mm, held)

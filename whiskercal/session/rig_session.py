@@ -287,7 +287,7 @@ class RigSession:
         polls = int(self.config.move_timeout_s / POLL_S)
         for _ in range(polls):
             status = self.stage.status()
-            if status.state in ("Hold:1", "Idle") or status.alarm:
+            if status.state in ("Hold:0", "Idle") or status.alarm:  # GRBL 1.1: Hold:0 = at rest
                 return
             if self._streaming:  # else each status round trip is the wait
                 self._read_quietly()

@@ -330,9 +330,9 @@ TEST(status_is_answered_while_moving) {
 TEST(feed_hold_and_resume) {
     unlocked();
     exchange("G1X100F3000\n", 500.0);
-    CHECK_STR(exchange("!", 1.0).empty() ? state() : "<printed>", "Hold:0");
+    CHECK_STR(exchange("!", 1.0).empty() ? state() : "<printed>", "Hold:1");
     fake_run(0.5e6);
-    CHECK_STR(state(), "Hold:1");
+    CHECK_STR(state(), "Hold:0");
     double x1 = 0, y1 = 0, x2 = 0, y2 = 0;
     field(exchange("?", 1.0), "MPos", &x1, &y1);
     fake_run(0.5e6);

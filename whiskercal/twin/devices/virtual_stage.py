@@ -298,7 +298,7 @@ class VirtualStage:
         if self.homing_until_s is not None:
             return "Home"
         if self.hold_stop_s is not None:
-            return "Hold:0" if t < self.hold_stop_s else "Hold:1"
+            return "Hold:1" if t < self.hold_stop_s else "Hold:0"  # GRBL 1.1: Hold:0 = hold complete
         return "Run" if self.mech.busy(t) else "Idle"
 
     def status_report(self, t: float) -> str:
