@@ -45,7 +45,7 @@ void hal_init() {
     hal_serial_init();
     Wire.begin();
     Wire.setClock(400000);
-    // NOTE: a disconnected encoder must raise ALARM:12, not hang the loop on a stuck bus.
+    // NOTE: a disconnected encoder must raise ALARM:102, not hang the loop on a stuck bus.
     Wire.setWireTimeout(2000, true);
 }
 

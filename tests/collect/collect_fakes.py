@@ -14,6 +14,7 @@ import numpy as np
 
 from whiskercal.collect.estimate import trapezoid_time_s
 from whiskercal.errors import DeviceError
+from whiskercal.protocol.codes import StageAlarm
 from whiskercal.rig.sensor import SampleBlock
 from whiskercal.rig.stage import StageAlarmError, StageIdentity, StageStatus
 
@@ -32,7 +33,7 @@ class FakeWorld:
     t_s: float = 0.0
     noise_uT: float = 3.0
     missed_steps_after_moves: int | None = None
-    alarm10_after_moves: int | None = None
+    encoder_alarm_after_moves: int | None = None
     disconnect_after_reads: int | None = None
     bad_frames_every_reads: int | None = None
     drift_uT_per_s: float = 0.0
@@ -148,10 +149,10 @@ class FakeStage:
         return np.array([0.0, 0.8]) if after is not None and self.moves > after else np.zeros(2)
 
     def _arrive(self) -> None:
-        after = self.world.alarm10_after_moves
+        after = self.world.encoder_alarm_after_moves
         if after is not None and self.moves > after:
             self.state = "Alarm"
-            raise StageAlarmError(10, "fake")
+            raise StageAlarmError(int(StageAlarm.ENCODER_MISMATCH), "fake")
 
     def status(self) -> StageStatus:
         self._advance()

@@ -101,9 +101,9 @@ def test_missed_steps_stop_the_run_with_the_encoder_message(tmp_path):
     assert 0 < len(grid) < N_SMALL
 
 
-def test_alarm_10_stops_the_run_with_the_encoder_message(tmp_path):
-    world = FakeWorld(alarm10_after_moves=8)
-    with pytest.raises(DeviceError, match=r"disagree at point \d+ \(ALARM:10\)"):
+def test_the_encoder_alarm_stops_the_run_with_the_encoder_message(tmp_path):
+    world = FakeWorld(encoder_alarm_after_moves=8)
+    with pytest.raises(DeviceError, match=r"disagree at point \d+ \(ALARM:100\)"):
         run(tmp_path, world=world)
     assert len(read_raw_grid(tmp_path / "raw.h5")) > 0
 

@@ -59,11 +59,11 @@ def test_move_and_wait_idle_polls_until_idle():
 
 
 def test_pushed_alarm_during_wait_raises_with_table_text():
-    pairs = [(b"?", b"<Run|MPos:10.000,2.000,0.000|FS:3000,0|Enc:9.000,2.000>\r\nALARM:10\r\n")]
+    pairs = [(b"?", b"<Run|MPos:10.000,2.000,0.000|FS:3000,0|Enc:9.000,2.000>\r\nALARM:100\r\n")]
     with expected_protocol(StageClient, pairs) as stage:
-        with pytest.raises(StageAlarmError, match="ALARM:10: Encoder and step positions disagree") as info:
+        with pytest.raises(StageAlarmError, match="ALARM:100: Encoder and step positions disagree") as info:
             stage.wait_idle(10)
-    assert info.value.code == 10
+    assert info.value.code == 100
 
 
 def test_error_reply_raises_with_table_text():

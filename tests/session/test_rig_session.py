@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from whiskercal.errors import DeviceError
+from whiskercal.protocol.codes import StageAlarm
 from whiskercal.protocol.sensor_config import SensorConfig
 from whiskercal.rig.sensor import SampleBlock
 from whiskercal.rig.stage import StageAlarmError, StageIdentity, StageStatus
@@ -163,10 +164,10 @@ def test_move_to_goes_to_the_stage_point_of_a_whisker_point():
 
 def test_the_encoder_alarm_gets_the_encoder_message():
     stage = Stage()
-    stage.alarm_on_arrival = 10
+    stage.alarm_on_arrival = int(StageAlarm.ENCODER_MISMATCH)
     with open_session(stage) as rig:
         rig.start()
-        with pytest.raises(EncoderMismatchError, match="disagree at point 3 \\(ALARM:10\\)"):
+        with pytest.raises(EncoderMismatchError, match="disagree at point 3 \\(ALARM:100\\)"):
             rig.move_to([10.0, 0.0], 600.0, where=" at point 3")
 
 

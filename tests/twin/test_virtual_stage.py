@@ -203,12 +203,12 @@ def _faulty_stage(**faults):
     return world, stage
 
 
-def test_missed_steps_raise_alarm_10():
+def test_missed_steps_raise_the_encoder_alarm():
     world, stage = _faulty_stage(missed_steps_at_s=0.5)
     stage.move_to(80, 0, 3000)
-    with pytest.raises(StageAlarmError, match="ALARM:10") as info:
+    with pytest.raises(StageAlarmError, match="ALARM:100") as info:
         stage.wait_idle(10)
-    assert info.value.code == 10
+    assert info.value.code == 100
     assert 0.5 <= world.now_s < 0.6
     assert stage.status().alarm
 
@@ -216,7 +216,7 @@ def test_missed_steps_raise_alarm_10():
 def test_stall_raises_alarm_10_once_the_disagreement_exceeds_tolerance():
     world, stage = _faulty_stage(stall_at_s=0.3)
     stage.move_to(80, 0, 3000)
-    with pytest.raises(StageAlarmError, match="ALARM:10"):
+    with pytest.raises(StageAlarmError, match="ALARM:100"):
         stage.wait_idle(10)
     status = stage.status()
     assert np.max(np.abs(status.mpos_mm - status.enc_mm)) > 0.5
@@ -225,9 +225,9 @@ def test_stall_raises_alarm_10_once_the_disagreement_exceeds_tolerance():
 def test_missing_encoder_magnet_raises_alarm_11_and_relocks_after_unlock():
     world, stage = _faulty_stage(encoder_magnet_at_s=0.2)
     stage.move_to(30, 0, 3000)
-    with pytest.raises(StageAlarmError, match="ALARM:11"):
+    with pytest.raises(StageAlarmError, match="ALARM:101"):
         stage.wait_idle(10)
-    with pytest.raises(StageAlarmError, match="ALARM:11"):
+    with pytest.raises(StageAlarmError, match="ALARM:101"):
         stage.unlock()
         stage.status()
 

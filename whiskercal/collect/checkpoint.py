@@ -166,8 +166,8 @@ def recorded_fingerprint(path: str | Path) -> str:
         try:
             open_h5(path).close()
         except ArtifactError as error:
-            raise UsageError(f"{error}; its journal {journal_file.name} is gone, so nothing "
-                             "can be resumed: start a new --out") from None
+            raise UsageError(f"{error}; its journal {journal_file.name} is gone: nothing to "
+                             "resume, start a new --out") from None
     raise UsageError(f"{path}: nothing to resume (no readable file or journal)")
 
 

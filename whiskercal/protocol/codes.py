@@ -52,7 +52,7 @@ SENSOR_STATUS_TEXT = {c: t for c, _, t in _TABLE["SENSOR_STATUS"]}
 
 
 def describe(kind: str, code: int) -> str:
-    """Human text for a code, e.g. ``describe("STAGE_ALARM", 10)``; unknown codes say so."""
+    """Human text for a code, e.g. ``describe("STAGE_ALARM", 9)``; unknown codes say so."""
     texts = {"STAGE_ERROR": STAGE_ERROR_TEXT, "STAGE_ALARM": STAGE_ALARM_TEXT,
              "SENSOR_ERROR": SENSOR_ERROR_TEXT, "SENSOR_STATUS": SENSOR_STATUS_TEXT}[kind]
     return texts.get(code, f"unknown code {code} (not in protocol_codes.def)")

@@ -262,7 +262,7 @@ class RigSession:
             if error.code != StageAlarm.ENCODER_MISMATCH:
                 raise
             raise EncoderMismatchError(
-                f"stage encoder and step positions disagree{where} (ALARM:10): missed steps or a "
+                f"stage encoder and step positions disagree{where} (ALARM:100): missed steps or a "
                 "stall; re-home the stage and continue with --resume") from error
 
     def read_while_waiting(self, status: StageStatus) -> None:

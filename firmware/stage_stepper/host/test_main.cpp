@@ -402,7 +402,7 @@ TEST(stall_raises_alarm_10) {
     unlocked();
     board.axes[0].stall_beyond_mm = board.axes[0].start_mm + 20.0;
     std::string output = exchange("G0X40\n", 3000.0);
-    CHECK(contains(output, "ALARM:10"));
+    CHECK(contains(output, "ALARM:100"));
     CHECK_STR(state(), "Alarm");
     CHECK(board.axes[0].commanded_steps < 40 * 80);  // stopped before finishing the move
 }
@@ -410,11 +410,11 @@ TEST(stall_raises_alarm_10) {
 TEST(encoder_magnet_and_bus_faults_raise_alarms) {
     unlocked();
     board.axes[1].magnet_missing = true;
-    CHECK(contains(exchange("", 20.0), "ALARM:11"));
+    CHECK(contains(exchange("", 20.0), "ALARM:101"));
     CHECK_EQ(std::string(exchange("", 50.0)).find("ALARM"), std::string::npos);  // pushed once
     unlocked();
     board.axes[0].encoder_silent = true;
-    CHECK(contains(exchange("", 20.0), "ALARM:12"));
+    CHECK(contains(exchange("", 20.0), "ALARM:102"));
     exchange("$200=0\n");
     exchange("$X\n");
     std::string report = exchange("?", 20.0);
