@@ -115,6 +115,10 @@ def test_stock_grbl_twin_collects_with_commanded_positions(tmp_path):
     assert summary.complete and len(grid) == len(plan) >= 20
     assert np.isnan(grid.encoder_mm).all()
     assert grid.config["devices"]["stage"]["proto"] is None
+    assert grid.encoders == "none"  # the file says its positions are open loop
+    assert sum("no encoders" in warning for warning in summary.warnings) == 1
+    from whiskercal.cli.commands.inspect import inspect_file
+    assert inspect_file(tmp_path / "raw.h5")["encoders"] == "none"
     np.testing.assert_allclose(grid.rod_center_mm, plan.rod_center_mm[grid.plan_index])
     assert_matches_truth(grid)
 
@@ -287,6 +291,7 @@ def test_frame_loss_past_the_limit_warns_and_the_file_counts_it(tmp_path):
     plan = build_plan(load_config(fast_config(tmp_path, SMALL)))
     clean = collect(*urls("seed=5"), tmp_path / "clean.h5", plan)
     assert clean.warnings == [] and clean.frames["loss_fraction"] == 0.0
+    assert read_raw_grid(tmp_path / "clean.h5").encoders.startswith("measured")
     lossy = collect(*urls("drop=0.05&corrupt=0.02&seed=5"), tmp_path / "lossy.h5", plan)
     frames = read_raw_grid(tmp_path / "lossy.h5", stream=True).frames
     assert frames.loss_fraction > 0.03 and frames.dropped > 0 and frames.corrupt > 0

@@ -117,3 +117,12 @@ def test_every_figure_loads_in_headless_chromium(report_html, tmp_path):
     values = [int(w) for w in widths.group(1).split(",")]
     assert len(values) == page.count("<img ")
     assert all(w > 0 for w in values), values
+
+
+def test_the_report_says_when_the_grid_was_collected_open_loop():
+    from types import SimpleNamespace
+
+    from whiskercal.report.build import _positions_note
+
+    assert "Open loop" in _positions_note(SimpleNamespace(encoders="none"))
+    assert "measured by the stage's encoders" in _positions_note(SimpleNamespace(encoders="measured"))

@@ -324,6 +324,16 @@ class RawGrid:
         return len(self.z_uT)
 
     @property
+    def encoders(self) -> str:
+        """How the stage positions were known: measured by encoders, or "none" (open loop);
+        "unknown" for files written before it was recorded."""
+        devices = self.config.get("devices", {})
+        if "encoders" in devices:
+            return str(devices["encoders"])
+        has = devices.get("stage", {}).get("has_encoder")
+        return "unknown" if has is None else ("measured" if has else "none")
+
+    @property
     def z_sem_uT(self) -> np.ndarray:
         """Standard error (n,) µT of each grid point's mean z."""
         return self.z_std_uT / np.sqrt(np.maximum(self.n_samples, 1))

@@ -73,13 +73,19 @@ def check_limits(plan: GridPlan, travel_mm: tuple[float, float]) -> None:
                          "move rig.origin_stage_mm")
 
 
+ENCODERS = "measured (AS5600 on both axes)"
+OPEN_LOOP_WARNING = ("the stage reports no encoders (a stock grbl board): missed steps cannot be "
+                     "detected, so every point's position is the commanded one (open loop)")
+
+
 def make_header(plan: GridPlan, devices: Devices, sensor_id: str) -> RawHeader:
     """The dataset header: plan, full config (with a plan summary) and device identities."""
     config = plan.config.to_dict()
     config["plan"] = {"points": len(plan), "order": "columns in +x, each in -y",
                       "frame": "rod centre, whisker frame, mm"}
     config["devices"] = {"stage": devices.stage, "sensor": devices.sensor,
-                         "stage_settings": {str(k): v for k, v in devices.stage_settings.items()}}
+                         "stage_settings": {str(k): v for k, v in devices.stage_settings.items()},
+                         "encoders": ENCODERS if devices.has_encoder else "none"}
     return RawHeader(plan_stage_mm=plan.stage_mm, plan_rod_center_mm=plan.rod_center_mm,
                      config=config, sensor_id=sensor_id, rod_radius_mm=plan.config.rig.rod_radius_mm)
 
@@ -190,13 +196,14 @@ def _summary(collector: Collector, checkpoint: Checkpoint, out: Path) -> RunSumm
     session = collector.rig.summary()
     recorded = read_raw_grid(out, stream=True)  # the whole run, resumed parts included
     frames = recorded.frames
-    warning = frames.warning(collector.plan.config.acquisition.max_frame_loss)
+    warnings = [frames.warning(collector.plan.config.acquisition.max_frame_loss),
+                None if collector.rig.devices.has_encoder else OPEN_LOOP_WARNING]
     return RunSummary(points=len(checkpoint.taken), planned=len(collector.plan),
                       complete=checkpoint.complete, stopped=collector.stopped,
                       taken_this_run=collector.taken_now, stage_time_s=session.stage_time_s,
                       wall_time_s=session.wall_time_s, dropped=session.dropped,
                       corrupt=session.corrupt, baseline_drift_uT=drift, output=str(out),
-                      frames=frames.to_dict(), warnings=[warning] if warning else [])
+                      frames=frames.to_dict(), warnings=[w for w in warnings if w])
 
 
 def refuse_untouched(out: Path, min_standard_errors: float = 5.0) -> None:

@@ -71,10 +71,20 @@ def _residuals(data: CalibrationData, raw) -> Section:
     note = paragraph(f"{int(refit.used.sum())} of {len(raw.z_uT)} grid points were fitted (the others, "
                      f"grey crosses, carry no contact or lie inside the trace's entry circle); the "
                      f"rod centres are moved by the rod radius ({raw.rod_radius_mm:g} mm) onto the "
-                     f"shaft. Residual RMS {rms:.4f} µT.")
+                     f"shaft. Residual RMS {rms:.4f} µT. {_positions_note(raw)}")
     png = figures.grid_residuals(data, refit.contact_points_mm, residual, unused)
     return Section("Grid and fit residuals",
                    note + figure(png, "grid contact points coloured by the fit residual"))
+
+
+def _positions_note(raw) -> str:
+    """Whether the grid's positions were measured, or only commanded (a stage without encoders)."""
+    if raw.encoders == "none":
+        return ("Open loop: the stage had no encoders, so the positions are the commanded ones "
+                "and a missed step would have gone unnoticed.")
+    if raw.encoders == "unknown":
+        return "Whether the stage's positions were measured is not recorded in this file."
+    return "The positions were measured by the stage's encoders."
 
 
 def _truth(data: CalibrationData, raw) -> TruthComparison | None:

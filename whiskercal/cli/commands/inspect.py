@@ -71,8 +71,9 @@ def _calibration_summary(path: Path) -> dict:
 
 
 def _raw_summary(path: Path) -> dict:
-    grid = raw_grid.read_raw_grid(path)
+    grid = raw_grid.read_raw_grid(path, stream=True)
     return {"kind": "raw_grid", "points": len(grid), "complete": grid.complete,
+            "encoders": grid.encoders, "frames": grid.frames.to_dict(),
             "planned_points": int(len(grid.plan_rod_center_mm)),
             "rod_radius_mm": grid.rod_radius_mm,
             "z_range_uT": [float(np.min(grid.z_uT)), float(np.max(grid.z_uT))] if len(grid) else None,
