@@ -115,3 +115,29 @@ def test_close_closes_the_port_and_works_as_a_context_manager():
     with StageClient(port) as stage:
         assert stage.transport.port is port
     assert closed == [True]
+
+
+def test_wpos_reports_give_the_machine_position_through_the_last_wco():
+    first = parse_status("<Idle|WPos:1.000,2.000,0.000|FS:0,0|WCO:10.000,-5.000,0.000>")
+    np.testing.assert_allclose(first.mpos_mm, [11.0, -3.0])
+    later = parse_status("<Run|WPos:3.000,4.000,0.000|FS:600,0>", first.wco_mm)
+    np.testing.assert_allclose(later.mpos_mm, [13.0, -1.0])
+    np.testing.assert_allclose(later.wco_mm, [10.0, -5.0])  # kept for the next report
+
+
+def test_the_twin_reports_wpos_and_wco_when_dollar_10_asks_and_the_client_follows():
+    import uuid
+
+    from whiskercal.twin.world import create_world
+
+    world = create_world(f"wpos{uuid.uuid4().hex[:8]}", stock=True)
+    stage = StageClient(f"sim://{world.name}/stage")
+    stage.identify()
+    stage.command("$10=0")
+    stage.unlock()
+    stage.move_to(12.0, 7.0, 1200)
+    stage.wait_idle(10)
+    reports = [stage.status() for _ in range(25)]
+    assert reports[-1].idle
+    np.testing.assert_allclose(reports[-1].mpos_mm, [12.0, 7.0], atol=1e-3)
+    assert all(report.wco_mm is not None for report in reports)

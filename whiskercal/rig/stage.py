@@ -51,6 +51,7 @@ class StageStatus:
     enc_mm: np.ndarray | None
     feed_mm_min: float
     pins: str = ""
+    wco_mm: np.ndarray | None = None
 
     @property
     def feed(self) -> float:
@@ -85,30 +86,45 @@ class StageIdentity:
         return self.proto is not None
 
 
-def parse_status(line: str) -> StageStatus:
+def parse_status(line: str, wco_mm: np.ndarray | None = None) -> StageStatus:
     """Parse ``<Idle|MPos:1,2,0|FS:0,0|Enc:1,2>``; unknown fields are ignored.
 
-    A report is refused (DeviceError naming the line) unless ``MPos`` holds finite x, y, z (a
-    ``WPos``, when sent too, must as well), ``Enc`` when present finite x, y, and the feed of
-    ``FS``/``F`` is a finite number >= 0: a position the host cannot trust must stop the run,
-    not move the stage. A stock grbl reporting only ``WPos`` ($10=0) is told to send ``MPos``.
+    grbl 1.1 reports ``MPos`` or, with ``$10`` bit 0 clear, ``WPos``; it then sends the work
+    coordinate offset ``WCO`` (MPos = WPos + WCO) only every few reports, so the caller passes
+    the last one it saw (``wco_mm``) and keeps the one returned in ``StageStatus.wco_mm``.
+
+    A report is refused (DeviceError naming the line) unless its position holds finite x, y, z,
+    ``Enc`` when present finite x, y, and the feed of ``FS``/``F`` is a finite number >= 0: a
+    position the host cannot trust must stop the run, not move the stage.
     """
     match = _STATUS.match(line.strip())
     if match is None:
         raise DeviceError(f"stage sent a malformed status report: {line!r}")
     fields = dict(_split_field(f) for f in match.group(2).split("|") if f)
-    if "MPos" not in fields:
-        hint = " (set $10=1 so grbl reports MPos)" if "WPos" in fields else ""
-        raise DeviceError(f"stage sent a status report without MPos{hint}: {line!r}")
-    mpos = _numbers(fields["MPos"], 3, "MPos", line)
-    if "WPos" in fields:
-        _numbers(fields["WPos"], 3, "WPos", line)
+    if "WCO" in fields:
+        wco_mm = _numbers(fields["WCO"], 3, "WCO", line)[:2]
+    mpos = _machine_position(fields, wco_mm, line)
     enc = _numbers(fields["Enc"], 2, "Enc", line) if "Enc" in fields else None
     feed = _numbers(fields.get("FS", fields.get("F", "0")), 1, "FS", line)[0]
     if feed < 0:
         raise DeviceError(f"stage sent a status report with a negative feed: {line!r}")
-    return StageStatus(match.group(1), mpos[:2], enc[:2] if enc is not None else None,
-                       float(feed), fields.get("Pn", ""))
+    return StageStatus(match.group(1), mpos, enc[:2] if enc is not None else None,
+                       float(feed), fields.get("Pn", ""), wco_mm)
+
+
+def _machine_position(fields: dict[str, str], wco_mm: np.ndarray | None, line: str) -> np.ndarray:
+    """x, y in machine coordinates (mm) from MPos, or from WPos and the work offset."""
+    if "MPos" in fields:
+        if "WPos" in fields:
+            _numbers(fields["WPos"], 3, "WPos", line)
+        return _numbers(fields["MPos"], 3, "MPos", line)[:2]
+    if "WPos" not in fields:
+        raise DeviceError(f"stage sent a status report without MPos or WPos: {line!r}")
+    wpos = _numbers(fields["WPos"], 3, "WPos", line)[:2]
+    if wco_mm is None:
+        raise DeviceError(f"stage reported WPos before any WCO, so its machine position is unknown "
+                          f"(set $10=1 so grbl reports MPos, or ask again): {line!r}")
+    return wpos + np.asarray(wco_mm, float)
 
 
 def _numbers(text: str, count: int, name: str, line: str) -> np.ndarray:
@@ -159,6 +175,7 @@ class StageClient:
         self.timeout_s = timeout_s
         self._pending = bytearray()
         self.banner: str | None = None
+        self.work_offset_mm: np.ndarray | None = None  # grbl's last WCO (x, y), mm
 
     def close(self) -> None:
         """Close the port. Nothing is sent: a stage that is moving keeps moving (see
@@ -217,7 +234,9 @@ class StageClient:
         while True:
             line = self._reply_line(self.timeout_s, "the status request '?'")
             if line.startswith("<"):
-                return parse_status(line)
+                status = parse_status(line, self.work_offset_mm)
+                self.work_offset_mm = status.wco_mm  # grbl sends WCO only every few reports
+                return status
 
     def identify(self, boot_wait_s: float = 2.5) -> StageIdentity:
         """Wait for the banner, ask ``$I``, and check for the encoder field.

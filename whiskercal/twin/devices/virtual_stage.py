@@ -28,6 +28,7 @@ PROTO = "whiskercal-stage-1"
 FIRMWARE_VERSION = "0.1.0"
 MAX_LINE_CHARS = 80
 PLANNER_BLOCKS = 15
+WCO_REFRESH_REPORTS = 10  # grbl 1.1 resends WCO every 10 reports at rest (30 while moving)
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
 _TRAVEL_EPS_MM = 1e-6
 _INTEGER_SETTINGS = (20, 22, 200)
@@ -122,6 +123,7 @@ class VirtualStage:
         self.homing_until_s: float | None = None
         self.hold_stop_s: float | None = None
         self._resume_requested = False
+        self._reports_to_wco = 0
         self._absolute = True
         self._motion = 0
         self._feed_mm_min: float | None = None
@@ -175,6 +177,7 @@ class VirtualStage:
         self._input.clear()
         self.hold_stop_s, self._resume_requested = None, False
         self._absolute, self._motion, self._feed_mm_min = True, 0, None
+        self._reports_to_wco = 0
         if moving:
             self.homing_until_s = None
             self._raise_alarm(StageAlarm.ABORT_CYCLE, t)
@@ -301,10 +304,22 @@ class VirtualStage:
             return "Hold:1" if t < self.hold_stop_s else "Hold:0"  # GRBL 1.1: Hold:0 = hold complete
         return "Run" if self.mech.busy(t) else "Idle"
 
+    def _position_field(self, x: float, y: float) -> str:
+        """MPos, or (``$10`` bit 0 clear) WPos with grbl's WCO on the first report after a reset
+        and every WCO_REFRESH_REPORTS reports after that (the work offset is always zero here)."""
+        if int(self.mech.settings.get(10, 1)) & 1:
+            return f"MPos:{x:.3f},{y:.3f},0.000"
+        field = f"WPos:{x:.3f},{y:.3f},0.000"
+        if self._reports_to_wco == 0:
+            field += "|WCO:0.000,0.000,0.000"
+            self._reports_to_wco = WCO_REFRESH_REPORTS
+        self._reports_to_wco -= 1
+        return field
+
     def status_report(self, t: float) -> str:
         """The ``<...>`` status line at time ``t``."""
         x, y = self.mech.machine_mm(t)
-        report = f"<{self.state(t)}|MPos:{x:.3f},{y:.3f},0.000|FS:{self.mech.speed_mm_min(t):.0f},0"
+        report = f"<{self.state(t)}|{self._position_field(x, y)}|FS:{self.mech.speed_mm_min(t):.0f},0"
         if self._encoders_on():
             ex, ey = self.mech.encoder_mm(t)
             report += f"|Enc:{ex:.3f},{ey:.3f}"
