@@ -42,9 +42,9 @@ def test_stage(port, check):
 
 # Faults injected the way each backend offers them: (firmware simulator options, twin URL query).
 STAGE_FAULTS = {
-    10: (("--stall-x", "60"), "fault=stall@1.0"),
-    11: (("--no-magnet-y",), "fault=encoder_magnet@0.2"),
-    12: (("--silent-x",), "fault=encoder_bus@0.2"),
+    100: (("--stall-x", "60"), "fault=stall@1.0"),
+    101: (("--no-magnet-y",), "fault=encoder_magnet@0.2"),
+    102: (("--silent-x",), "fault=encoder_bus@0.2"),
 }
 
 

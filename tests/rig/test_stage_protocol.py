@@ -141,3 +141,23 @@ def test_the_twin_reports_wpos_and_wco_when_dollar_10_asks_and_the_client_follow
     assert reports[-1].idle
     np.testing.assert_allclose(reports[-1].mpos_mm, [12.0, 7.0], atol=1e-3)
     assert all(report.wco_mm is not None for report in reports)
+
+
+def test_stock_grbl_answers_g4_after_the_queued_moves_and_the_dwell_and_the_client_waits():
+    import uuid
+
+    from whiskercal.twin.world import create_world
+
+    times = {}
+    for stock in (True, False):
+        world = create_world(f"dwell{uuid.uuid4().hex[:8]}", stock=stock)
+        stage = StageClient(f"sim://{world.name}/stage")
+        stage.identify()
+        stage.unlock()
+        start = stage.transport.now_s()
+        stage.move_to(60.0, 0.0, 1200)  # 3 s of motion at 20 mm/s (plus the ramps)
+        stage.dwell(1.0)
+        times[stock] = stage.transport.now_s() - start
+        assert stage.status().idle == stock  # grbl's ok means the moves and the dwell are done
+    assert times[True] > 4.0  # waited for the move (> 3 s) and then the dwell (1 s)
+    assert times[False] < 0.5  # whiskercal's firmware queues the dwell and answers at once

@@ -277,9 +277,14 @@ class StageClient:
             raise ValueError(f"feed rate must be positive, got {feed_mm_min} mm/min")
         self.command(f"G90 G1 X{x_mm:.3f} Y{y_mm:.3f} F{feed_mm_min:.1f}")
 
-    def dwell(self, seconds: float) -> None:
-        """Queue a dwell of ``seconds`` s behind the queued moves."""
-        self.command(f"G4 P{seconds:.3f}")
+    def dwell(self, seconds: float, queued_motion_s: float = 60.0) -> None:
+        """Dwell ``seconds`` s after the queued moves.
+
+        grbl 1.1 answers a ``G4`` only once the moves before it are done and the dwell is over
+        (whiskercal's firmware queues it and answers at once), so the answer is waited for up to
+        ``seconds`` plus ``queued_motion_s`` (s), the longest the queued moves may take.
+        """
+        self.command(f"G4 P{seconds:.3f}", timeout_s=seconds + queued_motion_s)
 
     def wait_idle(self, timeout_s: float = 60.0,
                   on_poll: Callable[[StageStatus], None] | None = None) -> StageStatus:

@@ -124,6 +124,7 @@ class VirtualStage:
         self.hold_stop_s: float | None = None
         self._resume_requested = False
         self._reports_to_wco = 0
+        self._ok_after_dwell = False
         self._absolute = True
         self._motion = 0
         self._feed_mm_min: float | None = None
@@ -177,7 +178,7 @@ class VirtualStage:
         self._input.clear()
         self.hold_stop_s, self._resume_requested = None, False
         self._absolute, self._motion, self._feed_mm_min = True, 0, None
-        self._reports_to_wco = 0
+        self._reports_to_wco, self._ok_after_dwell = 0, False
         if moving:
             self.homing_until_s = None
             self._raise_alarm(StageAlarm.ABORT_CYCLE, t)
@@ -200,8 +201,16 @@ class VirtualStage:
             times.append(self.hold_stop_s)
         if self._pending and self.homing_until_s is None and self.mech.queue and not self.mech.paused:
             times.append(self.mech.active_end_s())
+        if self._waits_for_motion():
+            times.append(self.mech.active_end_s())
         times = [x for x in times if x is not None and x > self.now_s - 1e-12]
         return min(times) if times else None
+
+    def _waits_for_motion(self) -> bool:
+        """Stock grbl's G4 waits for the moves before it, and its "ok" for the dwell itself."""
+        dwell_next = bool(self._pending) and _is_dwell(self._pending[0])
+        return (self.stock and (self._ok_after_dwell or dwell_next) and not self.mech.paused
+                and self.homing_until_s is None and self.mech.busy(self.now_s))
 
     def advance_to(self, t: float) -> None:
         """Run every internal event up to time ``t``."""
@@ -328,9 +337,16 @@ class VirtualStage:
 
     # -- lines ------------------------------------------------------------------------------
     def _run_pending(self, t: float) -> None:
+        if self._ok_after_dwell:
+            if self.mech.busy(t):
+                return  # stock grbl's main loop sits in the dwell; lines wait
+            self._ok_after_dwell = False
+            self._send("ok", t)
         while self._pending and self.homing_until_s is None:
             if len(self.mech.queue) >= PLANNER_BLOCKS:
                 return  # grbl holds back the "ok" until the planner has room
+            if self.stock and self.mech.busy(t) and _is_dwell(self._pending[0]):
+                return  # stock grbl's G4 first waits for the planner to empty
             line = self._pending.popleft()
             try:
                 self._execute(line, t)
@@ -347,7 +363,8 @@ class VirtualStage:
             if self.alarm is not None:
                 raise GcodeError(StageError.SYSTEM_GC_LOCK)
             self._gcode(parse_words(text), t)
-            self._send("ok", t)
+            if not self._ok_after_dwell:
+                self._send("ok", t)
         else:
             self._send("ok", t)
 
@@ -430,6 +447,9 @@ class VirtualStage:
         target = self._target(absolute, values) if axes else None
         if dwell:
             self.mech.queue_dwell(values["P"], t)  # grbl dwells before it moves
+            # stock grbl 1.1 dwells in its main loop and answers "ok" only after it; whiskercal's
+            # firmware queues the dwell behind the moves and answers at once
+            self._ok_after_dwell = self.stock and target is None
         if target is not None:
             self.mech.queue_move(target, feed if motion == 1 else None, t)
         self._motion, self._absolute, self._feed_mm_min = motion, absolute, feed
@@ -445,3 +465,9 @@ class VirtualStage:
         if self.mech.settings[20] and outside:
             raise GcodeError(StageError.TRAVEL_EXCEEDED)
         return target
+
+
+def _is_dwell(line: str | None) -> bool:
+    """Whether a G-code line holds G4 (G4, G04, g4; not G40 or a $ command)."""
+    return line is not None and not line.lstrip().startswith("$") and \
+        re.search(r"G0*4(?![0-9.])", line.upper().replace(" ", "")) is not None
