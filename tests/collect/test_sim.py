@@ -107,7 +107,7 @@ def test_full_grid_on_the_twin_with_truth(tmp_path):
 
 
 def test_stock_grbl_twin_collects_with_commanded_positions(tmp_path):
-    stage, sensor = urls("stock=1")
+    stage, sensor = urls("stock=1&homing=xy")
     config = load_config(fast_config(tmp_path, SMALL))
     plan = build_plan(config)
     summary = collect(stage, sensor, tmp_path / "raw.h5", plan)
@@ -317,3 +317,13 @@ def test_a_truncated_file_without_its_journal_says_so_on_resume(tmp_path):
                      "--config", str(fast_config(tmp_path, SMALL)), "--resume")
     assert result.exit_code == 2
     assert "truncated: 20000 of its" in result.output and "journal" in result.output
+
+
+def test_stock_grbl_homing_z_first_gives_one_line_naming_the_fix(tmp_path):
+    stage, sensor = urls("stock=1")  # stock config.h: Z first, and this stage has no Z switch
+    result = run_cli("--stage", stage, "--sensor", sensor, "--out", str(tmp_path / "raw.h5"),
+                     "--config", str(fast_config(tmp_path, SMALL)))
+    assert result.exit_code == DeviceError.exit_code
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "ALARM:9" in lines[0]
+    assert "homes Z first" in lines[0] and "config.h" in lines[0] and "home = false" in lines[0]

@@ -287,3 +287,17 @@ def test_bad_setting_value_is_a_number_format_error():
     port = _port(_world())
     _lines_until(port, "[MSG:")
     assert _send(port, "$100=x") == ["error:2"]
+
+
+def test_stock_homing_searches_z_first_then_alarms_9_and_resets_unless_the_board_homes_xy():
+    port = _port(_world(stock=True))
+    _lines_until(port, "[MSG:")  # the power-up banner
+    port.write(b"$H\n")
+    start = port.now_s()
+    assert _lines_until(port, "ALARM:", timeout_s=60.0) == ["ALARM:9"]
+    assert port.now_s() - start > 30.0  # 1.5 x 200 mm of Z searched at 500 mm/min
+    after = _lines_until(port, "[MSG:", stop_on=())
+    assert any(line.startswith("Grbl 1.1h") for line in after)  # reset after the failed cycle
+    xy = StageClient(f"sim://{_world(stock=True, homing='xy').name}/stage")
+    xy.home()
+    assert xy.status().idle

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.errors import DeviceError
-from whiskercal.protocol.codes import describe
+from whiskercal.protocol.codes import StageAlarm, describe
 from whiskercal.rig.transport import Transport, open_port
 
 _STATUS = re.compile(r"^<([^|>]+)((?:\|[^|>]*)*)>$")
@@ -28,9 +28,15 @@ _MAX_LINE_BYTES = 256
 class StageAlarmError(DeviceError):
     """The stage reported ``ALARM:N``; ``code`` is N (see ``codes.StageAlarm``)."""
 
-    def __init__(self, code: int, where: str) -> None:
+    def __init__(self, code: int, where: str, hint: str = "") -> None:
         self.code = code
-        super().__init__(f"stage on {where} raised ALARM:{code}: {describe('STAGE_ALARM', code)}")
+        super().__init__(f"stage on {where} raised ALARM:{code}: {describe('STAGE_ALARM', code)}"
+                         + (f"; {hint}" if hint else ""))
+
+
+HOMING_HINT = ("stock grbl 1.1 homes Z first and a two-axis stage has no Z switch: build grbl "
+               "with the X-and-Y homing cycle in config.h (docs/stage.md), or set $22=0, put the "
+               "stage at its origin by hand and collect with [motion] home = false")
 
 
 class StageCommandError(DeviceError):
@@ -310,8 +316,17 @@ class StageClient:
                 self._drain_pushes(_POLL_INTERVAL_S)
 
     def home(self, timeout_s: float = 120.0) -> None:
-        """Run the homing cycle ``$H``; grbl answers ``ok`` once homing is done."""
-        self.command("$H", timeout_s)
+        """Run the homing cycle ``$H``; grbl answers ``ok`` once homing is done.
+
+        A switch not found (ALARM:9) is told as a stage that needs another homing cycle: stock
+        grbl 1.1 homes Z first, and a two-axis stage has no Z switch.
+        """
+        try:
+            self.command("$H", timeout_s)
+        except StageAlarmError as error:
+            if error.code != StageAlarm.HOMING_FAIL_APPROACH:
+                raise
+            raise StageAlarmError(error.code, self.transport.name, HOMING_HINT) from None
 
     def unlock(self) -> None:
         """Clear an alarm lock without homing (``$X``)."""

@@ -40,7 +40,10 @@ class WorldConfig:
     power-up); ``fixture`` the scene on the end effector (the world works on its own
     ``fresh()`` copy); ``speed`` is simulated seconds per real second (0: as fast as the CPU
     allows); ``max_step_mm`` the longest move of the end effector between two warm-started
-    solves; ``clock_drift_ppm`` the sensor board's clock error; ``stock`` a plain grbl stage.
+    solves; ``clock_drift_ppm`` the sensor board's clock error; ``stock`` a plain grbl stage;
+    ``homing`` its homing cycle: ``"xy"`` (X and Y together, whiskercal's firmware always), or
+    ``""`` for the board's default, which on stock grbl 1.1 homes Z first (ALARM:9 on a two-axis
+    stage, which has no Z switch).
     """
 
     sensor: object = None
@@ -51,6 +54,7 @@ class WorldConfig:
     stage_faults: StageFaults = field(default_factory=StageFaults)
     sensor_faults: SensorFaults = field(default_factory=SensorFaults)
     stock: bool = False
+    homing: str = ""
     seed: int = 0
     speed: float = 0.0
     max_step_mm: float = 0.05
@@ -88,7 +92,7 @@ class World:
         self.rng = np.random.default_rng(seeds[0])  # magnetometer noise
         self.clock = SimClock(speed=config.speed)
         self.stage = StageMechanics(config.stage_start_mm, config.backlash_mm, faults=config.stage_faults)
-        self.stage_board = VirtualStage(self.stage, stock=config.stock)
+        self.stage_board = VirtualStage(self.stage, stock=config.stock, homing=config.homing)
         self.sensor_board = VirtualSensor(self.reading, config.sensor_faults,
                                           np.random.default_rng(seeds[1]), config.clock_drift_ppm)
         self._boards = Boards(self.clock, self.stage_board, self.sensor_board)

@@ -28,6 +28,7 @@ PROTO = "whiskercal-stage-1"
 FIRMWARE_VERSION = "0.1.0"
 MAX_LINE_CHARS = 80
 PLANNER_BLOCKS = 15
+Z_TRAVEL_MM = 200.0  # grbl's default $132, the Z travel a Z-first homing cycle searches
 WCO_REFRESH_REPORTS = 10  # grbl 1.1 resends WCO every 10 reports at rest (30 while moving)
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
 _TRAVEL_EPS_MM = 1e-6
@@ -109,9 +110,11 @@ class VirtualStage:
         Behave like plain grbl 1.1 (no encoders).
     """
 
-    def __init__(self, mechanics: StageMechanics, stock: bool = False) -> None:
+    def __init__(self, mechanics: StageMechanics, stock: bool = False, homing: str = "") -> None:
         self.mech = mechanics
         self.stock = stock
+        # stock grbl 1.1's config.h homes Z first; a two-axis stage has no Z switch to find
+        self.homes_z_first = stock and homing != "xy"
         if stock:
             for number in WHISKERCAL_SETTINGS:
                 self.mech.settings.pop(number, None)
@@ -228,14 +231,21 @@ class VirtualStage:
         self.mech.advance_to(t)
         self.now_s = t
         if self.homing_until_s is not None and t >= self.homing_until_s:
-            self.homing_until_s = None
-            self.mech.finish_homing()
-            self.alarm = None
-            self._send("ok", t)
+            self._end_homing(t)
         self._apply_faults(t)
         self._check_encoders(t)
         self._finish_hold(t)
         self._run_pending(t)
+
+    def _end_homing(self, t: float) -> None:
+        self.homing_until_s = None
+        if self.homes_z_first:  # grbl: the alarm, then the reset that ends every failed cycle
+            self._raise_alarm(StageAlarm.HOMING_FAIL_APPROACH, t)
+            self._boot(t, moving=False)
+            return
+        self.mech.finish_homing()
+        self.alarm = None
+        self._send("ok", t)
 
     def _finish_hold(self, t: float) -> None:
         if self._resume_requested and self.hold_stop_s is not None and t >= self.hold_stop_s:
@@ -414,6 +424,9 @@ class VirtualStage:
         self.alarm = None
         self.hold_stop_s, self._resume_requested = None, False
         self._slipping = False  # homing re-references steps and encoders
+        if self.homes_z_first:  # searches 1.5 x Z's travel at the seek rate, finds nothing
+            self.homing_until_s = t + 1.5 * Z_TRAVEL_MM / self.mech.settings[25] * 60.0
+            return
         self.homing_until_s = self.mech.plan_homing(t)
 
     def _set_setting(self, command: str, t: float) -> None:
