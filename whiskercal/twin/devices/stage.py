@@ -25,10 +25,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 # grbl's settings plus whiskercal's 200..202 (docs/protocol.md); 24/25/27 are grbl's homing
-# feed, seek rate (mm/min) and pull-off distance (mm) at grbl's own defaults; $10 bit 0 chooses
-# MPos (1, grbl's default) or WPos in the status report.
+# feed, seek rate (mm/min) and pull-off distance (mm) at grbl's own defaults.
 DEFAULT_SETTINGS: dict[int, float] = {
-    10: 1, 20: 1, 22: 1, 24: 25.0, 25: 500.0, 27: 1.0,
+    20: 1, 22: 1, 24: 25.0, 25: 500.0, 27: 1.0,
     100: 80.0, 101: 80.0, 110: 3000.0, 111: 3000.0, 120: 200.0, 121: 200.0,
     130: 200.0, 131: 200.0, 200: 1, 201: 40.0, 202: 0.5,
 }

@@ -115,6 +115,8 @@ class VirtualStage:
         self.stock = stock
         # stock grbl 1.1's config.h homes Z first; a two-axis stage has no Z switch to find
         self.homes_z_first = stock and homing != "xy"
+        if stock:  # grbl's $10: bit 0 set reports MPos (its default), clear reports WPos
+            self.mech.settings.setdefault(10, 1)
         if stock:
             for number in WHISKERCAL_SETTINGS:
                 self.mech.settings.pop(number, None)
