@@ -93,10 +93,18 @@ def test_settings_home_unlock_hold_resume_reset():
         stage.dwell(0.5)
 
 
-def test_silence_times_out_with_clear_message():
-    with expected_protocol(StageClient, [(b"?", None)]) as stage:
-        with pytest.raises(DeviceError, match="did not answer the status request"):
+def test_silence_times_out_with_clear_message_after_asking_again():
+    with expected_protocol(StageClient, [(b"?", None)] * 3) as stage:
+        with pytest.raises(DeviceError, match="did not answer the status request '.' within 2 s"):
             stage.status()
+
+
+def test_an_unanswered_status_request_is_sent_again():
+    # grbl drops a '?' during an alarm's pause; the second one is answered
+    report = b"<Alarm|MPos:1.000,2.000,0.000|FS:0,0>\r\n"
+    with expected_protocol(StageClient, [(b"?", None), (b"?", report)]) as stage:
+        status = stage.status()
+    assert status.state == "Alarm" and status.alarm
 
 
 def test_wait_idle_raises_in_alarm_state():

@@ -15,7 +15,7 @@ import numpy as np
 
 from whiskercal.errors import DeviceError
 from whiskercal.protocol.codes import StageAlarm, describe
-from whiskercal.rig.transport import Transport, open_port
+from whiskercal.rig.transport import DeviceTimeout, Transport, open_port
 
 _STATUS = re.compile(r"^<([^|>]+)((?:\|[^|>]*)*)>$")
 # plain decimal numbers as grbl prints them (float() would also take "nan", "1_0", " 1")
@@ -23,6 +23,8 @@ _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z", re.ASCII)
 _SETTING = re.compile(r"\$(\d+)=(.*)\Z", re.ASCII | re.DOTALL)
 _POLL_INTERVAL_S = 0.02
 _MAX_LINE_BYTES = 256
+STATUS_TRIES = 3  # '?' sent again when unanswered (grbl drops it during an alarm's pause)
+LATE_REPORT_WAIT_S = 0.05
 
 
 class StageAlarmError(DeviceError):
@@ -235,14 +237,31 @@ class StageClient:
 
     # -- queries ----------------------------------------------------------------------------
     def status(self) -> StageStatus:
-        """Ask for a status report (realtime ``?``) and parse it."""
-        self.transport.write(b"?")
+        """Ask for a status report (realtime ``?``) and parse it.
+
+        grbl drops a ``?`` it cannot serve (during an alarm's pause), so one left unanswered for
+        a third of the timeout is sent again, up to STATUS_TRIES times in all.
+        """
+        for attempt in range(STATUS_TRIES):
+            self.transport.write(b"?")
+            try:
+                line = self._status_line(self.timeout_s / STATUS_TRIES)
+            except DeviceTimeout:
+                if attempt == STATUS_TRIES - 1:
+                    raise self.transport.timed_out("the status request '?'", self.timeout_s) from None
+                continue
+            if attempt:  # the earlier '?' may still be answered: that report must not be read later
+                self._drain_pushes(LATE_REPORT_WAIT_S)
+            status = parse_status(line, self.work_offset_mm)
+            self.work_offset_mm = status.wco_mm  # grbl sends WCO only every few reports
+            return status
+        raise AssertionError("unreachable")
+
+    def _status_line(self, timeout_s: float) -> str:
         while True:
-            line = self._reply_line(self.timeout_s, "the status request '?'")
+            line = self._reply_line(timeout_s, "the status request '?'")
             if line.startswith("<"):
-                status = parse_status(line, self.work_offset_mm)
-                self.work_offset_mm = status.wco_mm  # grbl sends WCO only every few reports
-                return status
+                return line
 
     def identify(self, boot_wait_s: float = 2.5) -> StageIdentity:
         """Wait for the banner, ask ``$I``, and check for the encoder field.
@@ -356,7 +375,8 @@ class StageClient:
             self._drain_pushes(deadline - self.transport.now_s())
 
     def _drain_pushes(self, wait_s: float = 0.0) -> None:
-        """Consume pushed lines (banner, messages, alarms) that arrive within ``wait_s`` s."""
+        """Consume pushed lines (banner, messages, alarms) and stray reports that arrive within
+        ``wait_s`` s."""
         self._pending += self.transport.read_some(_MAX_LINE_BYTES, wait_s)
         while b"\n" in self._pending:
             line = self._read_line(0.0, "a pushed message")
