@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -258,3 +260,16 @@ def test_a_failing_sensor_does_not_keep_the_stage_from_being_stopped():
             rig.start()
             rig.move_to([10.0, 0.0], 600.0)
     assert stage.log[-2:] == ["!", "reset"]
+
+
+def test_a_stage_that_works_in_negative_machine_space_is_refused_before_any_move():
+    class StockGrblSpace(Stage):
+        def home(self) -> None:
+            super().home()
+            self.position = np.array([-1.0, -1.0])  # grbl: machine zero at the switches, pulled off
+
+    stage = StockGrblSpace()
+    with pytest.raises(DeviceError, match=r"-travel\.\.0.*HOMING_FORCE_SET_ORIGIN"):
+        with open_session(stage, config=dataclasses.replace(CONFIG, home=True)) as rig:
+            rig.start()
+    assert not any(entry.startswith("G") for entry in stage.log)

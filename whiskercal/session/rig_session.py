@@ -201,6 +201,7 @@ class RigSession:
     def _prepare_stage(self) -> None:
         if self.config.home:
             self.stage.home()
+            _refuse_negative_machine_space(self.stage.status().mpos_mm)
             return
         if self.stage.status().alarm:
             raise DeviceError(f"stage is in alarm (not homed); home it ($H) or set "
@@ -359,6 +360,21 @@ class RigSession:
         return SessionSummary(dropped=int(self.sensor.dropped), corrupt=int(self.sensor.corrupt),
                               stage_time_s=float(self.stage_clock() - stage_start),
                               wall_time_s=float(time.monotonic() - wall_start))
+
+
+def _refuse_negative_machine_space(homed_mm: np.ndarray) -> None:
+    """Stop before the first move when the stage works in -travel..0 after homing.
+
+    whiskercal commands machine coordinates 0..travel. Stock grbl 1.1 sets machine zero at the
+    switches and works in negative space unless built with HOMING_FORCE_SET_ORIGIN (and homing
+    toward the minimum, $23): right after homing its position is then 0, never negative.
+    """
+    if np.any(np.asarray(homed_mm, float) < -1e-3):
+        raise DeviceError(
+            f"the stage's machine position after homing is {np.round(homed_mm, 3).tolist()} mm: it "
+            "works in -travel..0 (stock grbl 1.1), whiskercal in 0..travel; build grbl with "
+            "HOMING_FORCE_SET_ORIGIN in config.h and home X and Y toward their minimum ($23=3) "
+            "(docs/stage.md)")
 
 
 def identify(stage, sensor) -> Devices:
