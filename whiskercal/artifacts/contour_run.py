@@ -1,0 +1,80 @@
+"""A contour-following run (schema ``whiskercal.contour_run``): writer and reader.
+
+One HDF5 file: root attributes (provenance; the shape, its outline core and corner radius, the
+target, the seed, whether the run went its full duration) and a ``samples`` group with one dataset
+per column (time, z, the estimated contact, the twin's true tip and contact, the robot's pose, the
+controller's phase, the contact kind, slips, the controller's time per sample). A run is written
+once, atomically: a run stopped by Ctrl-C is written with what it has and ``complete`` false.
+docs/formats.md lists the layout; docs/contour.md the run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from whiskercal.artifacts import h5io
+from whiskercal.atomic import atomic_path
+
+SCHEMA = "whiskercal.contour_run"
+SCHEMA_VERSION = "1.0.0"
+SUPPORTED_MAJOR = 1
+
+UNITS = {"t_s": "s", "z_uT": "µT", "estimate_mm": "mm", "true_tip_mm": "mm",
+         "true_contact_mm": "mm", "pose": "mm, mm, rad", "slip": "1", "phase": "1", "kind": "1",
+         "control_s": "s"}
+
+
+@dataclass
+class ContourRunFile:
+    """What a contour-run file holds (world frame, mm)."""
+
+    shape: str
+    core_mm: np.ndarray
+    radius_mm: float
+    target_z_uT: float
+    seed: int
+    complete: bool
+    wall_s: float
+    sensor_id: str
+    columns: dict[str, np.ndarray]
+    config: dict
+    path: str = ""
+
+
+def write_contour_run(path: str | Path, run: ContourRunFile) -> Path:
+    """Write ``run`` to ``path`` atomically (replaced whole)."""
+    path = Path(path)
+    with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
+        h5io.write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+                              sensor_id=run.sensor_id, config=run.config)
+        for key in ("shape", "radius_mm", "target_z_uT", "seed", "complete", "wall_s"):
+            handle.attrs[key] = getattr(run, key)
+        h5io.write_array(handle, "outline_core_mm", np.asarray(run.core_mm, float), "mm")
+        samples = handle.create_group("samples")
+        for name, values in run.columns.items():
+            values = np.asarray(values)
+            if values.dtype.kind == "U":
+                values = values.astype("S")
+            h5io.write_array(samples, name, values, UNITS.get(name, "1"))
+    return path
+
+
+def read_contour_run(path: str | Path) -> ContourRunFile:
+    """Read a contour-run file; ArtifactError names the file and what is wrong with it."""
+    with h5io.open_h5(path) as handle:
+        h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
+        columns = {}
+        for name in UNITS:
+            values = h5io.read_array(handle["samples"], name, path)
+            columns[name] = values.astype(str) if values.dtype.kind == "S" else values
+        attrs = handle.attrs
+        return ContourRunFile(
+            shape=h5io.as_text(attrs["shape"]), core_mm=h5io.read_array(handle, "outline_core_mm", path),
+            radius_mm=float(attrs["radius_mm"]), target_z_uT=float(attrs["target_z_uT"]),
+            seed=int(attrs["seed"]), complete=bool(attrs["complete"]), wall_s=float(attrs["wall_s"]),
+            sensor_id=h5io.as_text(attrs["sensor_id"]), columns=columns,
+            config=h5io.read_json_attr(handle, "config", {}), path=str(path))

@@ -1,0 +1,60 @@
+"""Contour following on the twin: run the paper's closed loop around an object and measure the
+reconstructed contour against the object's true outline (docs/contour.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+from whiskercal.artifacts.contour_run import ContourRunFile, read_contour_run, write_contour_run
+from whiskercal.contour.report import summarize, write_report
+from whiskercal.contour.run import ContourRun, run_contour
+from whiskercal.errors import UsageError
+from whiskercal.follow import FollowConfig
+
+__all__ = ["ContourRun", "contour_to_file", "read_contour_run", "run_contour", "summarize",
+           "write_report"]
+
+
+def contour_to_file(shape: str, artifact: str | Path, out: str | Path, *, sensor=None,
+                    target_z_uT: float | None = None, config: FollowConfig = FollowConfig(),
+                    speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
+                    on_progress: Callable[[float], None] | None = None,
+                    stop_requested: Callable[[], bool] | None = None) -> ContourRunFile:
+    """Run the loop on the twin against ``shape`` with the calibration ``artifact`` and write the
+    run to ``out`` (also when stopped early: then ``complete`` is False).
+
+    ``sensor`` is the twin's build (default: the default sensor); the artifact must be calibrated
+    on the same build. ``target_z_uT`` overrides the artifact's deflection target (which
+    ``whiskercal optimal-depth report`` writes); ``speed_mm_s`` the total speed of the config.
+    """
+    import dataclasses
+
+    import numpy as np
+
+    from whiskercal import runtime
+    from whiskercal.checks import number, positive
+    from whiskercal.twin.outlines import outline
+    from whiskercal.twin.params import DEFAULT_SENSOR
+
+    sensor = sensor or DEFAULT_SENSOR
+    calibration = runtime.load(artifact)
+    target = calibration.target_z_uT if target_z_uT is None else number(target_z_uT, "--target-uT")
+    if target is None:
+        raise UsageError(f"{artifact} has no deflection target: write one with `whiskercal "
+                         "optimal-depth report`, or give --target-uT")
+    if calibration.sensor_id != sensor.sensor_id:
+        raise UsageError(f"{artifact} was calibrated on sensor {calibration.sensor_id!r}, the twin "
+                         f"runs {sensor.sensor_id!r}: calibrate that build or pass its --sensor")
+    if speed_mm_s is not None:
+        config = dataclasses.replace(config, total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
+    positive(duration_s, "--duration", unit="s")
+    shape_outline = outline(shape)
+    run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
+                      config, duration_s, seed, on_progress, stop_requested)
+    record = ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
+                            float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
+                            run.columns, {"follow": run.config, "artifact": str(artifact)})
+    write_contour_run(out, record)
+    record.path = str(out)
+    return record

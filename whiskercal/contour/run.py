@@ -1,0 +1,89 @@
+"""One contour-following run on the twin: the follower drives the mobile sensor around an object.
+
+``run_contour`` starts the sensor outside the object, pointing at it, and runs the loop for a
+duration (or until the contacts have gone once round), recording every sample: time, z, the
+estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind and
+slips. The estimate is never aligned to the truth; docs/contour.md has the metrics.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from whiskercal.follow import FollowConfig, Follower
+from whiskercal.twin.mobile import MobileSensor
+from whiskercal.twin.outlines import Outline
+
+COLUMNS = ("t_s", "z_uT", "estimate_mm", "true_tip_mm", "true_contact_mm", "pose", "slip",
+           "phase", "kind", "control_s")
+
+
+@dataclass
+class ContourRun:
+    """A run's samples (columns of :data:`COLUMNS`) and what made it."""
+
+    shape: str
+    sensor_id: str
+    target_z_uT: float
+    config: dict
+    seed: int
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
+    complete: bool = False
+    wall_s: float = 0.0
+
+
+def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
+               reach_mm: float = 78.0) -> np.ndarray:
+    """A pose outside the object at a random point of its outline: the whisker leans
+    ``tilt_deg`` back from the surface's inward normal there, its tip ``standoff_mm`` short."""
+    points = outline.points()
+    index = int(rng.integers(len(points)))
+    tangent = points[(index + 1) % len(points)] - points[index - 1]
+    inward = np.array([-tangent[1], tangent[0]]) / np.linalg.norm(tangent)  # counter-clockwise
+    heading = math.atan2(inward[1], inward[0]) - math.radians(tilt_deg)
+    base = points[index] - (reach_mm + standoff_mm) * np.array([math.cos(heading), math.sin(heading)])
+    return np.array([*base, heading])
+
+
+def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: FollowConfig,
+                duration_s: float, seed: int = 0, on_progress: Callable[[float], None] | None = None,
+                stop_requested: Callable[[], bool] | None = None) -> ContourRun:
+    """Run the loop for ``duration_s`` s of robot time, or until stopped (a partial run)."""
+    rng = np.random.default_rng(seed)
+    robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng), seed=seed)
+    follower = Follower(tracker, target_z_uT, config)
+    run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
+    rows: dict[str, list] = {name: [] for name in COLUMNS}
+    dt, steps = 1.0 / config.rate_hz, int(round(duration_s * config.rate_hz))
+    started = time.perf_counter()
+    sample = robot.step(0.0)
+    try:
+        for index in range(steps):
+            if stop_requested is not None and stop_requested():
+                break
+            tic = time.perf_counter()
+            step = follower.update(sample.z_uT, robot)
+            _record(rows, index * dt, sample, step, robot.pose(), time.perf_counter() - tic)
+            sample = robot.step(dt)
+            if on_progress is not None and index % int(config.rate_hz) == 0:
+                on_progress(index * dt)
+        else:
+            run.complete = True
+    except KeyboardInterrupt:  # Ctrl-C: keep what was run (complete stays False)
+        pass
+    run.wall_s = time.perf_counter() - started
+    run.columns = {name: np.asarray(values) for name, values in rows.items()}
+    return run
+
+
+def _record(rows, t_s: float, sample, step, pose, control_s: float) -> None:
+    for name, value in (("t_s", t_s), ("z_uT", sample.z_uT), ("estimate_mm", step.contact_mm),
+                        ("true_tip_mm", sample.tip_mm), ("true_contact_mm", sample.contact_mm),
+                        ("pose", pose), ("slip", step.slip), ("phase", step.phase),
+                        ("kind", sample.kind), ("control_s", control_s)):
+        rows[name].append(value)

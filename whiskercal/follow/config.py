@@ -1,0 +1,69 @@
+"""The contour-following controller's constants, with units; a TOML file overrides them key by key."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+from whiskercal.checks import number
+from whiskercal.tomlconfig import merge_overrides, read_toml
+
+
+@dataclass(frozen=True)
+class FollowConfig:
+    """Constants of the loop (docs/contour.md).
+
+    rate_hz: samples (and commands) per second. total_speed_mm_s: the speed the tangential and
+    normal motions share (the paper's 8 mm/s). approach_speed_mm_s: toward the object before the
+    first contact. tilt_deg: how far the whisker leans back from the surface's inward normal.
+    kp_mm_s_per_uT, ki_mm_s2_per_uT, kd_mm_per_uT: the PID from the deflection error (z minus the
+    target, µT) to the normal speed (mm/s), which is limited to normal_speed_max_mm_s.
+    heading_gain_per_s: turn rate per radian of heading error, at most turn_max_rad_s (the
+    sensor turns about the contact, so the tip stays put while it turns). key_every: samples between key
+    points; key_spacing_mm: their least spacing; key_points: how many the B-spline goes through.
+    slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
+    or the raw tip jumping more than slip_jump_mm between samples. press_share: after the first
+    contact the sensor only presses in, until |z| reaches this share of the target's. backoff_s:
+    after losing contact it backs off this long at the approach speed before coming in again.
+    """
+
+    rate_hz: float = 300.0
+    total_speed_mm_s: float = 8.0
+    approach_speed_mm_s: float = 5.0
+    tilt_deg: float = 10.0
+    kp_mm_s_per_uT: float = 3e-3
+    ki_mm_s2_per_uT: float = 1e-4
+    kd_mm_per_uT: float = 0.0
+    normal_speed_max_mm_s: float = 6.0
+    heading_gain_per_s: float = 1.0
+    turn_max_rad_s: float = 0.1
+    key_every: int = 10
+    key_spacing_mm: float = 2.0
+    key_points: int = 6
+    slip_drop: float = 0.5
+    slip_window_s: float = 0.1
+    slip_jump_mm: float = 3.0
+    press_share: float = 0.9
+    backoff_s: float = 6.0
+
+    def __post_init__(self) -> None:
+        for item in fields(self):
+            low = 0.0 if item.name in _MAY_BE_ZERO else 1e-9
+            number(getattr(self, item.name), f"follow config {item.name}", low=low)
+        if self.key_points < 4:
+            number(self.key_points, "follow config key_points (a cubic B-spline needs 4)", low=4)
+
+    def to_dict(self) -> dict:
+        """Plain values (for a run's provenance)."""
+        return asdict(self)
+
+
+_MAY_BE_ZERO = {"kp_mm_s_per_uT", "ki_mm_s2_per_uT", "kd_mm_per_uT", "tilt_deg"}
+
+
+def load_follow_config(path: str | Path | None = None) -> FollowConfig:
+    """The defaults, overridden by the ``[follow]`` table of a TOML file when given."""
+    values = FollowConfig().to_dict()
+    if path is not None:
+        values = merge_overrides({"follow": values}, read_toml(path), str(path))["follow"]
+    return FollowConfig(**values)

@@ -1,0 +1,172 @@
+"""The paper's closed loop, one sample at a time: keep the whisker at the target deflection
+against an unknown object and move along it, leaving contact points in the world frame.
+
+Per sample: the runtime tracker turns z into a filtered tip (whisker frame), the robot's pose
+puts it in the world; every ``key_every`` samples a key point is kept (at least ``key_spacing_mm``
+from the last); a cubic B-spline through the last ``key_points`` predicts the next, and so the
+surface's direction; the sensor turns so that the whisker leans ``tilt_deg`` back from the
+surface's inward normal; a PID on z minus the target sets the normal speed, and the tangential
+speed takes what is left of the total. The object is kept on the left (counter-clockwise).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from whiskercal.follow.config import FollowConfig
+from whiskercal.follow.predictor import predict_next
+
+
+class Robot(Protocol):
+    """What the loop needs of whatever carries the sensor (a real arm's driver or the twin)."""
+
+    def pose(self) -> np.ndarray:
+        """(x mm, y mm, heading rad) of the sensor's base frame in the world frame."""
+
+    def command(self, velocity_mm_s, turn_rad_s: float) -> None:
+        """Move at a world-frame velocity (mm/s) and turn at a rate (rad/s)."""
+
+
+@dataclass(frozen=True)
+class Step:
+    """What one sample did: the contact point estimated (world, mm; NaN without one), the phase
+    ("approach", "press", "follow", "back-off", "search"), whether a slip was seen, and the commands sent."""
+
+    contact_mm: np.ndarray
+    phase: str
+    slip: bool
+    velocity_mm_s: np.ndarray
+    turn_rad_s: float
+
+
+MAX_TURN_RAD = math.radians(30.0)  # the most the surface's direction may turn between key points
+
+
+def _unit(angle: float) -> np.ndarray:
+    return np.array([math.cos(angle), math.sin(angle)])
+
+
+class Follower:
+    """The controller (see the module's docstring) over a runtime ``Tracker``."""
+
+    def __init__(self, tracker, target_z_uT: float, config: FollowConfig = FollowConfig(),
+                 reach_mm: float = 78.0) -> None:
+        self.tracker, self.target_z_uT, self.config = tracker, float(target_z_uT), config
+        self.reach_mm = float(reach_mm)  # centre of rotation to the undeflected tip
+        self.keys: deque = deque(maxlen=config.key_points)
+        self.tangent: np.ndarray | None = None
+        self._samples, self._integral, self._last_error = 0, 0.0, None
+        self._recent_z: deque = deque(maxlen=max(2, int(config.slip_window_s * config.rate_hz)))
+        self._last_raw: np.ndarray | None = None
+        self.contacted = False
+        self.pressed = False
+        self._backing = 0
+
+    def update(self, z_uT: float, robot: Robot) -> Step:
+        """Feed one z sample (µT from rest); command the robot; return what was done."""
+        state = self.tracker.update(float(z_uT))
+        pose = robot.pose()
+        self.contacted |= state.contact
+        slip = self._slip(z_uT, state.raw_tip_mm)
+        tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
+        if not self.contacted or tip is None:
+            return self._find_contact(robot, pose, slip)
+        contact = _rotation(pose[2]) @ tip + pose[:2]
+        if not self.pressed:  # first reach the target deflection, then move along
+            self.pressed = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
+            velocity = self._pid(z_uT) * _unit(pose[2] + math.radians(self.config.tilt_deg))
+            robot.command(velocity, 0.0)
+            return Step(contact, "press", slip, velocity, 0.0)
+        self._key_point(contact, pose)
+        velocity, turn = self._action(z_uT, pose)
+        # turn about the contact, not the sensor's base: the base moves so that the tip stays put
+        arm = pose[:2] - contact
+        velocity = velocity + turn * np.array([-arm[1], arm[0]])
+        robot.command(velocity, turn)
+        return Step(contact, "follow", slip, velocity, turn)
+
+    # -- pieces ---------------------------------------------------------------------------------
+    def _find_contact(self, robot: Robot, pose: np.ndarray, slip: bool) -> Step:
+        """No tip: before the first contact move toward the object; after losing one (the tip
+        slipped off an edge or past a corner) first back off, so that the wire clears the object,
+        then come in again and press to the target before moving along."""
+        if self.contacted and self.pressed:  # contact just lost
+            self.pressed, self._backing = False, int(self.config.backoff_s * self.config.rate_hz)
+        phase = "approach" if not self.contacted else "search"
+        direction = _unit(pose[2] + math.radians(self.config.tilt_deg))
+        if self.contacted and self.keys:  # back toward where the surface was last felt
+            free_tip = pose[:2] + self.reach_mm * _unit(pose[2])
+            toward = self.keys[-1] - free_tip
+            direction = toward / max(float(np.linalg.norm(toward)), 1e-9)
+        if self._backing > 0:  # straight back along the whisker: the wire leaves the object
+            self._backing -= 1
+            phase, direction = "back-off", -_unit(pose[2])
+        velocity = self.config.approach_speed_mm_s * direction
+        robot.command(velocity, 0.0)
+        self._integral = 0.0
+        return Step(np.full(2, np.nan), phase, slip, velocity, 0.0)
+
+    def _key_point(self, contact: np.ndarray, pose: np.ndarray) -> None:
+        self._samples += 1
+        if self.tangent is None:  # before any key point: along the surface seen at first contact
+            self.tangent = _unit(pose[2] + math.radians(self.config.tilt_deg) - math.pi / 2)
+        if self._samples % self.config.key_every:
+            return
+        if self.keys and np.linalg.norm(contact - self.keys[-1]) < self.config.key_spacing_mm:
+            return
+        self.keys.append(contact)
+        if len(self.keys) >= 2:  # a chord until the spline has its key points
+            keys = np.array(self.keys)
+            step = predict_next(keys) - contact if len(keys) == self.keys.maxlen else keys[-1] - keys[0]
+            length = float(np.linalg.norm(step))
+            # the surface turns smoothly between key points: a prediction that turns back (noise
+            # in a few close key points) would send the sensor away from the object
+            if length > 1e-9 and step @ self.tangent > length * math.cos(MAX_TURN_RAD):
+                self.tangent = step / length
+
+    def _action(self, z_uT: float, pose: np.ndarray) -> tuple[np.ndarray, float]:
+        config = self.config
+        inward = np.array([-self.tangent[1], self.tangent[0]])  # the object lies on the left
+        target_heading = math.atan2(inward[1], inward[0]) - math.radians(config.tilt_deg)
+        error_heading = (target_heading - pose[2] + math.pi) % (2 * math.pi) - math.pi
+        normal = self._pid(z_uT)
+        tangential = math.sqrt(max(config.total_speed_mm_s ** 2 - normal ** 2, 0.0))
+        turn = float(np.clip(config.heading_gain_per_s * error_heading, -config.turn_max_rad_s,
+                             config.turn_max_rad_s))
+        return tangential * self.tangent + normal * inward, turn
+
+    def _pid(self, z_uT: float) -> float:
+        """Normal speed (mm/s, toward the object) from the deflection error."""
+        config, dt = self.config, 1.0 / self.config.rate_hz
+        error = z_uT - self.target_z_uT  # z is negative: too little deflection gives error > 0
+        derivative = 0.0 if self._last_error is None else (error - self._last_error) / dt
+        self._last_error = error
+        limit = config.normal_speed_max_mm_s
+        if config.ki_mm_s2_per_uT > 0:  # the integral alone never asks for more than the limit
+            bound = limit / config.ki_mm_s2_per_uT
+            self._integral = float(np.clip(self._integral + error * dt, -bound, bound))
+        speed = (config.kp_mm_s_per_uT * error + config.ki_mm_s2_per_uT * self._integral
+                 + config.kd_mm_per_uT * derivative)
+        return float(np.clip(speed, -limit, limit))
+
+    def _slip(self, z_uT: float, raw_tip) -> bool:
+        """A sudden drop of |z| or a jump of the raw tip (docs/contour.md)."""
+        self._recent_z.append(abs(z_uT))
+        dropped = (max(self._recent_z) > abs(self.target_z_uT) * 0.8
+                   and abs(z_uT) < self.config.slip_drop * max(self._recent_z))
+        jumped = (raw_tip is not None and self._last_raw is not None
+                  and float(np.linalg.norm(raw_tip - self._last_raw)) > self.config.slip_jump_mm)
+        self._last_raw = None if raw_tip is None else np.asarray(raw_tip, float)
+        if dropped:
+            self._recent_z.clear()
+        return bool(dropped or jumped)
+
+
+def _rotation(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s], [s, c]])

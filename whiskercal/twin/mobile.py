@@ -1,0 +1,110 @@
+"""A whisker sensor carried by a planar robot against an object: the contour scenes' rig.
+
+The robot holds the sensor's base frame at a pose (x, y mm; heading rad: the direction of the
+undeflected whisker) in the world frame; it takes a velocity command (world frame, mm/s) and a
+heading rate (rad/s), each limited as a robot's would be, and integrates them over each control
+period. Each period the object is seen from the sensor, the twin solves the whisker against it
+(its frictionless shape contact: tip, shaft or tangential), and the magnet and magnetometer turn
+the suspension's pose into z (µT from rest, with the sensor's noise). The truth (tip, contact,
+kind) is reported in the world frame. Everything runs in-process, as fast as the solver goes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from whiskercal.twin.outlines import Outline
+from whiskercal.twin.physics.obstacles import Circle, Polygon
+from whiskercal.twin.physics.sensor import TwinPhysics
+
+
+@dataclass(frozen=True)
+class RobotLimits:
+    """The carrying robot's limits: speed (mm/s) and turn rate (rad/s)."""
+
+    speed_mm_s: float = 40.0
+    turn_rad_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class MobileSample:
+    """One control period's measurement and the twin's truth (world frame, mm)."""
+
+    z_uT: float
+    kind: str
+    tip_mm: np.ndarray
+    contact_mm: np.ndarray
+
+
+def rotation(angle_rad: float) -> np.ndarray:
+    """The 2-D rotation matrix of ``angle_rad``."""
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return np.array([[c, -s], [s, c]])
+
+
+class MobileSensor:
+    """The sensor on a planar robot, against one object (see the module's docstring).
+
+    Parameters
+    ----------
+    sensor
+        The sensor build (``twin.params.SensorParams``).
+    outline
+        The object, world frame.
+    pose
+        Start pose (x mm, y mm, heading rad) of the sensor's base frame.
+    seed
+        Seeds the magnetometer noise.
+    """
+
+    def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
+                 limits: RobotLimits = RobotLimits()) -> None:
+        self.physics = TwinPhysics(sensor)
+        self.outline, self.limits = outline, limits
+        self._obstacle = outline.obstacle()
+        self._pose = np.asarray(pose, float).copy()
+        self._velocity, self._turn = np.zeros(2), 0.0
+        self._noise_uT = float(sensor.magnetometer.noise_uT_rms[1])
+        self._rest_y = float(self.physics.field_uT(self.physics.free())[1])
+        self._rng = np.random.default_rng(seed)
+        self._previous = None
+
+    # -- the Robot interface -----------------------------------------------------------------
+    def pose(self) -> np.ndarray:
+        """(x mm, y mm, heading rad) of the sensor's base frame in the world."""
+        return self._pose.copy()
+
+    def command(self, velocity_mm_s, turn_rad_s: float) -> None:
+        """Move at ``velocity_mm_s`` (world frame) and turn at ``turn_rad_s`` until told otherwise."""
+        velocity = np.asarray(velocity_mm_s, float)
+        speed = float(np.hypot(*velocity))
+        if speed > self.limits.speed_mm_s:
+            velocity = velocity * (self.limits.speed_mm_s / speed)
+        self._velocity = velocity
+        self._turn = float(np.clip(turn_rad_s, -self.limits.turn_rad_s, self.limits.turn_rad_s))
+
+    # -- the world ----------------------------------------------------------------------------
+    def step(self, dt_s: float) -> MobileSample:
+        """Move for ``dt_s`` s under the last command, then measure."""
+        self._pose[:2] += self._velocity * dt_s
+        self._pose[2] += self._turn * dt_s
+        equilibrium = self.physics.solve_shape(self._seen_from_sensor(), self._previous)
+        self._previous = equilibrium
+        z = float(self.physics.field_uT(equilibrium)[1]) - self._rest_y
+        z += float(self._rng.normal(0.0, self._noise_uT))
+        return MobileSample(z, equilibrium.kind, self.to_world(equilibrium.tip_mm),
+                            self.to_world(equilibrium.contact_mm))
+
+    def to_world(self, point_mm) -> np.ndarray:
+        """A point of the sensor's base frame in the world frame."""
+        return rotation(self._pose[2]) @ np.asarray(point_mm, float) + self._pose[:2]
+
+    def _seen_from_sensor(self):
+        """The object in the sensor's base frame (it comes from the whisker's +y side)."""
+        turn, origin = rotation(-self._pose[2]), self._pose[:2]
+        if isinstance(self._obstacle, Circle):
+            return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin))
+        return Polygon((self._obstacle.vertices_mm - origin) @ turn.T)
