@@ -24,6 +24,9 @@ STUDY="$OUT/plane_study.h5"
 STUDY_DIR="$OUT/study"
 FINAL="$OUT/calibration-target.h5"
 HTML="$OUT/report.html"
+CONTOUR="$OUT/contour-cylinder.h5"
+CONTOUR_DIR="$OUT/contour"
+CONTOUR_S=90
 # The demo owns these outputs: a rerun starts them afresh (collect never overwrites a dataset).
 rm -rf "$RAW" "$RAW.journal" "$CAL" "$STUDY" "$STUDY.partial" "$STUDY_DIR" "$FINAL" "$HTML"
 
@@ -45,30 +48,31 @@ travel_mm = 20.0
 slide_start_mm = -10.0
 EOF
     collect_config=(--config "$OUT/collect-small.toml")
+    CONTOUR_S=20
     study_config=(--config "$OUT/study-small.toml")
 fi
 
-step "0/6 check the twin's mechanics against independent references"
+step "0/7 check the twin's mechanics against independent references"
 wcal twin validate
 
-step "1/6 collect the calibration grid (sim:// stage and sensor)"
+step "1/7 collect the calibration grid (sim:// stage and sensor)"
 wcal collect --stage "sim://demo_grid/stage?seed=$SEED" --sensor sim://demo_grid/sensor \
     --out "$RAW" "${collect_config[@]}"
 
-step "2/6 fit the surface, trace the level sets, build the lookup"
+step "2/7 fit the surface, trace the level sets, build the lookup"
 wcal fit "$RAW" --out "$CAL"
 
-step "3/6 run the flat-plane study"
+step "3/7 run the flat-plane study"
 wcal optimal-depth run --stage "sim://demo_study/stage?scene=plane&seed=$((SEED + 1))" \
     --sensor sim://demo_study/sensor --out "$STUDY" "${study_config[@]}"
 
-step "4/6 report the study and choose the deflection target"
+step "4/7 report the study and choose the deflection target"
 wcal optimal-depth report "$STUDY" --artifact "$CAL" --out "$STUDY_DIR" --out-artifact "$FINAL"
 
-step "5/6 write the HTML report"
+step "5/7 write the HTML report"
 wcal report "$FINAL" --raw "$RAW" --study "$STUDY" --out "$HTML"
 
-step "6/6 load the final artifact as a robot does (whiskercal.runtime)"
+step "6/7 load the final artifact as a robot does (whiskercal.runtime)"
 "$PY" - "$FINAL" <<'EOF'
 import sys
 
@@ -87,6 +91,11 @@ x, y = calibration.tip(target)
 print(f"target z {target:.0f} µT -> tip ({x:.2f}, {y:.2f}) mm")
 EOF
 
+step "7/7 follow a cylinder's contour with the final artifact (the paper's closed loop, twin)"
+wcal contour run --shape cylinder --artifact "$FINAL" --duration "$CONTOUR_S" --seed "$SEED" \
+    --out "$CONTOUR"
+wcal contour report "$CONTOUR" --out "$CONTOUR_DIR"
+
 echo
 echo "== outputs ($(( $(date +%s) - started )) s in all)"
 echo "raw grid           $RAW"
@@ -95,3 +104,4 @@ echo "plane study        $STUDY"
 echo "study figures      $STUDY_DIR/"
 echo "final artifact     $FINAL   (whiskercal.runtime.load)"
 echo "HTML report        $HTML"
+echo "contour run        $CONTOUR   (report: $CONTOUR_DIR/contour.html)"

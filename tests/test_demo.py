@@ -23,7 +23,7 @@ def test_small_demo_runs_every_stage_and_leaves_a_loadable_artifact(tmp_path):
                           capture_output=True, text=True, timeout=DEMO_TIMEOUT_S)
     assert done.returncode == 0, done.stderr[-2000:]
     outputs = ["raw_grid.h5", "calibration.h5", "plane_study.h5", "calibration-target.h5",
-               "report.html", "study/errors.png"]
+               "report.html", "study/errors.png", "contour-cylinder.h5", "contour/contour.png"]
     for name in outputs:
         assert (tmp_path / name).is_file(), name
         assert str(tmp_path / name.split("/")[0]) in done.stdout

@@ -29,19 +29,19 @@ def test_the_spline_on_a_straight_line_stays_on_it():
 
 
 def test_the_controller_on_a_straight_wall_settles_at_the_target_deflection():
-    wall = Outline("wall", np.array([[0.0, 0.0], [400.0, 0.0], [400.0, 400.0], [0.0, 400.0]]) - 200.0,
-                   0.001)  # a big square: its bottom face is a straight wall at y = -200
+    wall = Outline("wall", np.array([[0.0, 0.0], [800.0, 0.0], [800.0, 800.0], [0.0, 800.0]]) - 400.0,
+                   0.001)  # a big square: its bottom face is a straight wall at y = -400
     config = FollowConfig()
     heading = math.pi / 2 - math.radians(config.tilt_deg)
-    start = np.array([0.0, -200.0]) - 83.0 * np.array([math.cos(heading), math.sin(heading)])
+    start = np.array([-200.0, -400.0]) - 83.0 * np.array([math.cos(heading), math.sin(heading)])
     robot = MobileSensor(DEFAULT_SENSOR, wall, [*start, heading], seed=3)
     follower = Follower(runtime.load(calibration_path()).tracker(out_of_range="clip"), -5000.0, config)
     sample, zs = robot.step(0.0), []
-    for _ in range(int(15 * config.rate_hz)):
+    for _ in range(int(40 * config.rate_hz)):
         follower.update(sample.z_uT, robot)
         sample = robot.step(1.0 / config.rate_hz)
         zs.append(sample.z_uT)
     settled = np.array(zs[-int(5 * config.rate_hz):])
     assert abs(settled.mean() - (-5000.0)) < 150.0  # µT: the PID holds the target
-    assert robot.pose()[0] > 50.0  # and it moved along the wall (counter-clockwise: +x)
+    assert robot.pose()[0] > 0.0  # and it moved along the wall (counter-clockwise: +x)
     assert sample.kind == "tip"

@@ -30,7 +30,7 @@ class FollowConfig:
     rate_hz: float = 300.0
     total_speed_mm_s: float = 8.0
     approach_speed_mm_s: float = 5.0
-    tilt_deg: float = 10.0
+    tilt_deg: float = 20.0
     kp_mm_s_per_uT: float = 3e-3
     ki_mm_s2_per_uT: float = 1e-4
     kd_mm_per_uT: float = 0.0

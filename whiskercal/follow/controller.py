@@ -136,9 +136,22 @@ class Follower:
         error_heading = (target_heading - pose[2] + math.pi) % (2 * math.pi) - math.pi
         normal = self._pid(z_uT)
         tangential = math.sqrt(max(config.total_speed_mm_s ** 2 - normal ** 2, 0.0))
+        # around a bend of radius R the heading must turn at v/R: no faster than the turn allows
+        tangential = min(tangential, config.turn_max_rad_s * self._bend_radius_mm())
         turn = float(np.clip(config.heading_gain_per_s * error_heading, -config.turn_max_rad_s,
                              config.turn_max_rad_s))
         return tangential * self.tangent + normal * inward, turn
+
+    def _bend_radius_mm(self) -> float:
+        """Radius (mm) of the circle through the oldest, middle and newest key points (inf when
+        they are too few or in line)."""
+        if len(self.keys) < 3:
+            return math.inf
+        a, b, c = self.keys[0], self.keys[len(self.keys) // 2], self.keys[-1]
+        twice_area = abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+        if twice_area < 1e-9:
+            return math.inf
+        return float(np.linalg.norm(b - a) * np.linalg.norm(c - b) * np.linalg.norm(c - a) / (2 * twice_area))
 
     def _pid(self, z_uT: float) -> float:
         """Normal speed (mm/s, toward the object) from the deflection error."""
