@@ -6,14 +6,15 @@ directly with port URLs or open pyserial objects.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from whiskercal.artifacts.raw_grid import RawHeader
+from whiskercal.artifacts.raw_grid import RawHeader, read_raw_grid
 from whiskercal.collect.checkpoint import Checkpoint, recorded_fingerprint
 from whiskercal.collect.config import CollectConfig
 from whiskercal.collect.estimate import limit_problems
+from whiskercal.collect.faults import check_touched, frame_loss, frame_loss_warning
 from whiskercal.collect.journal import journal_path
 from whiskercal.collect.loop import Collector, Devices, Progress
 from whiskercal.collect.plan import GridPlan, rig_frame
@@ -38,6 +39,8 @@ class RunSummary:
     corrupt: int
     baseline_drift_uT: float | None
     output: str
+    frame_loss: float = 0.0  # (dropped + corrupt) / frames sent, this session
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain values for JSON."""
@@ -165,7 +168,11 @@ def _session(rig: RigSession, out: Path, plan: GridPlan, resume: bool, on_progre
         checkpoint.finish()
     else:
         checkpoint.close()
-    return _summary(collector, checkpoint, out)
+    summary = _summary(collector, checkpoint, out)
+    if complete:
+        grid = read_raw_grid(out)
+        check_touched(grid.z_uT, grid.z_std_uT, str(out))
+    return summary
 
 
 def _with_saved_points(error: WhiskercalError, taken: int, planned: int, out: Path) -> WhiskercalError:
@@ -183,11 +190,16 @@ def _summary(collector: Collector, checkpoint: Checkpoint, out: Path) -> RunSumm
         drift = float(checkpoint.baselines["after"].field_uT[1]
                       - checkpoint.baselines["before"].field_uT[1])
     session = collector.rig.summary()
+    recorder = collector.recorder
+    kept, dropped, corrupt = recorder.total_frames, recorder.total_dropped, recorder.total_corrupt
+    warning = frame_loss_warning(kept, dropped, corrupt, collector.config.safety.max_frame_loss)
     return RunSummary(points=len(checkpoint.taken), planned=len(collector.plan),
                       complete=checkpoint.complete, stopped=collector.stopped,
                       taken_this_run=collector.taken_now, stage_time_s=session.stage_time_s,
                       wall_time_s=session.wall_time_s, dropped=session.dropped,
-                      corrupt=session.corrupt, baseline_drift_uT=drift, output=str(out))
+                      corrupt=session.corrupt, baseline_drift_uT=drift, output=str(out),
+                      frame_loss=frame_loss(kept, dropped, corrupt),
+                      warnings=[warning] if warning else [])
 
 
 def read_stage_settings(stage_port) -> dict[int, float]:

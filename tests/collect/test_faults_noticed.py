@@ -1,0 +1,94 @@
+"""Faults a collection survives but must report: frame loss above the limit, nothing touched.
+
+Each runs a small band of the grid on the twin (a few dozen points, seconds).
+"""
+
+from __future__ import annotations
+
+import uuid
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from whiskercal.artifacts.raw_grid import read_raw_grid
+from whiskercal.collect.config import load_config
+from whiskercal.collect.faults import NothingTouchedError, check_touched, frame_loss_warning
+from whiskercal.collect.plan import build_plan
+from whiskercal.collect.run import collect
+from whiskercal.errors import UsageError
+
+SMALL = """
+[motion]
+travel_feed_mm_min = 3000.0
+approach_feed_mm_min = 1500.0
+[acquisition]
+settle_s = 0.05
+samples_per_point = 5
+baseline_samples = 30
+[sensor]
+rate_hz = 100
+[grid]
+reach_min_mm = 45.5
+reach_max_mm = 52.5
+angle_min_near_deg = -40.0
+angle_min_far_deg = -42.0
+expected_points = 0
+"""
+
+
+def _world_urls(stage_query: str) -> tuple[str, str]:
+    name = f"f{uuid.uuid4().hex[:10]}"
+    return f"sim://{name}/stage?{stage_query}", f"sim://{name}/sensor"
+
+
+def _plan(tmp_path: Path, extra: str = ""):
+    path = tmp_path / "collect.toml"
+    path.write_text(SMALL + extra)
+    return build_plan(load_config(path))
+
+
+def test_frame_loss_above_the_limit_warns_with_both_counts(tmp_path):
+    stage, sensor = _world_urls("drop=0.03&corrupt=0.01&seed=5")
+    summary = collect(stage, sensor, tmp_path / "raw.h5", _plan(tmp_path))
+    assert summary.complete and summary.dropped > 0 and summary.corrupt > 0
+    assert summary.frame_loss > 0.01
+    assert len(summary.warnings) == 1
+    assert "dropped" in summary.warnings[0] and "corrupt" in summary.warnings[0]
+    grid = read_raw_grid(tmp_path / "raw.h5")
+    assert grid.dropped.sum() > 0 and grid.corrupt.sum() > 0  # kept apart per point
+
+
+def test_frame_loss_below_a_raised_limit_and_a_clean_link_do_not_warn(tmp_path):
+    stage, sensor = _world_urls("drop=0.03&corrupt=0.01&seed=5")
+    raised = collect(stage, sensor, tmp_path / "a.h5",
+                     _plan(tmp_path, "[safety]\nmax_frame_loss = 0.5\n"))
+    assert raised.frame_loss > 0.01 and raised.warnings == []
+    stage, sensor = _world_urls("seed=5")
+    clean = collect(stage, sensor, tmp_path / "b.h5", _plan(tmp_path))
+    assert clean.frame_loss == 0.0 and clean.warnings == []
+
+
+def test_a_grid_over_an_empty_scene_fails_saying_nothing_was_touched(tmp_path):
+    stage, sensor = _world_urls("scene=none&seed=2")
+    with pytest.raises(NothingTouchedError, match="nothing was touched") as info:
+        collect(stage, sensor, tmp_path / "raw.h5", _plan(tmp_path))
+    assert len(str(info.value).splitlines()) == 1
+    assert len(read_raw_grid(tmp_path / "raw.h5")) > 0  # the file is kept for inspection
+
+
+def test_the_touch_check_passes_one_deflected_point_and_refuses_pure_noise():
+    rng = np.random.default_rng(7)
+    noise = rng.normal(0.0, 1.0, 40)
+    check_touched(np.append(noise, -300.0), np.full(41, 3.0), "x")
+    with pytest.raises(NothingTouchedError):
+        check_touched(noise, np.full(40, 3.0), "x")
+
+
+def test_frame_loss_warning_threshold_is_strict_and_the_limit_is_validated(tmp_path):
+    assert frame_loss_warning(990, 5, 5, 0.01) is None  # exactly 1 %
+    assert "1.1 %" in frame_loss_warning(989, 6, 5, 0.01)
+    path = tmp_path / "bad.toml"
+    path.write_text("[safety]\nmax_frame_loss = 2.0\n")
+    with pytest.raises(UsageError, match="max_frame_loss"):
+        load_config(path)
