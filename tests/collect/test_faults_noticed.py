@@ -16,7 +16,7 @@ from whiskercal.collect.config import load_config
 from whiskercal.collect.faults import NothingTouchedError, check_touched, frame_loss_warning
 from whiskercal.collect.plan import build_plan
 from whiskercal.collect.run import collect
-from whiskercal.errors import UsageError
+from whiskercal.errors import ArtifactError, UsageError
 
 SMALL = """
 [motion]
@@ -92,3 +92,33 @@ def test_frame_loss_warning_threshold_is_strict_and_the_limit_is_validated(tmp_p
     path.write_text("[safety]\nmax_frame_loss = 2.0\n")
     with pytest.raises(UsageError, match="max_frame_loss"):
         load_config(path)
+
+
+def test_a_torn_dataset_says_truncated_with_its_journal_and_resumes(tmp_path):
+    stage, sensor = _world_urls("seed=4")
+    out, plan = tmp_path / "raw.h5", _plan(tmp_path)
+    taken = []
+    partial = collect(stage, sensor, out, plan, stop_requested=lambda: len(taken) >= 6,
+                      on_progress=taken.append)
+    assert not partial.complete and partial.points == 6
+    data = out.read_bytes()
+    out.write_bytes(data[:len(data) // 2])  # a crash mid-write leaves the file cut short
+    with pytest.raises(ArtifactError) as info:
+        read_raw_grid(out)
+    message = str(info.value)
+    assert len(message.splitlines()) == 1
+    assert f"truncated: {len(data) // 2} of {len(data)} bytes" in message
+    assert f"its journal holds 6 of {len(plan)} points" in message and "--resume" in message
+    stage, sensor = _world_urls("seed=4")
+    resumed = collect(stage, sensor, out, plan, resume=True)
+    grid = read_raw_grid(out)
+    assert resumed.complete and grid.complete and sorted(grid.plan_index) == list(range(len(plan)))
+
+
+def test_a_torn_dataset_without_journal_says_so(tmp_path):
+    stage, sensor = _world_urls("seed=4")
+    out = tmp_path / "raw.h5"
+    collect(stage, sensor, out, _plan(tmp_path))
+    out.write_bytes(out.read_bytes()[:5000])
+    with pytest.raises(ArtifactError, match="truncated: 5000 of .* no collection journal"):
+        read_raw_grid(out)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import json
+import re
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -103,4 +104,12 @@ def open_h5(path: str | Path, mode: str = "r") -> h5py.File:
     try:
         return h5py.File(path, mode)
     except OSError as error:
+        torn = _TRUNCATED.search(str(error))
+        if torn:  # the write was cut short (a crash, a full disk, an interrupted copy)
+            raise ArtifactError(f"{path}: truncated: {int(torn['eof'])} of {int(torn['stored'])} "
+                                "bytes (the write was cut short)") from None
         raise ArtifactError(f"{path}: cannot open as HDF5 ({error})") from None
+
+
+# HDF5's own words for a file shorter than its superblock says it is
+_TRUNCATED = re.compile(r"truncated file: eof = (?P<eof>\d+).*stored_eof = (?P<stored>\d+)")

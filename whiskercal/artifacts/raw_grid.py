@@ -361,13 +361,44 @@ def read_raw_grid(path: str | Path, *, stream: bool = False) -> RawGrid:
         static baseline.
     """
     path = Path(path)
-    with open_h5(path) as handle:
+    try:
+        handle = open_h5(path)
+    except ArtifactError as error:
+        if "truncated" not in str(error):
+            raise
+        raise ArtifactError(f"{error}; {_journal_hint(path)}") from None
+    with handle:
         check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         grid = _grid_from(handle, path)
         if stream:
             grid.stream = _read_stream(handle, path)
     grid.sha256 = sha256_file(path)
     return grid
+
+
+def _journal_hint(path: Path) -> str:
+    """What the collection journal next to a torn file holds, and how to go on from it.
+
+    The journal (``RAW.h5.journal``, written by whiskercal.collect.journal) holds one CRC-checked
+    JSON line per record, its header first; only the header and the point count are read here.
+    """
+    journal = path.with_name(path.name + ".journal")
+    resume = f"continue with whiskercal collect --resume --out {path} (same --config)"
+    try:
+        lines = journal.read_bytes().splitlines()
+        planned = len(json.loads(lines[0][9:])["plan_stage_mm"])
+    except (OSError, IndexError, KeyError, TypeError, ValueError):
+        return "no collection journal next to it; record it again"
+    taken = len({json.loads(line[9:])["plan_index"] for line in lines[1:]
+                 if b'"type":"point"' in line and _json_ok(line[9:])})
+    return f"its journal holds {taken} of {planned} points: {resume}"
+
+
+def _json_ok(body: bytes) -> bool:
+    try:
+        return "plan_index" in json.loads(body)
+    except ValueError:
+        return False
 
 
 def read_plan_fingerprint(path: str | Path) -> str | None:
