@@ -16,6 +16,7 @@ from whiskercal.collect.config import load_config
 from whiskercal.collect.faults import NothingTouchedError, check_touched, frame_loss_warning
 from whiskercal.collect.plan import build_plan
 from whiskercal.collect.run import collect
+from whiskercal.session import EncoderMismatchError
 from whiskercal.errors import ArtifactError, UsageError
 
 SMALL = """
@@ -122,3 +123,27 @@ def test_a_torn_dataset_without_journal_says_so(tmp_path):
     out.write_bytes(out.read_bytes()[:5000])
     with pytest.raises(ArtifactError, match="truncated: 5000 of .* no collection journal"):
         read_raw_grid(out)
+
+
+# Simulated times (s) at which 1 mm of steps is lost: with this band of the grid, 50.5 and 53.4
+# fall while a point's samples are read (after its encoder check), the others during moves.
+MISSED_STEPS_AT_S = (44.7, 50.5, 53.4)
+
+
+def test_missed_steps_never_leave_a_point_away_from_where_the_rod_was(tmp_path):
+    plan = _plan(tmp_path)
+    during_samples = 0
+    for when in MISSED_STEPS_AT_S:
+        stage, sensor = _world_urls(f"fault=missed_steps@{when}:1.0")
+        out = tmp_path / f"raw{when}.h5"
+        with pytest.raises(EncoderMismatchError, match="missed steps") as info:
+            collect(stage, sensor, out, plan)
+        during_samples += "was sampled" in str(info.value)
+        grid = read_raw_grid(out)
+        error_mm = np.abs(grid.rod_center_mm - grid.truth["rod_center_mm"]).max()
+        assert len(grid) > 0 and error_mm < 0.05, (when, error_mm)  # encoder ±0.02 + backlash
+    assert during_samples >= 1  # the case that saved a point 1 mm away is exercised
+    collect(stage, sensor, out, plan, resume=True)  # homing clears the alarm; the point re-taken
+    grid = read_raw_grid(out)
+    assert grid.complete and sorted(grid.plan_index) == list(range(len(plan)))
+    assert np.abs(grid.rod_center_mm - grid.truth["rod_center_mm"]).max() < 0.05
