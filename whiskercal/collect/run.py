@@ -190,8 +190,7 @@ def _summary(collector: Collector, checkpoint: Checkpoint, out: Path) -> RunSumm
         drift = float(checkpoint.baselines["after"].field_uT[1]
                       - checkpoint.baselines["before"].field_uT[1])
     session = collector.rig.summary()
-    recorder = collector.recorder
-    kept, dropped, corrupt = recorder.total_frames, recorder.total_dropped, recorder.total_corrupt
+    kept, dropped, corrupt = collector.recorder.total_frames, session.dropped, session.corrupt
     warning = frame_loss_warning(kept, dropped, corrupt, collector.config.safety.max_frame_loss)
     return RunSummary(points=len(checkpoint.taken), planned=len(collector.plan),
                       complete=checkpoint.complete, stopped=collector.stopped,
