@@ -5,13 +5,16 @@ Each runs a small band of the grid on the twin (a few dozen points, seconds).
 
 from __future__ import annotations
 
+import json
 import uuid
 from pathlib import Path
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from whiskercal.artifacts.raw_grid import read_raw_grid
+from whiskercal.cli import cli
 from whiskercal.collect.config import load_config
 from whiskercal.collect.faults import NothingTouchedError, check_touched, frame_loss_warning
 from whiskercal.collect.plan import build_plan
@@ -58,6 +61,8 @@ def test_frame_loss_above_the_limit_warns_with_both_counts(tmp_path):
     assert "dropped" in summary.warnings[0] and "corrupt" in summary.warnings[0]
     grid = read_raw_grid(tmp_path / "raw.h5")
     assert grid.dropped.sum() > 0 and grid.corrupt.sum() > 0  # kept apart per point
+    shown = json.loads(CliRunner().invoke(cli, ["inspect", str(tmp_path / "raw.h5"), "--json"]).output)
+    assert shown["frames_dropped"] == grid.dropped.sum() > shown["frames_corrupt"] > 0
 
 
 def test_frame_loss_below_a_raised_limit_and_a_clean_link_do_not_warn(tmp_path):
@@ -110,6 +115,9 @@ def test_a_torn_dataset_says_truncated_with_its_journal_and_resumes(tmp_path):
     assert len(message.splitlines()) == 1
     assert f"truncated: {len(data) // 2} of {len(data)} bytes" in message
     assert f"its journal holds 6 of {len(plan)} points" in message and "--resume" in message
+    inspected = CliRunner().invoke(cli, ["inspect", str(out)])
+    assert inspected.exit_code == ArtifactError.exit_code
+    assert inspected.output.count("\n") == 1 and f"journal holds 6 of {len(plan)}" in inspected.output
     stage, sensor = _world_urls("seed=4")
     resumed = collect(stage, sensor, out, plan, resume=True)
     grid = read_raw_grid(out)

@@ -366,7 +366,8 @@ def read_raw_grid(path: str | Path, *, stream: bool = False) -> RawGrid:
     except ArtifactError as error:
         if "truncated" not in str(error):
             raise
-        raise ArtifactError(f"{error}; {_journal_hint(path)}") from None
+        hint = journal_hint(path) or "no collection journal next to it; record it again"
+        raise ArtifactError(f"{error}; {hint}") from None
     with handle:
         check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         grid = _grid_from(handle, path)
@@ -376,19 +377,21 @@ def read_raw_grid(path: str | Path, *, stream: bool = False) -> RawGrid:
     return grid
 
 
-def _journal_hint(path: Path) -> str:
+def journal_hint(path: str | Path) -> str | None:
     """What the collection journal next to a torn file holds, and how to go on from it.
 
     The journal (``RAW.h5.journal``, written by whiskercal.collect.journal) holds one CRC-checked
     JSON line per record, its header first; only the header and the point count are read here.
+    None when there is no readable journal.
     """
+    path = Path(path)
     journal = path.with_name(path.name + ".journal")
     resume = f"continue with whiskercal collect --resume --out {path} (same --config)"
     try:
         lines = journal.read_bytes().splitlines()
         planned = len(json.loads(lines[0][9:])["plan_stage_mm"])
     except (OSError, IndexError, KeyError, TypeError, ValueError):
-        return "no collection journal next to it; record it again"
+        return None
     taken = len({json.loads(line[9:])["plan_index"] for line in lines[1:]
                  if b'"type":"point"' in line and _json_ok(line[9:])})
     return f"its journal holds {taken} of {planned} points: {resume}"

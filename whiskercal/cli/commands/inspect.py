@@ -76,13 +76,19 @@ def _raw_summary(path: Path) -> dict:
             "planned_points": int(len(grid.plan_rod_center_mm)),
             "rod_radius_mm": grid.rod_radius_mm,
             "z_range_uT": [float(np.min(grid.z_uT)), float(np.max(grid.z_uT))] if len(grid) else None,
+            "frames_dropped": int(np.sum(grid.dropped)), "frames_corrupt": int(np.sum(grid.corrupt)),
             "truth": sorted(grid.truth) if grid.truth else None}
 
 
 def inspect_file(path: str | Path) -> dict:
     """A JSON-able description of a whiskercal HDF5 file (calibration artifact or raw grid)."""
     path = Path(path)
-    with open_h5(path) as handle:
+    try:
+        handle = open_h5(path)
+    except ArtifactError as error:
+        hint = raw_grid.journal_hint(path) if "truncated" in str(error) else None
+        raise ArtifactError(f"{error}; {hint}") if hint else error from None
+    with handle:
         provenance = {key: as_text(handle.attrs[key]) for key in _PROVENANCE if key in handle.attrs}
         inputs = read_json_attr(handle, "inputs_sha256", {})
         datasets = _datasets(handle)
