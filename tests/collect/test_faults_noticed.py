@@ -155,3 +155,15 @@ def test_missed_steps_never_leave_a_point_away_from_where_the_rod_was(tmp_path):
     grid = read_raw_grid(out)
     assert grid.complete and sorted(grid.plan_index) == list(range(len(plan)))
     assert np.abs(grid.rod_center_mm - grid.truth["rod_center_mm"]).max() < 0.05
+
+
+def test_the_frame_loss_limit_does_not_stop_a_resume(tmp_path):
+    from whiskercal.artifacts.raw_grid import plan_fingerprint
+
+    plan = _plan(tmp_path)
+    raised = _plan(tmp_path, "[safety]\nmax_frame_loss = 0.2\n")
+    config = plan.config.to_dict()
+    older = {**config, "safety": {k: v for k, v in config["safety"].items() if k != "max_frame_loss"}}
+    assert plan_fingerprint(plan.stage_mm, config) == plan_fingerprint(raised.stage_mm,
+                                                                       raised.config.to_dict())
+    assert plan_fingerprint(plan.stage_mm, config) == plan_fingerprint(plan.stage_mm, older)

@@ -82,9 +82,15 @@ class RawHeader:
         return plan_fingerprint(self.plan_stage_mm, self.config)
 
 
+# settings that only decide what a run reports: changing them still resumes a run
+_NOT_SHAPING = ("max_frame_loss",)
+
+
 def plan_fingerprint(plan_stage_mm: np.ndarray, config: Mapping[str, Any]) -> str:
     """SHA-256 over the planned positions and the configuration (device identities excluded)."""
     shaping = {key: value for key, value in config.items() if key != "devices"}
+    if isinstance(shaping.get("safety"), Mapping):  # a warning threshold shapes no data
+        shaping["safety"] = {k: v for k, v in shaping["safety"].items() if k not in _NOT_SHAPING}
     digest = hashlib.sha256(json.dumps(shaping, sort_keys=True, default=str).encode())
     digest.update(np.ascontiguousarray(plan_stage_mm, dtype=np.float64).tobytes())
     return digest.hexdigest()
