@@ -2,10 +2,12 @@
 
 import uuid
 
+import pytest
 from click.testing import CliRunner
 
 from whiskercal.artifacts.plane_study import read_study
 from whiskercal.cli import cli
+from whiskercal.errors import UsageError
 
 ONE_TRIAL = """
 [trials]
@@ -48,3 +50,18 @@ def test_a_raised_limit_or_a_clean_link_do_not_warn(tmp_path):
     assert result.exit_code == 0 and "warning:" not in result.output
     result, _ = _run(tmp_path, "seed=6")
     assert result.exit_code == 0 and "warning:" not in result.output
+
+
+def test_a_study_resumes_with_another_frame_loss_limit(tmp_path):
+    from whiskercal.artifacts.plane_study import StudyWriter
+    from whiskercal.study.config import load_config
+
+    config = tmp_path / "study.toml"
+    config.write_text(ONE_TRIAL)
+    first = load_config(config)
+    StudyWriter(tmp_path / "s.h5", first, "twin")
+    config.write_text(ONE_TRIAL + "[safety]\nmax_frame_loss = 0.3\n")
+    StudyWriter(tmp_path / "s.h5", load_config(config), "twin", resume=True)  # not refused
+    config.write_text(ONE_TRIAL + "[safety]\noverload_uT = 9000.0\n")
+    with pytest.raises(UsageError, match="another configuration"):
+        StudyWriter(tmp_path / "s.h5", load_config(config), "twin", resume=True)
