@@ -264,6 +264,9 @@ def test_a_failing_sensor_does_not_keep_the_stage_from_being_stopped():
 
 def test_a_stage_that_works_in_negative_machine_space_is_refused_before_any_move():
     class StockGrblSpace(Stage):
+        def identify(self) -> StageIdentity:
+            return StageIdentity("1.1h.20190825", "", "V", None, False)  # stock: no encoders
+
         def home(self) -> None:
             super().home()
             self.position = np.array([-1.0, -1.0])  # grbl: machine zero at the switches, pulled off

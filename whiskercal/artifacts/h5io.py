@@ -7,6 +7,7 @@ import re
 import datetime as _dt
 import hashlib
 import json
+import re
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -105,15 +106,14 @@ def open_h5(path: str | Path, mode: str = "r") -> h5py.File:
     try:
         return h5py.File(path, mode)
     except OSError as error:
-        raise ArtifactError(f"{path}: {_why_unreadable(error)}") from None
+        torn = _TRUNCATED.search(str(error))
+        if torn:  # the write was cut short (a crash, a full disk, an interrupted copy)
+            raise ArtifactError(f"{path}: truncated: {int(torn['eof'])} of {int(torn['stored'])} "
+                                "bytes (the write was cut short)") from None
+        if "file signature not found" in str(error):
+            raise ArtifactError(f"{path}: not an HDF5 file") from None
+        raise ArtifactError(f"{path}: cannot open as HDF5 ({error})") from None
 
 
-def _why_unreadable(error: OSError) -> str:
-    """HDF5's reason in a user's words: a file cut short says how much of it is there."""
-    cut = re.search(r"truncated file: eof = (\d+).*stored_eof = (\d+)", str(error))
-    if cut:
-        return (f"truncated: {int(cut[1])} of its {int(cut[2])} bytes are there "
-                "(the write that made it was cut short)")
-    if "file signature not found" in str(error):
-        return "not an HDF5 file"
-    return f"cannot open as HDF5 ({error})"
+# HDF5's own words for a file shorter than its superblock says it is
+_TRUNCATED = re.compile(r"truncated file: eof = (?P<eof>\d+).*stored_eof = (?P<stored>\d+)")

@@ -168,8 +168,12 @@ class StudyWriter:
 
 
 def _comparable(config: dict) -> str:
-    """The configuration as canonical JSON text (lists and tuples compare equal)."""
-    return json.dumps(json.loads(json.dumps(config, default=_plain)), sort_keys=True)
+    """The configuration as canonical JSON text (lists and tuples compare equal), without the
+    settings that only decide what a run reports (a study started before they existed resumes)."""
+    plain = json.loads(json.dumps(config, default=_plain))
+    if isinstance(plain.get("safety"), dict):
+        plain["safety"].pop("max_frame_loss", None)
+    return json.dumps(plain, sort_keys=True)
 
 
 def _plain(value: Any) -> Any:

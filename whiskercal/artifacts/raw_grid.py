@@ -82,9 +82,15 @@ class RawHeader:
         return plan_fingerprint(self.plan_stage_mm, self.config)
 
 
+# settings that only decide what a run reports: changing them still resumes a run
+_NOT_SHAPING = ("max_frame_loss",)
+
+
 def plan_fingerprint(plan_stage_mm: np.ndarray, config: Mapping[str, Any]) -> str:
     """SHA-256 over the planned positions and the configuration (device identities excluded)."""
     shaping = {key: value for key, value in config.items() if key != "devices"}
+    if isinstance(shaping.get("safety"), Mapping):  # a warning threshold shapes no data
+        shaping["safety"] = {k: v for k, v in shaping["safety"].items() if k not in _NOT_SHAPING}
     digest = hashlib.sha256(json.dumps(shaping, sort_keys=True, default=str).encode())
     digest.update(np.ascontiguousarray(plan_stage_mm, dtype=np.float64).tobytes())
     return digest.hexdigest()
@@ -411,13 +417,47 @@ def read_raw_grid(path: str | Path, *, stream: bool = False) -> RawGrid:
         static baseline.
     """
     path = Path(path)
-    with open_h5(path) as handle:
+    try:
+        handle = open_h5(path)
+    except ArtifactError as error:
+        if "truncated" not in str(error):
+            raise
+        hint = journal_hint(path) or "no collection journal next to it; record it again"
+        raise ArtifactError(f"{error}; {hint}") from None
+    with handle:
         check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         grid = _grid_from(handle, path)
         if stream:
             grid.stream = _read_stream(handle, path)
     grid.sha256 = sha256_file(path)
     return grid
+
+
+def journal_hint(path: str | Path) -> str | None:
+    """What the collection journal next to a torn file holds, and how to go on from it.
+
+    The journal (``RAW.h5.journal``, written by whiskercal.collect.journal) holds one CRC-checked
+    JSON line per record, its header first; only the header and the point count are read here.
+    None when there is no readable journal.
+    """
+    path = Path(path)
+    journal = path.with_name(path.name + ".journal")
+    resume = f"continue with whiskercal collect --resume --out {path} (same --config)"
+    try:
+        lines = journal.read_bytes().splitlines()
+        planned = len(json.loads(lines[0][9:])["plan_stage_mm"])
+    except (OSError, IndexError, KeyError, TypeError, ValueError):
+        return None
+    taken = len({json.loads(line[9:])["plan_index"] for line in lines[1:]
+                 if b'"type":"point"' in line and _json_ok(line[9:])})
+    return f"its journal holds {taken} of {planned} points: {resume}"
+
+
+def _json_ok(body: bytes) -> bool:
+    try:
+        return "plan_index" in json.loads(body)
+    except ValueError:
+        return False
 
 
 def read_plan_fingerprint(path: str | Path) -> str | None:

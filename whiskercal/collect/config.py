@@ -76,13 +76,11 @@ class MotionConfig:
 
 @dataclass(frozen=True)
 class AcquisitionConfig:
-    """Settle time (s, sensor clock), sample counts per point and per baseline, and the share of
-    the sensor's frames (0..1) that may be lost before the run warns."""
+    """Settle time (s, sensor clock) and sample counts per point and per baseline."""
 
     settle_s: float
     samples_per_point: int
     baseline_samples: int
-    max_frame_loss: float
 
 
 @dataclass(frozen=True)
@@ -98,12 +96,14 @@ class SensorSettings:
 
 @dataclass(frozen=True)
 class SafetyConfig:
-    """Travel (mm), margin inside it (mm), overload |z| limit (µT), encoder tolerance (mm)."""
+    """Travel (mm), margin inside it (mm), overload |z| limit (µT), encoder tolerance (mm),
+    and the fraction of sensor frames lost (dropped + corrupt) above which a run warns."""
 
     travel_mm: tuple[float, float]
     margin_mm: float
     overload_z_uT: float
     encoder_tolerance_mm: float
+    max_frame_loss: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -192,7 +192,8 @@ def config_from_dict(values: dict[str, Any]) -> CollectConfig:
 _POSITIVE = ("rig.rod_radius_mm", "rig.whisker_reach_mm", "rig.trace_length_mm",
              "motion.max_rate_mm_min", "motion.move_timeout_s", "sensor.rate_hz",
              "safety.travel_mm", "safety.overload_z_uT", "safety.encoder_tolerance_mm")
-_NON_NEGATIVE = ("grid.expected_points", "grid.reach_min_mm", "approach.overtravel_mm", "safety.margin_mm")
+_NON_NEGATIVE = ("grid.expected_points", "grid.reach_min_mm", "approach.overtravel_mm",
+                 "safety.margin_mm", "safety.max_frame_loss")
 
 
 def _sign_problems(config: CollectConfig) -> list[str]:
@@ -218,10 +219,10 @@ def _validate(config: CollectConfig) -> None:
         problems.append("grid needs -90 <= angle_min_near_deg, angle_min_far_deg < angle_max_deg <= 90")
     if acq.samples_per_point < 1 or acq.baseline_samples < 2 or acq.settle_s < 0:
         problems.append("acquisition needs samples_per_point >= 1, baseline_samples >= 2, settle_s >= 0")
-    if not 0 <= acq.max_frame_loss <= 1:
-        problems.append("acquisition.max_frame_loss must lie in 0..1 (a fraction of the frames)")
     if min(motion.travel_feed_mm_min, motion.approach_feed_mm_min, motion.accel_mm_s2) <= 0:
         problems.append("motion feeds and acceleration must be positive")
+    if config.safety.max_frame_loss > 1.0:
+        problems.append("safety.max_frame_loss is a fraction of the frames, at most 1")
     if config.approach.safe_y_mm <= config.rig.rod_radius_mm:
         problems.append("approach.safe_y_mm must exceed the rod radius to clear the whisker")
     if problems:

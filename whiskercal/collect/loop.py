@@ -20,7 +20,9 @@ from whiskercal.collect.plan import GridPlan, Move
 from whiskercal.collect.recorder import StreamRecorder, field_stats
 from whiskercal.errors import DeviceError
 from whiskercal.progress import Progress
+from whiskercal.protocol.codes import StageAlarm
 from whiskercal.rig.overload import OverloadError, describe_axes
+from whiskercal.rig.stage import StageAlarmError
 from whiskercal.session import Devices, EncoderMismatchError, RigSession
 from whiskercal.session.rig_session import POLL_S
 
@@ -135,6 +137,7 @@ class Collector:
         except OverloadError:
             self._retract()
             raise
+        self._confirm_still(encoder, index)
         truth = None
         if self.truth is not None:
             truth = self.truth(float(samples.t_s[0]), float(samples.t_s[-1]))
@@ -163,6 +166,27 @@ class Collector:
                 f"(tolerance {tolerance:g} mm): missed steps or a stall; re-home the stage and "
                 "continue with --resume")
         return np.asarray(status.enc_mm, float).copy()
+
+    def _confirm_still(self, encoder_mm: np.ndarray, index: int) -> None:
+        """Steps missed while the samples were read move the rod under them, after the check
+        before: read the encoder again and refuse the point (it is re-taken on resume) when the
+        stage alarmed or the position moved, rather than save it where the rod no longer was."""
+        if not np.all(np.isfinite(encoder_mm)):
+            return  # no encoder: nothing measures the carriage (docs/walkthrough.md)
+        try:
+            status = self.rig.status()
+        except StageAlarmError as error:
+            if error.code != StageAlarm.ENCODER_MISMATCH:
+                raise
+            status = None
+        after = None if status is None or status.alarm else self._check_encoder(status, index)
+        moved = np.inf if after is None else float(np.max(np.abs(after - encoder_mm)))
+        if moved > self.config.safety.encoder_tolerance_mm:
+            how = "the stage raised ALARM:10" if after is None else f"it moved {moved:.2f} mm"
+            raise EncoderMismatchError(
+                f"stage encoder position changed while point {index} was sampled ({how}): missed "
+                "steps or a stall; the point was not saved; re-home the stage and continue with "
+                "--resume")
 
     # -- motion -----------------------------------------------------------------------------
     def _execute(self, moves: list[Move], point: int = -1):

@@ -57,6 +57,7 @@ class StreamRecorder:
         self._parts: list[StreamChunk] = []
         self.dropped = self.corrupt = 0
         self.total_dropped = self.total_corrupt = 0
+        self.total_frames = 0  # frames received whole, every sample of this session
         self.static_y_uT: float | None = None
         self.overload_z_uT = np.inf
 
@@ -76,6 +77,7 @@ class StreamRecorder:
         self.corrupt += block.corrupt
         self.total_dropped += block.dropped
         self.total_corrupt += block.corrupt
+        self.total_frames += len(block.t_s)
         self._parts.append(StreamChunk(seq=np.asarray(block.seq) & 0xFFFF, t_s=t_s,
                                        counts=np.asarray(block.counts), status=np.asarray(block.status),
                                        point=np.full(len(block.seq), label)))

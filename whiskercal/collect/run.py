@@ -10,12 +10,11 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
-
 from whiskercal.artifacts.raw_grid import RawHeader, read_raw_grid
 from whiskercal.collect.checkpoint import Checkpoint, recorded_fingerprint
 from whiskercal.collect.config import CollectConfig
 from whiskercal.collect.estimate import limit_problems
+from whiskercal.collect.faults import check_touched, frame_loss, frame_loss_warning
 from whiskercal.collect.journal import journal_path
 from whiskercal.collect.loop import Collector, Devices, Progress
 from whiskercal.collect.plan import GridPlan, rig_frame
@@ -40,7 +39,7 @@ class RunSummary:
     corrupt: int
     baseline_drift_uT: float | None
     output: str
-    frames: dict[str, float] = field(default_factory=dict)
+    frame_loss: float = 0.0  # (dropped + corrupt) / frames sent, this session
     warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -173,10 +172,13 @@ def _session(rig: RigSession, out: Path, plan: GridPlan, resume: bool, on_progre
         raise
     if complete:
         checkpoint.finish()
-        refuse_untouched(out)
     else:
         checkpoint.close()
-    return _summary(collector, checkpoint, out)
+    summary = _summary(collector, checkpoint, out)
+    if complete:
+        grid = read_raw_grid(out)
+        check_touched(grid.z_uT, grid.z_std_uT, str(out))
+    return summary
 
 
 def _with_saved_points(error: WhiskercalError, taken: int, planned: int, out: Path) -> WhiskercalError:
@@ -194,31 +196,16 @@ def _summary(collector: Collector, checkpoint: Checkpoint, out: Path) -> RunSumm
         drift = float(checkpoint.baselines["after"].field_uT[1]
                       - checkpoint.baselines["before"].field_uT[1])
     session = collector.rig.summary()
-    recorded = read_raw_grid(out, stream=True)  # the whole run, resumed parts included
-    frames = recorded.frames
-    warnings = [frames.warning(collector.plan.config.acquisition.max_frame_loss),
+    kept, dropped, corrupt = collector.recorder.total_frames, session.dropped, session.corrupt
+    warnings = [frame_loss_warning(kept, dropped, corrupt, collector.config.safety.max_frame_loss),
                 None if collector.rig.devices.has_encoder else OPEN_LOOP_WARNING]
     return RunSummary(points=len(checkpoint.taken), planned=len(collector.plan),
                       complete=checkpoint.complete, stopped=collector.stopped,
                       taken_this_run=collector.taken_now, stage_time_s=session.stage_time_s,
                       wall_time_s=session.wall_time_s, dropped=session.dropped,
                       corrupt=session.corrupt, baseline_drift_uT=drift, output=str(out),
-                      frames=frames.to_dict(), warnings=[w for w in warnings if w])
-
-
-def refuse_untouched(out: Path, min_standard_errors: float = 5.0) -> None:
-    """Fail when no point of a finished grid shows contact: the rod never met the whisker.
-
-    Contact is what the fit calls contact (|z| above ``min_standard_errors`` standard errors of
-    the point's mean), so a grid this lets through has something to fit.
-    """
-    grid = read_raw_grid(out)
-    touched = np.abs(grid.z_uT) > min_standard_errors * grid.z_sem_uT
-    if len(grid) and not touched.any():
-        raise UsageError(
-            f"{out}: none of the {len(grid)} grid points touched the whisker (largest |z| "
-            f"{np.nanmax(np.abs(grid.z_uT)):.0f} µT, within the noise): check that the rod is "
-            "mounted and that [rig] origin_stage_mm and angle_deg put the grid on the whisker")
+                      frame_loss=frame_loss(kept, dropped, corrupt),
+                      warnings=[w for w in warnings if w])
 
 
 def read_stage_settings(stage_port) -> dict[int, float]:

@@ -201,7 +201,8 @@ class RigSession:
     def _prepare_stage(self) -> None:
         if self.config.home:
             self.stage.home()
-            _refuse_negative_machine_space(self.stage.status().mpos_mm)
+            if not self.devices.has_encoder:  # a stock grbl board may work in -travel..0
+                _refuse_negative_machine_space(self.stage.status().mpos_mm)
             return
         if self.stage.status().alarm:
             raise DeviceError(f"stage is in alarm (not homed); home it ($H) or set "

@@ -114,6 +114,8 @@ def _validate(config: dict[str, Any], where: str = "study config") -> None:
         raise UsageError(f"{where}: contact.threshold_uT must be positive")
     if float(config["safety"]["overload_uT"]) <= float(contact["threshold_uT"]):
         raise UsageError(f"{where}: safety.overload_uT must exceed contact.threshold_uT")
+    if not 0.0 <= float(config["safety"]["max_frame_loss"]) <= 1.0:
+        raise UsageError(f"{where}: safety.max_frame_loss is a fraction of the frames, in [0, 1]")
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ import numpy as np
 
 from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE,
                                               StudyWriter, TrialRecord)
+from whiskercal.collect.faults import frame_loss, frame_loss_warning
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.progress import Progress
 from whiskercal.protocol.sensor_config import SensorConfig
@@ -57,6 +58,8 @@ class RunSummary:
     dropped: int = 0
     corrupt: int = 0
     wall_time_s: float = 0.0
+    frame_loss: float = 0.0  # (dropped + corrupt) / frames sent during this run's trials
+    warnings: list[str] = field(default_factory=list)
 
 
 def session_config(config: dict) -> SessionConfig:
@@ -154,12 +157,24 @@ class StudyRun:
         done = set(self.writer.done_depths())
         depths = [float(d) for d in self.config["trials"]["depths_mm"]]
         summary.trials_skipped = [d for d in depths if d in done]
+        frames = np.zeros(3, int)  # kept, dropped, corrupt
         wall_start = time.monotonic()
         for depth in (d for d in depths if d not in done):
             self._report_progress(summary, depths, wall_start)
-            self.writer.add_trial(self._trial(contact, depth))
+            record = self._trial(contact, depth)
+            self.writer.add_trial(record)
             summary.trials_done.append(depth)
+            frames += (record.stream["seq"].size, record.attrs["dropped"], record.attrs["corrupt"])
+        self._frame_loss(summary, frames)
         self._report_progress(summary, depths, wall_start)
+
+    def _frame_loss(self, summary: RunSummary, frames: np.ndarray) -> None:
+        """The trials' lost fraction of frames, and a warning above ``safety.max_frame_loss``."""
+        kept, dropped, corrupt = (int(v) for v in frames)
+        summary.frame_loss = frame_loss(kept, dropped, corrupt)
+        warning = frame_loss_warning(kept, dropped, corrupt,
+                                     float(self.config["safety"]["max_frame_loss"]))
+        summary.warnings = [warning] if warning else []
 
     def _report_progress(self, summary: RunSummary, depths: list[float], wall_start: float) -> None:
         """Tell the progress callback how many trials are done."""

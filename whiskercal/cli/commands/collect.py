@@ -51,6 +51,8 @@ def _print_plan(summary: dict, as_json: bool) -> None:
 
 
 def _print_run(summary, as_json: bool) -> None:
+    for warning in summary.warnings:
+        click.echo(f"warning: {warning}", err=True)
     if as_json:
         echo_json(summary.to_dict())
         return

@@ -83,7 +83,12 @@ def _raw_summary(path: Path) -> dict:
 def inspect_file(path: str | Path) -> dict:
     """A JSON-able description of a whiskercal HDF5 file (calibration artifact or raw grid)."""
     path = Path(path)
-    with open_h5(path) as handle:
+    try:
+        handle = open_h5(path)
+    except ArtifactError as error:
+        hint = raw_grid.journal_hint(path) if "truncated" in str(error) else None
+        raise ArtifactError(f"{error}; {hint}") if hint else error from None
+    with handle:
         provenance = {key: as_text(handle.attrs[key]) for key in _PROVENANCE if key in handle.attrs}
         inputs = read_json_attr(handle, "inputs_sha256", {})
         datasets = _datasets(handle)

@@ -46,6 +46,8 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
         summary = run_study(stage_url, sensor_url, out_path, config, resume=resume,
                             progress=bar.update if bar else None)
     result = {**summary.__dict__, "wall_time_s": round(summary.wall_time_s, 3)}
+    for warning in summary.warnings:
+        click.echo(f"warning: {warning}", err=True)
     if as_json:
         echo_json(result)
         return
