@@ -65,7 +65,7 @@ class Follower:
         self._last_raw: np.ndarray | None = None
         self.contacted = False
         self.pressed = False
-        self._backing = 0
+        self._backing, self._touching = 0, False
 
     def update(self, z_uT: float, robot: Robot) -> Step:
         """Feed one z sample (µT from rest); command the robot; return what was done."""
@@ -74,9 +74,12 @@ class Follower:
         self.contacted |= state.contact
         slip = self._slip(z_uT, state.raw_tip_mm)
         tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
+        if z_uT * self.target_z_uT < 0 and state.contact:  # bent the other way: the object is on
+            tip = None                                     # the whisker's far side, no tip to trust
         if not self.contacted or tip is None:
             return self._find_contact(robot, pose, slip)
         contact = _rotation(pose[2]) @ tip + pose[:2]
+        self._touching = True
         if not self.pressed:  # first reach the target deflection, then move along
             self.pressed = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
             velocity = self._pid(z_uT) * _unit(pose[2] + math.radians(self.config.tilt_deg))
@@ -95,8 +98,9 @@ class Follower:
         """No tip: before the first contact move toward the object; after losing one (the tip
         slipped off an edge or past a corner) first back off, so that the wire clears the object,
         then come in again and press to the target before moving along."""
-        if self.contacted and self.pressed:  # contact just lost
+        if self._touching:  # contact just lost (while pressing or following)
             self.pressed, self._backing = False, int(self.config.backoff_s * self.config.rate_hz)
+        self._touching = False
         phase = "approach" if not self.contacted else "search"
         direction = _unit(pose[2] + math.radians(self.config.tilt_deg))
         if self.contacted and self.keys:  # back toward where the surface was last felt

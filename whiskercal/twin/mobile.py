@@ -103,8 +103,11 @@ class MobileSensor:
         return rotation(self._pose[2]) @ np.asarray(point_mm, float) + self._pose[:2]
 
     def _seen_from_sensor(self):
-        """The object in the sensor's base frame (it comes from the whisker's +y side)."""
+        """The object in the sensor's base frame, pushing from the side of the whisker its
+        centre lies on (a sensor driven round a corner can end up with the object on its -y side)."""
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
         if isinstance(self._obstacle, Circle):
-            return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin))
-        return Polygon((self._obstacle.vertices_mm - origin) @ turn.T)
+            center = turn @ (self._obstacle.center_mm - origin)
+            return replace(self._obstacle, center_mm=center, side=1 if center[1] >= 0 else -1)
+        vertices = (self._obstacle.vertices_mm - origin) @ turn.T
+        return Polygon(vertices, side=1 if vertices[:, 1].mean() >= 0 else -1)

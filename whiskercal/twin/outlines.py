@@ -17,7 +17,7 @@ from whiskercal.errors import UsageError
 from whiskercal.twin.physics.obstacles import Circle, Polygon
 
 SHAPES = ("cylinder", "rounded-rect", "octagon")
-_ARC_STEP_RAD = math.radians(2.0)  # corner arcs as polygon edges 2° apart (0.015 mm sag at 40 mm)
+_ARC_STEP_RAD = math.radians(3.0)  # corner arcs as polygon edges 3° apart (0.014 mm sag at 40 mm)
 
 
 @dataclass(frozen=True)
