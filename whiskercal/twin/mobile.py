@@ -103,11 +103,11 @@ class MobileSensor:
         return rotation(self._pose[2]) @ np.asarray(point_mm, float) + self._pose[:2]
 
     def _seen_from_sensor(self):
-        """The object in the sensor's base frame, pushing from the side of the whisker its
-        centre lies on (a sensor driven round a corner can end up with the object on its -y side)."""
+        """The object in the sensor's base frame. The contact model takes it as pushing from the
+        whisker's +y side, where the follower keeps it; a whisker driven round to the object's
+        other side is beyond what it models (the follower backs off when it reads z of the other
+        sign)."""
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
         if isinstance(self._obstacle, Circle):
-            center = turn @ (self._obstacle.center_mm - origin)
-            return replace(self._obstacle, center_mm=center, side=1 if center[1] >= 0 else -1)
-        vertices = (self._obstacle.vertices_mm - origin) @ turn.T
-        return Polygon(vertices, side=1 if vertices[:, 1].mean() >= 0 else -1)
+            return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin))
+        return Polygon((self._obstacle.vertices_mm - origin) @ turn.T)
