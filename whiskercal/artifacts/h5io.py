@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import re
 
 import datetime as _dt
 import hashlib
 import json
 import re
+import shutil
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -117,3 +117,14 @@ def open_h5(path: str | Path, mode: str = "r") -> h5py.File:
 
 # HDF5's own words for a file shorter than its superblock says it is
 _TRUNCATED = re.compile(r"truncated file: eof = (?P<eof>\d+).*stored_eof = (?P<stored>\d+)")
+
+
+def update_copy(path: str | Path, write) -> None:
+    """Apply ``write(handle)`` to a copy of the HDF5 file at ``path`` and rename the copy over it
+    (flushed first): a crash leaves the old file or the new one, never a torn one."""
+    from whiskercal.atomic import atomic_path
+
+    with atomic_path(path) as scratch:
+        shutil.copyfile(path, scratch)
+        with h5py.File(scratch, "r+") as handle:
+            write(handle)

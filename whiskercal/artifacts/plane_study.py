@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -119,11 +118,7 @@ class StudyWriter:
 
     def _update(self, write) -> None:
         """Apply ``write(handle)`` to a copy of the file and rename it over the original."""
-        scratch = self._scratch()
-        shutil.copyfile(self.path, scratch)
-        with h5py.File(scratch, "r+") as handle:
-            write(handle)
-        os.replace(scratch, self.path)
+        h5io.update_copy(self.path, write)
 
     def done_depths(self) -> list[float]:
         """Depths (mm) of the trials already in the file."""

@@ -10,7 +10,6 @@ lists the layout; docs/shaft.md the study.
 from __future__ import annotations
 
 import os
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -90,11 +89,7 @@ class ShaftStudyWriter:
         return self.path.with_name(self.path.name + ".partial")
 
     def _update(self, write) -> None:
-        scratch = self._scratch()
-        shutil.copyfile(self.path, scratch)
-        with h5py.File(scratch, "r+") as handle:
-            write(handle)
-        os.replace(scratch, self.path)
+        h5io.update_copy(self.path, write)
 
     def done(self) -> list[str]:
         """Names of the trials already in the file."""
