@@ -1,7 +1,7 @@
 """One contour-following run on the twin: the follower drives the mobile sensor around an object.
 
 ``run_contour`` starts the sensor outside the object, pointing at it, and runs the loop for a
-duration (or until the contacts have gone once round), recording every sample: time, z, the
+duration of robot time (or until stopped), recording every sample: time, z, the
 estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind and
 slips. The estimate is never aligned to the truth; docs/contour.md has the metrics.
 """
@@ -38,7 +38,7 @@ class ContourRun:
 
 
 def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
-               reach_mm: float = 78.0) -> np.ndarray:
+               reach_mm: float) -> np.ndarray:
     """A pose outside the object at a random point of its outline: the whisker leans
     ``tilt_deg`` back from the surface's inward normal there, its tip ``standoff_mm`` short."""
     points = outline.points()
@@ -55,8 +55,10 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
                 stop_requested: Callable[[], bool] | None = None) -> ContourRun:
     """Run the loop for ``duration_s`` s of robot time, or until stopped (a partial run)."""
     rng = np.random.default_rng(seed)
-    robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng), seed=seed)
-    follower = Follower(tracker, target_z_uT, config)
+    reach_mm = sensor.whisker.reach_mm
+    robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng, reach_mm),
+                         seed=seed)
+    follower = Follower(tracker, target_z_uT, config, reach_mm)
     run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
     rows: dict[str, list] = {name: [] for name in COLUMNS}
     dt, steps = 1.0 / config.rate_hz, int(round(duration_s * config.rate_hz))
