@@ -128,3 +128,16 @@ def update_copy(path: str | Path, write) -> None:
         shutil.copyfile(path, scratch)
         with h5py.File(scratch, "r+") as handle:
             write(handle)
+
+
+def create_trials_file(path: str | Path, *, schema: str, schema_version: str, sensor_id: str,
+                       config: Mapping[str, Any]) -> None:
+    """Write a new, empty file of trials (provenance, ``complete`` false, a ``trials`` group)
+    atomically: the study writers' start."""
+    from whiskercal.atomic import atomic_path
+
+    with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
+        write_provenance(handle, schema=schema, schema_version=schema_version,
+                         sensor_id=sensor_id, config=config)
+        handle.attrs["complete"] = False
+        handle.create_group("trials")

@@ -11,7 +11,6 @@ docs/study.md the study (``whiskercal/study/``) that writes and analyses it.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -98,12 +97,8 @@ class StudyWriter:
 
     def _create(self, sensor_id: str) -> None:
         ensure_dir(self.path.parent)
-        with h5py.File(self._scratch(), "w") as handle:
-            h5io.write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
-                                  sensor_id=sensor_id, config=self.config)
-            handle.attrs["complete"] = False
-            handle.create_group("trials")
-        os.replace(self._scratch(), self.path)
+        h5io.create_trials_file(self.path, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+                                sensor_id=sensor_id, config=self.config)
 
     def _check_resumable(self) -> None:
         with h5io.open_h5(self.path) as handle:
@@ -112,9 +107,6 @@ class StudyWriter:
         if _comparable(stored) != _comparable(self.config):
             raise UsageError(f"{self.path} was started with another configuration; "
                              "resume it with the same --config or start a new file")
-
-    def _scratch(self) -> Path:
-        return self.path.with_name(self.path.name + ".partial")
 
     def _update(self, write) -> None:
         """Apply ``write(handle)`` to a copy of the file and rename it over the original."""

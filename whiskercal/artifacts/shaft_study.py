@@ -2,14 +2,13 @@
 
 One HDF5 file holds the run's configuration, the static baseline and one group per finished
 trial (a rod pressed onto the shaft at one radial distance, then slid along a known direction).
-A trial is added whole, on a copy renamed over the original (``os.replace``), so a crash leaves
+A trial is added whole, on a copy renamed over the original (``h5io.update_copy``), so a crash leaves
 the old file or the new one; ``--resume`` runs only the trials that are missing. docs/formats.md
 lists the layout; docs/shaft.md the study.
 """
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -78,15 +77,8 @@ class ShaftStudyWriter:
             raise UsageError(f"{self.path} does not exist: nothing to resume")
         else:
             ensure_dir(self.path.parent)
-            with h5py.File(self._scratch(), "w") as handle:
-                h5io.write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
-                                      sensor_id=sensor_id, config=config)
-                handle.attrs["complete"] = False
-                handle.create_group("trials")
-            os.replace(self._scratch(), self.path)
-
-    def _scratch(self) -> Path:
-        return self.path.with_name(self.path.name + ".partial")
+            h5io.create_trials_file(self.path, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+                                    sensor_id=sensor_id, config=config)
 
     def _update(self, write) -> None:
         h5io.update_copy(self.path, write)

@@ -86,6 +86,30 @@ class LocalizerState:
     rms_residual: float
 
 
+class MotionSinceContact:
+    """The object's position relative to the sensor since contact began: its displacement (mm)
+    and the length of its path (mm). Any constant offset of the positions cancels."""
+
+    def __init__(self) -> None:
+        self.origin: np.ndarray | None = None
+        self.last: np.ndarray | None = None
+        self.travel_mm = 0.0
+
+    def add(self, position_mm) -> np.ndarray:
+        """Take the next position; return the displacement since the first (mm)."""
+        position = np.asarray(position_mm, float)
+        if self.origin is None:
+            self.origin = self.last = position
+        self.travel_mm += float(np.hypot(*(position - self.last)))
+        self.last = position
+        return position - self.origin
+
+    @property
+    def displacement_mm(self) -> np.ndarray | None:
+        """Displacement of the latest position from the first (None before any)."""
+        return None if self.origin is None else self.last - self.origin
+
+
 class _Batch:
     """Samples since contact began, decimated by doubling the stride when full."""
 
@@ -130,9 +154,7 @@ class ShaftLocalizer:
     def reset(self) -> None:
         """Forget the contact: the next ``update`` begins a new one."""
         self._batch = _Batch(self.params.max_points)
-        self._origin = None
-        self._last = None
-        self._travel = 0.0
+        self._motion = MotionSinceContact()
         self._peak = 0.0
         self._p0 = None
         self._cov = self._cov_noise = None
@@ -142,12 +164,7 @@ class ShaftLocalizer:
     def update(self, z_uT: float, position_mm) -> LocalizerState:
         """One sample in contact: z (µT) and the object's position relative to the sensor (mm,
         whisker frame; any constant offset, only its change since contact began counts)."""
-        position = np.asarray(position_mm, float)
-        if self._origin is None:
-            self._origin = self._last = position
-        self._travel += float(np.hypot(*(position - self._last)))
-        self._last = position
-        d = position - self._origin
+        d = self._motion.add(position_mm)
         if abs(z_uT) >= self.params.min_fit_uT:
             self._batch.add(d, z_uT)
         self._peak = max(self._peak, abs(z_uT))
@@ -219,7 +236,7 @@ class ShaftLocalizer:
         prior = np.outer(prior_j, prior_j) * (systematic * systematic)
         # the misfit changes over a few millimetres of the surface: each such stretch of travel
         # adds about one independent sample of it
-        independent = 1.0 + self._travel / self.params.misfit_length_mm
+        independent = 1.0 + self._motion.travel_mm / self.params.misfit_length_mm
         return np.linalg.inv(mean_information + prior) * (systematic * systematic) / independent
 
     def rough(self) -> tuple[np.ndarray, float] | None:
@@ -227,16 +244,16 @@ class ShaftLocalizer:
         noise alone, even while the estimate is withheld: enough to tell a contact near the root
         from one at the tip (the surface's systematic misfit, a fraction of a millimetre, does
         not matter against that), never a localization. None before the first solve."""
-        if self._cov is None or self._last is None:
+        if self._cov is None or self._motion.origin is None:
             return None
         sd = float(np.sqrt(np.max(np.linalg.eigvalsh(self._cov_noise))))
-        return self._p0 + (self._last - self._origin), sd
+        return self._p0 + self._motion.displacement_mm, sd
 
     def _withheld_reason(self) -> str:
         params = self.params
         if self._cov is None:
             return REASON_SIGNAL
-        if self._travel < params.min_travel_mm:
+        if self._motion.travel_mm < params.min_travel_mm:
             return REASON_TRAVEL
         if self._peak < params.min_signal * params.noise_uT:
             return REASON_SIGNAL
@@ -251,9 +268,9 @@ class ShaftLocalizer:
         reason = self._withheld_reason()
         if reason:
             nan2 = np.full(2, np.nan)
-            return LocalizerState(False, reason, nan2, nan2, self._travel, self._rms)
+            return LocalizerState(False, reason, nan2, nan2, self._motion.travel_mm, self._rms)
         return LocalizerState(True, REASON_OK, self._p0 + d, np.sqrt(np.diag(self._cov)),
-                              self._travel, self._rms)
+                              self._motion.travel_mm, self._rms)
 
 
 def _has_distinct_minimum(cost: np.ndarray, best: int, far: np.ndarray) -> bool:

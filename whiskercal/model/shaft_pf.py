@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from whiskercal.model.shaft import (REASON_OK, REASON_SIGNAL, REASON_TRAVEL, REASON_WIDE,
-                                    LocalizerState, ShaftParams)
+                                    LocalizerState, MotionSinceContact, ShaftParams)
 
 
 class ParticleLocalizer:
@@ -35,17 +35,11 @@ class ParticleLocalizer:
                                    self._rng.normal(self.params.start_y_mm,
                                                     self.params.prior_y_sd_mm, self.n)])
         self._logw = np.zeros(self.n)
-        self._origin = self._last = None
-        self._travel, self._peak = 0.0, 0.0
+        self._motion, self._peak = MotionSinceContact(), 0.0
 
     def update(self, z_uT: float, position_mm) -> LocalizerState:
         """One sample in contact: z (µT) and the object's position (mm, any constant offset)."""
-        position = np.asarray(position_mm, float)
-        if self._origin is None:
-            self._origin = self._last = position
-        self._travel += float(np.hypot(*(position - self._last)))
-        self._last = position
-        d = position - self._origin
+        d = self._motion.add(position_mm)
         self._peak = max(self._peak, abs(z_uT))
         if abs(z_uT) >= self.params.min_fit_uT:
             residual = (z_uT - self.surface(self._p + d)) / (self.params.noise_uT * self.inflate)
@@ -69,10 +63,10 @@ class ParticleLocalizer:
 
     def rough(self):
         """Weighted mean contact point now (mm) and the widest standard deviation (mm)."""
-        if self._origin is None:
+        if self._motion.origin is None:
             return None
         mean, sd = self._moments()
-        return mean + (self._last - self._origin), float(np.max(sd))
+        return mean + self._motion.displacement_mm, float(np.max(sd))
 
     def _moments(self) -> tuple[np.ndarray, np.ndarray]:
         w = self._weights()
@@ -82,10 +76,10 @@ class ParticleLocalizer:
     def _state(self, d: np.ndarray) -> LocalizerState:
         mean, sd = self._moments()
         params = self.params
-        reason = (REASON_TRAVEL if self._travel < params.min_travel_mm else
+        reason = (REASON_TRAVEL if self._motion.travel_mm < params.min_travel_mm else
                   REASON_SIGNAL if self._peak < params.min_signal * params.noise_uT else
                   REASON_WIDE if np.max(sd) > params.max_sd_mm else REASON_OK)
         if reason:
             nan2 = np.full(2, np.nan)
-            return LocalizerState(False, reason, nan2, nan2, self._travel, np.nan)
-        return LocalizerState(True, REASON_OK, mean + d, sd, self._travel, np.nan)
+            return LocalizerState(False, reason, nan2, nan2, self._motion.travel_mm, np.nan)
+        return LocalizerState(True, REASON_OK, mean + d, sd, self._motion.travel_mm, np.nan)
