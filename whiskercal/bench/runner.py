@@ -105,6 +105,8 @@ COMPARISONS = {c.name: c for c in (
                _module_run("whiskercal.bench.tip_extraction")),
     Comparison("tip-accuracy", "level set vs mechanics-informed fit (Y; Y and Z) across builds",
                _module_run("whiskercal.bench.tip_accuracy")),
+    Comparison("sensor-family", "every build of the family calibrated as fit does: accuracy, "
+               "its estimate, silent failures", _module_run("whiskercal.bench.sensor_family")),
     Comparison("surface-degree", "polynomial degree 1..8: CV error vs evaluation time",
                _module_run("whiskercal.bench.surface_degree")),
     Comparison("collection", "samples per point and settle time vs fit error and stage time",

@@ -43,6 +43,7 @@ VALUED: dict[str, tuple[str, Callable[[str], object]]] = {
     "--entry-radius-mm": ("entry_radius_mm", _number(float, "--entry-radius-mm")),
     "--max-extension-mm": ("max_extension_mm", _number(float, "--max-extension-mm")),
     "--threshold-uT": ("threshold_uT", _number(float, "--threshold-uT")),
+    "--tip-model": ("tip_model", str),
 }
 # flag -> (FitOptions field, the value the flag sets)
 FLAGS: dict[str, tuple[str, bool]] = {

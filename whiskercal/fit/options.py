@@ -13,6 +13,7 @@ COORDINATES = ("polar", "cartesian")
 TRACERS = ("fast", "paper")
 INTERPOLANTS = ("auto", "linear", "cubic", "pchip", "akima", "polynomial")
 SAMPLES_RANGE = (2, 10_000)
+TIP_MODELS = ("auto", "mechanics", "level-set")
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,9 @@ class FitOptions:
         Move the rod centres by the rod radius onto the shaft before the final fit.
     threshold_uT : float
         Collision threshold stored for the runtime, µT from the static reading.
+    tip_model : str
+        "auto" (the mechanics-informed model where the grid identifies it, else the level set),
+        "mechanics" or "level-set" (``fit.tip_model``).
     """
 
     degree: int | str = 5
@@ -59,6 +63,7 @@ class FitOptions:
     allow_extrapolation: bool = False
     rod_correction: bool = True
     threshold_uT: float = CollisionParams.threshold_uT
+    tip_model: str = "auto"
 
     def __post_init__(self) -> None:
         # the degree's range is the model's to check (FitError), as it is for every caller
@@ -66,7 +71,7 @@ class FitOptions:
                                           and not isinstance(self.degree, bool))):
             raise UsageError(f"degree must be a degree 1..8 or 'auto', not {self.degree!r}")
         for name, allowed in (("coordinates", COORDINATES), ("tracer", TRACERS),
-                              ("interpolant", INTERPOLANTS)):
+                              ("interpolant", INTERPOLANTS), ("tip_model", TIP_MODELS)):
             if getattr(self, name) not in allowed:
                 raise UsageError(f"{name} must be one of {', '.join(allowed)}, "
                                  f"not {getattr(self, name)!r}")

@@ -12,6 +12,7 @@ from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
                                     surface_and_lookup_metrics)
 from whiskercal.fit.options import FitOptions
 from whiskercal.fit.result import FitResult
+from whiskercal.fit.tip_model import choose_tip_model
 from whiskercal.fit.trace_length import resolve_trace_length
 from whiskercal.fit.truth import compare_with_twin_truth
 from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrate
@@ -47,11 +48,17 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
     model_options = options.calibration_options(length_mm)
     calibration = _calibrate(raw, model_options, progress)
+    if progress is not None and options.tip_model != "level-set":
+        progress("mechanics-informed tip model")
+    calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
+                                              options.samples)
     truth = compare_with_twin_truth(raw, calibration)
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
-               **raw_metrics(raw), **(truth.metrics() if truth is not None else {})}
+               **raw_metrics(raw), **tip_model.metrics,
+               **(truth.metrics() if truth is not None else {})}
     return FitResult(calibration, options, model_options, metrics,
-                     length_warnings + calibration.warnings, truth, raw.sensor_id,
+                     length_warnings + calibration.warnings + tip_model.warnings, truth,
+                     raw.sensor_id,
                      raw.rod_radius_mm, inputs={"raw_grid": raw.sha256},
                      config=_provenance(model_options, raw.path))
 

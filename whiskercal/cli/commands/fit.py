@@ -29,7 +29,10 @@ def _summary(data, elapsed_s: float) -> dict:
                "extrapolated": m["extrapolated"],
                "trusted_z_uT": _trusted_or_none(m["trusted_z_uT"]),
                "expected_noise_uT": m["expected_noise_uT"],
-               "tip_spread_mm": m.get("tip_spread_mm", float("nan")), "warnings": list(m["warnings"]),
+               "tip_spread_mm": m.get("tip_spread_mm", float("nan")),
+               "tip_model": m.get("tip_model", "level-set"),
+               "estimated_tip_error_mm": m.get("estimated_tip_error_mm", float("nan")),
+               "warnings": list(m["warnings"]),
                "elapsed_s": elapsed_s}
     for key in ("lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm"):
         if key in m:
@@ -69,19 +72,28 @@ def _summary(data, elapsed_s: float) -> dict:
               help="Fit rod centres as they are, without moving them by the rod radius.")
 @click.option("--threshold-uT", "threshold_uT", default=300.0, show_default=True, type=float,
               help="Collision threshold stored for the runtime, µT from the static reading.")
+@click.option("--tip-model", type=click.Choice(["auto", "mechanics", "level-set"]),
+              default="auto", show_default=True,
+              help="Tip model: the mechanics-informed fit (suspension + elastica solved for tip "
+              "contact), the paper's level set, or auto: the mechanics where the grid pins the "
+              "suspension down, else the level set (docs/calibration.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit summary as JSON.")
 @pass_app
 def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, samples: int,
             tracer: str, interpolant: str, trace_length_mm: float | None,
             entry_radius_mm: float | None, max_extension_mm: float | None,
             allow_extrapolation: bool, no_rod_correction: bool, threshold_uT: float,
-            as_json: bool) -> None:
+            tip_model: str, as_json: bool) -> None:
     """Fit a raw calibration grid (RAW.h5) and write the calibration artifact.
 
     Fits the surface z = f(x, y), traces the level set f = z from the root for the whisker's
     arc length at SAMPLES deflections, and stores the lookup z -> tip with the collision and
     filter settings the runtime uses. On a twin dataset the lookup is also measured against
     the twin's true tips.
+
+    Every fit estimates its own RMS tip error without the truth (estimated_tip_error_mm, from
+    how firmly the grid pins the suspension model down) and warns when it exceeds 0.25 mm or
+    cannot be estimated.
 
     Refuses a grid that stops so far short of the tip that the trace would extrapolate more
     than --max-extension-mm past it (unless --allow-extrapolation), and warns, with the numbers,
@@ -100,7 +112,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
         entry_radius_mm=entry_radius_mm, allow_extrapolation=allow_extrapolation,
         max_extension_mm=(FitOptions.max_extension_mm if max_extension_mm is None
                           else max_extension_mm),
-        rod_correction=not no_rod_correction, threshold_uT=threshold_uT)
+        rod_correction=not no_rod_correction, threshold_uT=threshold_uT, tip_model=tip_model)
     say = (lambda message: click.echo(f"  {message} ...", err=True)) if app.interactive else None
     result = fit(grid, options, say)
     data = result.artifact_data()
@@ -126,6 +138,8 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
     click.echo(f"extension up to {summary['extension_max_mm']:.2f} mm past the grid (limit "
                f"{summary['extension_limit_mm']:.2f} mm)"
                + (", extrapolated range marked" if summary["extrapolated"] else ""))
+    click.echo(f"tip model {summary['tip_model']}, estimated tip error "
+               f"{summary['estimated_tip_error_mm']:.3f} mm RMS")
     if "lookup_vs_truth_rmse_mm" in summary:
         click.echo(f"truth     lookup vs the twin's true tips: RMSE "
                    f"{summary['lookup_vs_truth_rmse_mm']:.3f} mm, max "

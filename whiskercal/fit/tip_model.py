@@ -1,0 +1,140 @@
+"""Which tip model a calibration ships, and how wrong it may be: the level set or the mechanics.
+
+The level set f = z is the whisker's shape under a shaft contact, not the locus of its tip (about
+0.4 mm off on the default build, docs/calibration.md). The mechanics-informed fit
+(``mechfit.identify``) models the suspension and solves it for tip contact; where the grid pins
+the suspension down it is an order of magnitude closer, and its profile says how firmly. So:
+
+- ``mechanics``: always the mechanics' lookup (refused when it cannot be fitted);
+- ``level-set``: the paper's method as it was;
+- ``auto`` (default): both; the mechanics when its estimated error is finite and below the
+  level set's, else the level set.
+
+The level set's error is estimated as its distance from an identified mechanics model (plus
+that model's own estimate); without one, neither error can be estimated, and the fit says so.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from whiskercal.errors import UsageError
+from whiskercal.fit.options import TIP_MODELS
+from whiskercal.mechfit.identify import (MAX_CHI2_PER_DOF, MechanicsCalibration,
+                                         calibrate_mechanics, tip_change_mm)
+from whiskercal.model.calibrate import Calibration
+
+# The tip error (RMS, mm) above which a calibration is reported as not meeting its goal.
+WARN_TIP_ERROR_MM = 0.25
+
+
+@dataclass
+class TipModelChoice:
+    """The tip model chosen, its estimated RMS tip error (mm; NaN: not estimable), the metrics
+    the artifact records about it, and warnings."""
+
+    name: str
+    estimated_tip_error_mm: float
+    metrics: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def _mechanics(raw, calibration: Calibration, length_mm: float, samples: int):
+    """The mechanics calibration of the grid's contacts, or the reason there is none."""
+    used = calibration.used
+    noise = float(np.median(raw.z_sem_uT[used])) if used.any() else math.nan
+    try:
+        return calibrate_mechanics(raw.rod_center_mm[used], raw.z_uT[used], raw.rod_radius_mm,
+                                   length_mm, noise, samples), ""
+    except UsageError as error:
+        return None, str(error).rstrip(".")
+
+
+def _mechanics_metrics(mechanics: MechanicsCalibration) -> dict:
+    suspension = mechanics.fit.suspension
+    low, high = mechanics.plausible_ratios()
+    return {"stiffness_ratio": mechanics.stiffness_ratio, "stub_mm": suspension.stub_mm,
+            "translational_compliance": suspension.trans_compliance,
+            "chi2_per_dof": mechanics.chi2_per_dof,
+            "plausible_stiffness_ratio": [low, high],
+            "estimated_tip_error_mm": _finite_or_nan(mechanics.estimated_tip_error_mm),
+            "profile": [p.row() for p in mechanics.profile]}
+
+
+def _finite_or_nan(value: float) -> float:
+    return value if math.isfinite(value) else math.nan
+
+
+def _level_set_estimate(calibration: Calibration, mechanics: MechanicsCalibration | None) -> float:
+    if mechanics is None or not math.isfinite(mechanics.estimated_tip_error_mm):
+        return math.nan
+    distance = tip_change_mm(mechanics.lookup, calibration.lookup)
+    return math.hypot(distance, mechanics.estimated_tip_error_mm)
+
+
+def _use_mechanics(calibration: Calibration, mechanics: MechanicsCalibration) -> Calibration:
+    """The calibration with the mechanics' lookup as its tip model (no level-set extrapolation)."""
+    lookup = mechanics.lookup
+    report = replace(calibration.lookup_report, kind=lookup.kind, knot_extension_mm=None)
+    return replace(calibration, lookup=lookup, lookup_report=report, extrapolated=False,
+                   trusted_z_uT=(lookup.z_min_uT, lookup.z_max_uT))
+
+
+def _pick(requested: str, mechanics, mechanics_error: float, level_set_error: float) -> str:
+    if requested != "auto":
+        return requested
+    if mechanics is None or not math.isfinite(mechanics_error):
+        return "level-set"
+    return "mechanics" if not mechanics_error > level_set_error else "level-set"
+
+
+def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: float,
+                     samples: int) -> tuple[Calibration, TipModelChoice]:
+    """The calibration with the tip model ``requested`` (or chosen by ``auto``), and the choice.
+
+    Raises
+    ------
+    UsageError
+        ``mechanics`` was requested and the mechanics cannot be fitted to this grid.
+    """
+    if requested not in TIP_MODELS:
+        raise UsageError(f"tip model must be one of {', '.join(TIP_MODELS)}, not {requested!r}")
+    mechanics, why_not = (None, "not fitted (--tip-model level-set)") if requested == "level-set" \
+        else _mechanics(raw, calibration, length_mm, samples)
+    if mechanics is None and requested == "mechanics":
+        raise UsageError(f"the mechanics-informed tip model cannot be fitted: {why_not}")
+    mech_error = mechanics.estimated_tip_error_mm if mechanics is not None else math.inf
+    level_error = _level_set_estimate(calibration, mechanics)
+    name = _pick(requested, mechanics, mech_error, level_error)
+    estimate = _finite_or_nan(mech_error) if name == "mechanics" else level_error
+    metrics = {"tip_model": name, "estimated_tip_error_mm": estimate,
+               "level_set_estimated_tip_error_mm": level_error}
+    if mechanics is not None:
+        metrics["mechanics"] = _mechanics_metrics(mechanics)
+        metrics["one_to_one_z_uT"] = list(mechanics.one_to_one_z_uT)
+        calibration = _use_mechanics(calibration, mechanics) if name == "mechanics" else calibration
+    choice = TipModelChoice(name, estimate, metrics)
+    choice.warnings = _warnings(choice, mechanics, why_not)
+    return calibration, choice
+
+
+def _warnings(choice: TipModelChoice, mechanics, why_not: str) -> list[str]:
+    estimate = choice.estimated_tip_error_mm
+    if math.isfinite(estimate):
+        if estimate > WARN_TIP_ERROR_MM:
+            return [f"estimated tip error {estimate:.2f} mm RMS ({choice.name}) exceeds "
+                    f"{WARN_TIP_ERROR_MM} mm: treat tips as this uncertain"]
+        return []
+    if mechanics is None:
+        return [f"the tip error cannot be estimated: the mechanics-informed model was {why_not}"]
+    if mechanics.chi2_per_dof > MAX_CHI2_PER_DOF:
+        return [f"the tip error cannot be estimated: the suspension model leaves "
+                f"{math.sqrt(mechanics.chi2_per_dof):.1f}x the noise unexplained (a suspension "
+                "outside the model, or a wrong trace length?); tips may be off by millimetres"]
+    low, high = mechanics.plausible_ratios()
+    return [f"the tip error cannot be estimated: the grid does not pin the suspension down "
+            f"(k_theta*L/EI from {low:.3g} to {high:.3g} fits it equally well); tips may be off "
+            "by millimetres"]

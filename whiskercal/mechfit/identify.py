@@ -1,0 +1,230 @@
+"""How firmly the grid pins the suspension down, and the tip error that implies, without the truth.
+
+A rod grid can fit equally well with different suspensions: the pose map absorbs part of the
+root's compliance, and on some builds a k_θ·L/EI anywhere from a few to a million fits to the
+noise. The tip curves of such fits differ by millimetres, so the fit alone cannot be trusted.
+This module profiles the fit over k_θ·L/EI (each ratio held fixed, the stub and the
+translational compliance refitted) and turns the profile into an error estimate:
+
+- every profile point's tip curve is compared with the best fit's (RMS over the lookup's knots);
+- its misfit Δχ² (in the residual variance of the best fit, so a model that misses the data by
+  a constant factor is not over-trusted) says how plausible it is; a change is scaled to the
+  edge of plausibility (Δχ² = 4, two standard errors) as the square root of 4 / Δχ², the
+  linear-model relation between a parameter's offset, its misfit and the change it causes;
+- the estimate is the largest scaled change, and infinite when a plausible fit's tip curve does
+  not even cover the range (the grid does not identify the suspension) or when the best fit
+  itself misses the grid by more than twice the noise (the model does not explain it).
+
+The profile doubles as a global search: when a profile point fits better than the local fit,
+the fit is refined from there before anything is estimated.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from whiskercal.errors import UsageError
+from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, fit_pose_map, exponents
+from whiskercal.mechfit.fit import MAX_STUB_FRACTION, MechanicsFit, _Objective, fit_mechanics
+from whiskercal.mechfit.tables import DEFAULT_KIND, DEFAULT_SAMPLES, monotone_z_range, z_lookup
+from whiskercal.mechfit.tipcurve import tip_family
+from whiskercal.model.lookup import TipLookup
+
+PROFILE_RATIOS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 10000.0)
+PLAUSIBLE_DELTA_CHI2 = 4.0   # two standard errors of one parameter
+IGNORED_DELTA_CHI2 = 400.0   # twenty: a fit this far off says nothing about the best one
+# A best fit whose residual is more than twice the noise (χ²/dof above 4) leaves something the
+# model does not explain (a suspension outside its family, a wrong trace length): not estimated.
+MAX_CHI2_PER_DOF = 4.0
+MIN_COVERAGE = 0.9           # share of the lookup's knots a plausible fit must also answer
+PROFILE_EVALUATIONS = 60
+COMPARISON_KNOTS = 41
+
+
+@dataclass
+class ProfilePoint:
+    """One fixed k_θ·L/EI: its misfit relative to the best fit and its tip curve's change (mm)."""
+
+    stiffness_ratio: float
+    chi2: float
+    lookup: TipLookup | None
+    delta_chi2: float = math.nan
+    tip_change_mm: float = math.nan
+
+    def row(self) -> dict:
+        return {"stiffness_ratio": self.stiffness_ratio, "delta_chi2": self.delta_chi2,
+                "tip_change_mm": self.tip_change_mm}
+
+
+@dataclass
+class MechanicsCalibration:
+    """A mechanics-informed tip model with its own error estimate.
+
+    Attributes
+    ----------
+    fit : MechanicsFit
+    lookup : TipLookup
+        z (µT) -> tip (mm) over the grid's z range where the model's z is one-to-one.
+    one_to_one_z_uT : (float, float)
+        The model's one-to-one z range from rest (µT), before the grid's range cuts it.
+    chi2_per_dof : float
+        Misfit of the best fit in the grid's standard errors (about 1 when the model and the
+        noise explain the grid).
+    estimated_tip_error_mm : float
+        The profile's estimate (mm); inf when the grid does not identify the suspension.
+    profile : list of ProfilePoint
+    """
+
+    fit: MechanicsFit
+    lookup: TipLookup
+    one_to_one_z_uT: tuple[float, float]
+    chi2_per_dof: float
+    estimated_tip_error_mm: float
+    profile: list[ProfilePoint] = field(default_factory=list)
+
+    @property
+    def stiffness_ratio(self) -> float:
+        """The fitted k_θ·L/EI."""
+        return 1.0 / self.fit.suspension.rot_compliance
+
+    def plausible_ratios(self) -> tuple[float, float]:
+        """The lowest and highest profiled k_θ·L/EI within two standard errors of the best."""
+        ratios = [p.stiffness_ratio for p in self.profile
+                  if p.delta_chi2 <= PLAUSIBLE_DELTA_CHI2] + [self.stiffness_ratio]
+        return min(ratios), max(ratios)
+
+
+def _theta_of(fit: MechanicsFit) -> np.ndarray:
+    s = fit.suspension
+    share = s.stub_mm / (s.trace_length_mm * MAX_STUB_FRACTION)
+    return np.array([math.log(s.rot_compliance), math.log(s.trans_compliance),
+                     math.log(share / (1.0 - share))])
+
+
+class _Problem:
+    """The grid and the weights every fit of one calibration shares."""
+
+    def __init__(self, rod_center_mm, z_uT, rod_radius_mm, trace_length_mm, noise_uT, z_range):
+        self.centers = np.asarray(rod_center_mm, float)
+        self.fields = np.asarray(z_uT, float).reshape(-1, 1)
+        self.radius, self.trace_mm = float(rod_radius_mm), float(trace_length_mm)
+        self.noise = np.atleast_1d(float(noise_uT))
+        self.z_range = z_range
+
+    def objective(self) -> _Objective:
+        return _Objective(self.trace_mm, self.centers, self.radius, self.fields, self.noise,
+                          DEFAULT_DEGREE)
+
+    def dof(self) -> int:
+        return max(len(self.centers) - 3 - len(exponents(DEFAULT_DEGREE)), 1)
+
+    def as_fit(self, objective: _Objective, theta: np.ndarray) -> tuple[MechanicsFit, float]:
+        """The fit at ``theta`` and its χ² (standard errors; a lost contact counts heavily)."""
+        chi2 = float(np.sum(objective(theta) ** 2))
+        suspension, poses, _ = objective.solve(theta)
+        pose_map, residual = fit_pose_map(poses, self.fields, DEFAULT_DEGREE)
+        fit = MechanicsFit(suspension, pose_map, poses, residual,
+                           np.sqrt(np.mean(residual ** 2, axis=0)), (0,), 0.0,
+                           objective.evaluations)
+        return fit, chi2
+
+    def lookup(self, fit: MechanicsFit, samples: int = DEFAULT_SAMPLES,
+               kind: str = DEFAULT_KIND) -> TipLookup | None:
+        try:
+            return z_lookup(fit, self.z_range, samples, kind)
+        except UsageError:
+            return None
+
+
+def _profile_point(problem: _Problem, best: np.ndarray, ratio: float) -> ProfilePoint:
+    objective = problem.objective()
+    fixed = math.log(1.0 / ratio)
+
+    def residual(free):
+        return objective(np.array([fixed, *free]))
+
+    start = np.array([best[1] + fixed - best[0], best[2]])
+    result = least_squares(residual, start, diff_step=1e-4, max_nfev=PROFILE_EVALUATIONS)
+    fit, chi2 = problem.as_fit(objective, np.array([fixed, *result.x]))
+    return ProfilePoint(ratio, chi2, problem.lookup(fit))
+
+
+def _refine(problem: _Problem, theta: np.ndarray) -> tuple[MechanicsFit, float]:
+    objective = problem.objective()
+    result = least_squares(objective, theta, diff_step=1e-4, xtol=1e-10, ftol=1e-10, max_nfev=200)
+    return problem.as_fit(objective, result.x)
+
+
+def tip_change_mm(base: TipLookup, other: TipLookup | None) -> float:
+    """RMS distance (mm) between two lookups' tips over the base's range; inf when ``other``
+    answers less than :data:`MIN_COVERAGE` of it."""
+    knots = np.linspace(base.z_min_uT, base.z_max_uT, COMPARISON_KNOTS)
+    if other is None:
+        return math.inf
+    inside = (knots >= other.z_min_uT) & (knots <= other.z_max_uT)
+    if inside.mean() < MIN_COVERAGE:
+        return math.inf
+    change = base(knots[inside]) - other(knots[inside])
+    return float(np.sqrt(np.mean(np.sum(change ** 2, axis=1))))
+
+
+def profile_estimate(profile: list[ProfilePoint]) -> float:
+    """The largest tip change scaled to the edge of plausibility (mm); see the module's text."""
+    scaled = [0.0]
+    for point in profile:
+        if point.delta_chi2 > IGNORED_DELTA_CHI2:
+            continue
+        factor = math.sqrt(PLAUSIBLE_DELTA_CHI2 / max(point.delta_chi2, PLAUSIBLE_DELTA_CHI2))
+        scaled.append(point.tip_change_mm * factor)
+    return max(scaled)
+
+
+def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_mm: float,
+                        noise_uT: float, samples: int = DEFAULT_SAMPLES,
+                        kind: str = DEFAULT_KIND) -> MechanicsCalibration:
+    """Fit the mechanics to a rod grid's contacts, profile it, and build its z -> tip lookup.
+
+    Parameters
+    ----------
+    rod_center_mm : ndarray (n, 2)
+        Rod centres of the contacts, whisker frame, in the stage's visiting order.
+    z_uT : ndarray (n,)
+        Y minus the static reading, µT.
+    rod_radius_mm, trace_length_mm : float
+    noise_uT : float
+        Typical standard error of a point's mean z, µT.
+
+    Raises
+    ------
+    UsageError
+        Too few contacts for the pose map, or no tip curve over the grid's z range.
+    """
+    z = np.asarray(z_uT, float)
+    problem = _Problem(rod_center_mm, z, rod_radius_mm, trace_length_mm, noise_uT,
+                       (float(z.min()), float(z.max())))
+    theta = _theta_of(fit_mechanics(problem.centers, z, problem.radius, problem.trace_mm,
+                                     problem.noise))
+    fit, chi2 = problem.as_fit(problem.objective(), theta)
+    profile = [_profile_point(problem, theta, ratio) for ratio in PROFILE_RATIOS]
+    best_profile = min(profile, key=lambda p: p.chi2)
+    if best_profile.chi2 < chi2:
+        theta[0] = math.log(1.0 / best_profile.stiffness_ratio)
+        refined, refined_chi2 = _refine(problem, theta)
+        if refined_chi2 < chi2:
+            fit, chi2 = refined, refined_chi2
+    lookup = problem.lookup(fit, samples, kind)
+    if lookup is None:
+        raise UsageError("the fitted mechanics' tip curve does not reach the grid's z range.")
+    variance = max(chi2 / problem.dof(), 1.0)
+    for point in profile:
+        point.delta_chi2 = max(point.chi2 - chi2, 0.0) / variance
+        point.tip_change_mm = tip_change_mm(lookup, point.lookup)
+    family_z = fit.pose_map(tip_family(fit.suspension).pose)[:, 0]
+    chi2_per_dof = chi2 / problem.dof()
+    estimate = profile_estimate(profile) if chi2_per_dof <= MAX_CHI2_PER_DOF else math.inf
+    return MechanicsCalibration(fit, lookup, monotone_z_range(family_z), chi2_per_dof, estimate,
+                                profile)
