@@ -45,7 +45,7 @@ def test_an_edited_golden_value_is_named_with_how_far_it_moved(short_copy):
     assert result.exit_code == 1
     assert "1 moved" in result.output
     assert "study.trial[20mm].filtered_mean_mm:" in result.output
-    assert "moved -0.01 (allowed 0.001" in result.output
+    assert "moved -0.01 (allowed 1e-06" in result.output
     assert "1 quantity moved beyond tolerance: twin-short-60mm:study.trial[20mm].filtered_mean_mm" \
         in result.stderr
 

@@ -9,8 +9,8 @@ from whiskercal.regress.tolerances import EXACT, ESTIMATE, LEAST_SQUARES, tolera
 
 
 def test_tolerance_allows_within_and_refuses_beyond_its_bound():
-    assert ESTIMATE.allows(0.25, 0.25 + 0.9e-3)
-    assert not ESTIMATE.allows(0.25, 0.25 + 1.1e-3)
+    assert ESTIMATE.allows(0.25, 0.25 + 0.9e-6)
+    assert not ESTIMATE.allows(0.25, 0.25 + 1.1e-6)
     # Relative part: 1e-7 of 14 µT is 1.4e-6 µT (plus the 1e-9 absolute part).
     assert LEAST_SQUARES.allows(14.0, 14.0 + 1.3e-6)
     assert not LEAST_SQUARES.allows(14.0, 14.0 + 1.6e-6)

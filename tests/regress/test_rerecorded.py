@@ -44,7 +44,7 @@ def test_a_median_z_may_move_two_counts_not_three():
 
 def test_the_runtime_tip_may_move_as_far_as_two_counts_of_target_z_move_it():
     slope = lookup_slope_mm_per_uT(GOLDEN)
-    assert 0.009 < slope < 0.012  # mm per µT along this lookup
+    assert 0.007 < slope < 0.009  # mm per µT along this lookup
     bound = rerecorded_tolerance("runtime.tip_x_mm_at_target", rerecorded_rules(Z_STEP, slope))
     assert bound.abs_tol == pytest.approx(2 * Z_STEP * slope)
     assert _moved("runtime.tip_x_mm_at_target", 0.9 * bound.abs_tol) == []
@@ -52,7 +52,7 @@ def test_the_runtime_tip_may_move_as_far_as_two_counts_of_target_z_move_it():
         "runtime.tip_y_mm_at_target"]
 
 
-@pytest.mark.parametrize("name, by", [("fit.rmse_uT", 1e-5), ("lookup.tip_x_mm[05]", 2e-3),
+@pytest.mark.parametrize("name, by", [("fit.rmse_uT", 1e-5), ("lookup.tip_x_mm[05]", 1e-5),
                                       ("study.trial[40mm].kink_depth_mm", 1e-5),
                                       ("study.trial[20mm].slid_mm", 1e-5),
                                       ("study.trial[35mm].unmapped_samples", 1),

@@ -48,8 +48,9 @@ class FitOptions:
     threshold_uT : float
         Collision threshold stored for the runtime, µT from the static reading.
     tip_model : str
-        "auto" (the mechanics-informed model where the grid identifies it, else the level set),
-        "mechanics" or "level-set" (``fit.tip_model``).
+        The lookup shipped: "level-set" (the paper's), "mechanics" (the mechanics-informed
+        model) or "auto" (the mechanics where the grid identifies it, else the level set). The
+        mechanics is fitted in every case for the error estimate (``fit.tip_model``).
     """
 
     degree: int | str = 5
@@ -63,7 +64,7 @@ class FitOptions:
     allow_extrapolation: bool = False
     rod_correction: bool = True
     threshold_uT: float = CollisionParams.threshold_uT
-    tip_model: str = "auto"
+    tip_model: str = "level-set"
 
     def __post_init__(self) -> None:
         # the degree's range is the model's to check (FitError), as it is for every caller

@@ -48,8 +48,8 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
     model_options = options.calibration_options(length_mm)
     calibration = _calibrate(raw, model_options, progress)
-    if progress is not None and options.tip_model != "level-set":
-        progress("mechanics-informed tip model")
+    if progress is not None:
+        progress("mechanics-informed tip model and the error estimate")
     calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
                                               options.samples)
     truth = compare_with_twin_truth(raw, calibration)

@@ -70,23 +70,22 @@ CONDITION = ToleranceClass(
     "condition", 0.0, 1e-6,
     "A condition number from an SVD: reordered sums change its trailing digits only.")
 TRACE = ToleranceClass(
-    "trace", 1e-3, 0.0,
-    "Tips of the tip model (mm) and what follows from them (lookup errors, runtime tips). The "
-    "mechanics-informed model comes from iterative least squares on a shallow optimum: a 1e-13 "
-    "relative change of the inputs (another BLAS's reordered sums) moves its tips by up to "
-    "1.5e-4 mm. 1 µm is that with margin, and 30 times below the model's own 0.03 mm error.")
+    "trace", 1e-6, 0.0,
+    "Tips traced along the level set (mm) and what follows from them (lookup errors, runtime "
+    "tips): the adaptive integrator (rtol 1e-7) reproduces them to about 1e-12 mm under reordered "
+    "sums; 1 nm is far above that and far below the 1e-4 mm the lookup resolves.")
 ESTIMATE = ToleranceClass(
-    "estimate", 1e-3, 0.0,
+    "estimate", 1e-6, 0.0,
     "Study errors (mm) from the lookup's tips through the Kalman filter: they inherit the trace "
-    "tolerance, 1 µm, against errors of 0.01 mm and more.")
+    "tolerance, 1 nm, against errors of 0.01 mm and more.")
 SCORE = ToleranceClass(
-    "score", 1e-3, 0.0,
+    "score", 1e-6, 0.0,
     "The target rule's scores (mm): sums of study errors, the estimate tolerance.")
 LOOKUP_RANGE = ToleranceClass(
-    "lookup_range", 1e-2, 1e-12,
-    "Lookup sample deflections (µT): evenly spaced between the grid's z extremes, or the tip "
-    "model's fold (where z stops falling along its tip curve), a fitted end that another BLAS "
-    "moves by up to 3e-3 µT; 0.01 µT against knots some 450 µT apart.")
+    "lookup_range", 1e-6, 1e-12,
+    "Lookup sample deflections (µT): evenly spaced between ends found by bisection on whether a "
+    "trace succeeds; rounding moves them only by the spacing's last digits, and a moved end means "
+    "the traceable range itself changed.")
 
 CLASSES = {c.name: c for c in (EXACT, MEASURED, LEAST_SQUARES, R_SQUARED, CONDITION, TRACE,
                                ESTIMATE, SCORE, LOOKUP_RANGE)}

@@ -73,10 +73,11 @@ def _summary(data, elapsed_s: float) -> dict:
 @click.option("--threshold-uT", "threshold_uT", default=300.0, show_default=True, type=float,
               help="Collision threshold stored for the runtime, µT from the static reading.")
 @click.option("--tip-model", type=click.Choice(["auto", "mechanics", "level-set"]),
-              default="auto", show_default=True,
-              help="Tip model: the mechanics-informed fit (suspension + elastica solved for tip "
-              "contact), the paper's level set, or auto: the mechanics where the grid pins the "
-              "suspension down, else the level set (docs/calibration.md).")
+              default="level-set", show_default=True,
+              help="Tip model shipped in the lookup: the paper's level set, the mechanics-"
+              "informed fit (suspension + elastica solved for a frictionless tip contact), or "
+              "auto: the mechanics where the grid pins the suspension down. The mechanics is "
+              "fitted either way for the error estimate (docs/calibration.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit summary as JSON.")
 @pass_app
 def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, samples: int,
