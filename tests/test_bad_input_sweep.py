@@ -39,6 +39,7 @@ FILES = {
     "tiny.csv": b"time,field\n0,1\n",
     "headeronly.csv": b"t,y\n",
     "empty.csv": b"",
+    "left.h5.journal": b"{}\n",  # a run killed before its dataset was written leaves this alone
 }
 
 STAGE, SENSOR = "sim://{w}/stage", "sim://{w}/sensor"
@@ -62,6 +63,7 @@ CASES = [
     ("fit raw.h5 --out o.h5 --trace-length-mm -5", 2, "trace_length_mm"),
     ("fit raw.h5 --out o.h5 --trace-length-mm inf", 2, "trace_length_mm"),
     ("fit raw.h5 --out o.h5 --entry-radius-mm nan", 2, "--entry-radius-mm"),
+    ("fit raw.h5 --out o.h5 --entry-radius-mm 50", 2, "--entry-radius-mm must lie between 0 and half"),
     ("fit raw.h5 --out o.h5 --max-extension-mm nan", 2, "max_extension_mm"),
     ("fit raw.h5 --out o.h5 --threshold-uT -5", 2, "collision threshold"),
     ("fit raw.h5 --out o.h5 --threshold-uT inf", 2, "collision threshold"),
@@ -110,6 +112,7 @@ CASES = [
     ("--out c.h5 --config inverted.toml", 2, "reach_min_mm < reach_max_mm"),
     ("--out c.h5 --config loss.toml", 2, "max_frame_loss"),
     ("--out raw.h5", 2, "already exists"),
+    ("--out left.h5", 2, "left.h5.journal is the journal of an interrupted run"),
     ("--out c.h5 --resume", 2, "nothing to resume"),
     ("--out trunc_raw.h5 --resume", 2, "truncated"),
     ("--out study.h5 --resume", 2, "cannot resume"),

@@ -225,3 +225,16 @@ def test_one_untraceable_level_inside_the_range_is_a_warning_not_an_abort(rigid_
     assert [w for w in result.warnings if "could not be traced" in w] == [
         f"the level set at z = {bad:.0f} µT could not be traced (no convergence at z = "
         f"{bad:.1f} µT); skipped: the lookup bridges it from the traced levels beside it"]
+
+
+def test_the_truth_of_a_soft_suspension_is_its_tip_curves_first_branch():
+    # short-45mm-soft: z folds back at about -14,000 µT and rises to about -1,400 µT, so past the
+    # fold a second branch of tips, up to 60 mm from the first, shares the lookup's z range
+    from whiskercal.fit.truth import true_tips_in_range
+    from whiskercal.twin import truth
+    from whiskercal.twin.sensor_file import load_sensor
+
+    soft = load_sensor(ROOT / "sensors" / "short-45mm-soft.toml")
+    z, tips = true_tips_in_range(soft, -10000.0, -100.0)
+    assert z.size > 20 and np.all(np.diff(z) < 0)
+    assert np.max(np.abs(tips - truth.true_tip(soft, z))) < 1e-6

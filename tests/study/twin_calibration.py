@@ -55,8 +55,9 @@ def write_twin_calibration(path: Path, sensor=DEFAULT_SENSOR) -> Path:
     return path
 
 
-def run_twin_study(folder: Path, config_text: str, world: str, seed: int):
-    """Run a study on a fresh twin plane world through the serial clients.
+def run_twin_study(folder: Path, config_text: str, world: str, seed: int, sensor: str | None = None):
+    """Run a study on a fresh twin plane world through the serial clients; ``sensor``: a
+    sensor TOML file for the twin (the default sensor when None).
 
     Returns the study file, its config and the world (for the ground truth).
     """
@@ -67,7 +68,8 @@ def run_twin_study(folder: Path, config_text: str, world: str, seed: int):
 
     (folder / "study.toml").write_text(config_text)
     config = load_config(folder / "study.toml")
-    stage_port = simport.Serial(f"sim://{world}/stage?scene=plane&seed={seed}", timeout=1.0)
+    build = "" if sensor is None else f"&sensor={sensor}"
+    stage_port = simport.Serial(f"sim://{world}/stage?scene=plane&seed={seed}{build}", timeout=1.0)
     sensor_port = simport.Serial(f"sim://{world}/sensor", timeout=1.0)
     run_study(stage_port, sensor_port, folder / "STUDY.h5", config)
     return folder / "STUDY.h5", config, sensor_port.world

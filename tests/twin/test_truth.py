@@ -139,3 +139,25 @@ def test_a_soft_suspension_has_a_truth_up_to_where_its_tip_contact_holds():
         assert true_tip(soft, z[k], n=41) == pytest.approx(tips[k], abs=1e-6)
     with pytest.raises(UsageError, match="range"):
         true_tip(soft, z[fold] - 100.0, n=41)
+
+
+def _default_with_softer_root(factor: float):
+    """The default sensor with its root ``factor`` times less stiff against turning, built the
+    way a sensor file is (k_θ 6.0 -> 0.6 N·mm/rad for factor 10)."""
+    from whiskercal.twin.sensor_file import sensor_from_dict, sensor_to_dict
+
+    data = sensor_to_dict(DEFAULT_SENSOR)
+    data["sensor_id"] = f"default-root-softer-{factor:g}x"
+    data["whisker"]["root_rotational_stiffness_n_mm_per_rad"] /= factor
+    return sensor_from_dict(data, "test")
+
+
+def test_a_root_ten_times_softer_has_a_truth_up_to_its_fold():
+    # the rod that holds tip contact would have had to stand at the clamp (x < 3 mm)
+    soft = _default_with_softer_root(10.0)
+    z, tips = tip_curve(soft, 81)
+    assert np.all(np.isfinite(z)) and np.all(np.isfinite(tips))
+    fold = int(np.argmin(z))
+    assert 3 < fold < 80 and np.all(np.diff(z[:fold + 1]) < 0)
+    for k in (1, fold // 2, fold):
+        assert true_tip(soft, z[k], n=81) == pytest.approx(tips[k], abs=1e-6)

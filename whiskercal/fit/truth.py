@@ -69,10 +69,14 @@ class TruthComparison:
 
 def true_tips_in_range(sensor, z_low_uT: float, z_high_uT: float,
                        n: int = TRUTH_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
-    """The twin sensor's tip-curve samples with z in [low, high] µT: z (m,), true tips (m, 2) mm."""
+    """The twin sensor's tip-curve samples with z in [low, high] µT: z (m,), true tips (m, 2) mm.
+
+    Only the curve's first branch: on a soft suspension z folds back, and the tips past the fold
+    (tens of mm from the first branch's at the same z) are not what a z -> tip lookup is for.
+    """
     from whiskercal.twin import truth
 
-    z, tips = truth.tip_curve(sensor, n)
+    z, tips = truth.first_branch(*truth.tip_curve(sensor, n))
     inside = (z >= z_low_uT) & (z <= z_high_uT)
     return z[inside], tips[inside]
 

@@ -262,14 +262,23 @@ def _tip_interpolant(sensor: SensorParams, n: int) -> tuple[CubicSpline, float]:
     On a soft suspension z folds back (the wire swings round its root and the magnet turns past
     its steepest reading): beyond the fold two tips share one z, so the truth ends there.
     """
-    z, tip = tip_curve(sensor, n)
-    turned = np.flatnonzero(np.diff(z) >= 0)
-    end = int(turned[0]) if turned.size else z.size - 1  # the last sample of the first branch
-    if end < 3:
+    z, tip = first_branch(*tip_curve(sensor, n))
+    if z.size < 4:
         raise UsageError(f"z of sensor {sensor.sensor_id!r} is not monotonic in the deflection; "
                          "its tip curve cannot be inverted.")
-    z, tip = z[:end + 1], tip[:end + 1]
     return CubicSpline(z[::-1], tip[::-1], axis=0), float(z[-1])
+
+
+def first_branch(z_uT: np.ndarray, tip_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A tip curve's samples (z µT, tips mm) up to where z folds back.
+
+    On a soft suspension z stops falling as the wire swings round its root, and past that fold
+    a second branch of tips shares the first one's z: the truth of a z is its first-branch tip,
+    which is what :func:`true_tip` inverts.
+    """
+    turned = np.flatnonzero(np.diff(z_uT) >= 0)
+    end = int(turned[0]) if turned.size else len(z_uT) - 1  # the last sample of the first branch
+    return z_uT[:end + 1], tip_mm[:end + 1]
 
 
 def true_tip(sensor: SensorParams, z_uT, n: int = 161) -> np.ndarray:
