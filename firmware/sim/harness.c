@@ -1,0 +1,117 @@
+// Runs a sketch's .hex on an emulated ATmega328P at 16 MHz with the board's parts attached, and
+// serves the line protocol of harness.h. Usage: avr_harness sensor|stage FIRMWARE.hex
+#include "harness.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include <avr_uart.h>
+#include <sim_hex.h>
+
+#include "mlx90393_part.h"
+
+enum { F_CPU_HZ = 16000000, MLX_ADDRESS = 0x0C };
+
+static avr_t* avr;
+static avr_irq_t* uart_input;
+static mlx90393_part mlx;
+
+void harness_say(const char* line) {
+    fputs(line, stdout);
+    fputc('\n', stdout);
+}
+
+void harness_ask(const char* request, char* answer, size_t size) {
+    harness_say(request);
+    fflush(stdout);
+    if (!fgets(answer, (int)size, stdin)) exit(0);  // the host has gone
+}
+
+static void on_uart_byte(avr_irq_t* irq, uint32_t value, void* param) {
+    (void)irq;
+    (void)param;
+    printf("U %llu %02x\n", (unsigned long long)avr->cycle, value & 0xFF);
+}
+
+// No wall-clock waits: the host decides how fast emulated time runs.
+static void sleep_not(avr_t* a, avr_cycle_count_t how_long) {
+    (void)a;
+    (void)how_long;
+}
+
+static int load_hex(const char* path) {
+    ihex_chunk_p chunks = NULL;
+    int count = read_ihex_chunks(path, &chunks);
+    if (count <= 0) return 0;
+    for (int i = 0; i < count; ++i) {
+        if (chunks[i].baseaddr < 0x800000) avr_loadcode(avr, chunks[i].data, chunks[i].size, chunks[i].baseaddr);
+    }
+    free_ihex_chunks(chunks);
+    return 1;
+}
+
+static void attach_uart(void) {
+    uint32_t flags = 0;  // neither usleep while the sketch polls nor echo to the console
+    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), on_uart_byte, NULL);
+    uart_input = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+}
+
+static void run_to(avr_cycle_count_t target) {
+    while (avr->cycle < target) {
+        int state = avr_run(avr);
+        if (state == cpu_Done || state == cpu_Crashed) {
+            printf("X %llu crashed\n", (unsigned long long)avr->cycle);
+            fflush(stdout);
+            exit(3);
+        }
+    }
+}
+
+static void feed_uart(const char* hex) {
+    unsigned byte;
+    while (sscanf(hex, "%2x", &byte) == 1) {
+        avr_raise_irq(uart_input, byte);
+        hex += 2;
+    }
+}
+
+static void serve(void) {
+    char line[HARNESS_LINE_MAX];
+    while (fgets(line, sizeof line, stdin)) {
+        if (line[0] == 'R') {
+            run_to(strtoull(line + 1, NULL, 10));
+        } else if (line[0] == 'I') {
+            feed_uart(line + 2);
+        } else if (line[0] == 'Q') {
+            break;
+        } else {
+            fprintf(stderr, "avr_harness: unknown request %s", line);
+        }
+        printf("K %llu\n", (unsigned long long)avr->cycle);
+        fflush(stdout);
+    }
+}
+
+int main(int argc, char** argv) {
+    if (argc != 3 || (strcmp(argv[1], "sensor") != 0 && strcmp(argv[1], "stage") != 0)) {
+        fprintf(stderr, "usage: avr_harness sensor|stage FIRMWARE.hex\n");
+        return 2;
+    }
+    avr = avr_make_mcu_by_name("atmega328p");
+    if (!avr) return 1;
+    avr_init(avr);
+    avr->frequency = F_CPU_HZ;
+    avr->sleep = sleep_not;
+    avr->log = LOG_ERROR;
+    if (!load_hex(argv[2])) {
+        fprintf(stderr, "avr_harness: cannot read %s\n", argv[2]);
+        return 1;
+    }
+    attach_uart();
+    if (strcmp(argv[1], "sensor") == 0) mlx90393_part_init(avr, &mlx, MLX_ADDRESS);
+    printf("K %llu\n", (unsigned long long)avr->cycle);
+    fflush(stdout);
+    serve();
+    return 0;
+}
