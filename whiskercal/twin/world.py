@@ -118,6 +118,18 @@ class World:
         with self.lock:
             self._boards.detach(board)
 
+    def use_emulated_sensor_board(self):
+        """Put the compiled firmware on simavr in place of the Python sensor board (once);
+        the board in use. Raises ``SerialException`` when the emulation is not built."""
+        from whiskercal.twin.devices.avr_board import AvrSensorBoard
+
+        with self.lock:
+            if not isinstance(self.sensor_board, AvrSensorBoard):
+                board = AvrSensorBoard(self.reading, self.now_s, self.config.clock_drift_ppm)
+                self._boards.detach(self.sensor_board)
+                self.sensor_board = self._boards.sensor = board
+            return self.sensor_board
+
     # -- geometry ---------------------------------------------------------------------------
     def stage_true_mm(self, t: float) -> np.ndarray:
         """Where the carriage really is at time ``t``, in (homed) machine coordinates, mm."""
