@@ -29,7 +29,9 @@ bool sampler_fits(uint16_t rate_hz, uint8_t osr, uint8_t filt) {
 
 void sampler_start(sampler_state& s, uint32_t now_us) {
     s.period_us = 1000000UL / s.rate_hz;
-    s.next_due_us = now_us;
+    // The first conversion one period after START, as every later one: the START answer is
+    // framed before the loop polls again, so starting "now" made the first period short.
+    s.next_due_us = now_us + s.period_us;
     s.converting = false;
     s.sensor_configured = false;  // settings may have changed while stopped
     s.carried_status = 0;

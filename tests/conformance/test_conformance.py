@@ -8,7 +8,7 @@ import pytest
 
 import sensor_script
 import stage_script
-from conformance_ports import BACKENDS, open_firmware, open_hardware, open_twin
+from conformance_ports import BACKENDS, open_emulated, open_firmware, open_hardware, open_twin
 
 
 def _open(backend: str, board: str):
@@ -16,6 +16,8 @@ def _open(backend: str, board: str):
         return open_firmware("stage_stepper" if board == "stage" else "whisker_nano")
     if backend == "hardware":
         return open_hardware(board)
+    if backend == "avr":
+        return open_emulated(board)
     return open_twin(board)
 
 
@@ -27,9 +29,14 @@ def port(request):
     opened.close()
 
 
+# The compiled images on simavr: the sensor board so far.
+EMULATED_BOARDS = ("sensor",)
+
+
 def _cases(board, checks):
+    backends = BACKENDS + (("avr",) if board in EMULATED_BOARDS else ())
     cases = [pytest.param((backend, board), check, id=f"{backend}-{check.__name__[6:]}")
-             for backend in BACKENDS for check in checks]
+             for backend in backends for check in checks]
     # The same scripts against flashed boards: opt-in, the stage moves (and homes) for real.
     return cases + [pytest.param(("hardware", board), check, id=f"hardware-{check.__name__[6:]}",
                                  marks=pytest.mark.hardware) for check in checks]
@@ -103,3 +110,18 @@ def test_sensor_firmware_and_twin_answer_alike():
         finally:
             port.close()
     assert answers[0] == answers[1]
+
+
+def test_sensor_image_on_simavr_answers_as_the_host_build():
+    port = open_emulated("sensor")
+    try:
+        link = sensor_script.SensorLink(port)
+        emulated = [(line, link.command(line)) for line in SENSOR_LINES]
+    finally:
+        port.close()
+    host = open_firmware("whisker_nano")
+    try:
+        link = sensor_script.SensorLink(host)
+        assert emulated == [(line, link.command(line)) for line in SENSOR_LINES]
+    finally:
+        host.close()
