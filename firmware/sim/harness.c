@@ -9,12 +9,15 @@
 #include <sim_hex.h>
 
 #include "mlx90393_part.h"
+#include "stage_part.h"
 
 enum { F_CPU_HZ = 16000000, MLX_ADDRESS = 0x0C };
 
 static avr_t* avr;
 static avr_irq_t* uart_input;
 static mlx90393_part mlx;
+static stage_part stage;
+static int is_stage;
 
 void harness_say(const char* line) {
     fputs(line, stdout);
@@ -81,6 +84,10 @@ static void serve(void) {
     while (fgets(line, sizeof line, stdin)) {
         if (line[0] == 'R') {
             run_to(strtoull(line + 1, NULL, 10));
+            if (is_stage) stage_part_report(&stage);
+        } else if (line[0] == 'L' && is_stage) {
+            long x = 0, y = 0;
+            if (sscanf(line + 1, "%ld %ld", &x, &y) == 2) stage_part_set_switches(&stage, (int32_t)x, (int32_t)y);
         } else if (line[0] == 'I') {
             feed_uart(line + 2);
         } else if (line[0] == 'Q') {
@@ -109,7 +116,12 @@ int main(int argc, char** argv) {
         return 1;
     }
     attach_uart();
-    if (strcmp(argv[1], "sensor") == 0) mlx90393_part_init(avr, &mlx, MLX_ADDRESS);
+    is_stage = strcmp(argv[1], "stage") == 0;
+    if (is_stage) {
+        stage_part_init(avr, &stage);
+    } else {
+        mlx90393_part_init(avr, &mlx, MLX_ADDRESS);
+    }
     printf("K %llu\n", (unsigned long long)avr->cycle);
     fflush(stdout);
     serve();

@@ -41,30 +41,25 @@ SETUP_S = 0.001
 
 @dataclass
 class AvrSensorFaults:
-    """The faults the port can inject on the emulated board: its disconnect time (s)."""
+    """The faults the port sets on an emulated board: its disconnect time (s)."""
 
     disconnect_at_s: float | None = None
 
 
-class AvrSensorBoard:
-    """The sensor board played by ``whisker_nano.hex`` (see the module docstring).
+class AvrBoard:
+    """A board of the twin played by a sketch's .hex on simavr: time, the UART and the line.
 
-    Parameters
-    ----------
-    reading
-        The world's ``reading(times_s, config) -> (counts, saturated)``.
-    now_s
-        The world's time when the board is plugged in (its power-up).
-    clock_drift_ppm
-        How fast the board's 16 MHz resonator runs against simulated time.
+    Subclasses name the sketch (``kind``: ``sensor`` or ``stage``) and answer the harness's
+    requests (:meth:`_answer`); ``now_s`` is the world's time when the board is plugged in (its
+    power-up), ``clock_drift_ppm`` how fast its 16 MHz resonator runs against simulated time.
     """
 
-    def __init__(self, reading: Reading, now_s: float, clock_drift_ppm: float = 0.0) -> None:
-        self.reading = reading
+    kind = ""
+
+    def __init__(self, now_s: float, clock_drift_ppm: float = 0.0) -> None:
         self.faults = AvrSensorFaults()
         self.line = SerialLine()
         self.cycles_per_s = F_CPU_HZ * (1 + clock_drift_ppm * 1e-6)
-        self.conversions = 0
         self.now_s = now_s
         self._start(now_s)
 
@@ -72,7 +67,13 @@ class AvrSensorBoard:
         self.powered_at_s = t
         self._input: deque[tuple[float, bytes]] = deque()
         self._active_until_s = t + IDLE_S  # the sketch starts up
-        self.harness = AvrHarness("sensor", self._answer)
+        self.harness = AvrHarness(self.kind, self._answer, self._report)
+
+    def _answer(self, words: list[str]) -> str:
+        raise ValueError(f"unexpected request from the AVR emulation harness: {' '.join(words)}")
+
+    def _report(self, words: list[str]) -> None:
+        """A line of the harness that needs no answer."""
 
     # -- time -------------------------------------------------------------------------------
     def _cycle(self, t: float) -> int:
@@ -117,16 +118,9 @@ class AvrSensorBoard:
             self.line.send(bytes(chunk), self._time(first))
             self._active_until_s = self._time(last) + IDLE_S
 
-    # -- the emulated MLX90393 asks for a conversion -----------------------------------------
-    def _answer(self, words: list[str]) -> str:
-        if words[0] != "F":
-            raise ValueError(f"unexpected request from the AVR emulation harness: {' '.join(words)}")
-        gain, res, osr, filt = (int(word) for word in words[2:6])
-        config = SensorConfig(gain=gain, res=res, osr=osr, filt=filt)
-        counts, _ = self.reading(np.array([self._time(int(words[1]))]), config)
-        self.conversions += 1
-        x, y, z = (int(c) for c in counts[0])
-        return f"{x} {y} {z} {int(round(conversion_time_ms(osr, filt) * 1000))}"
+    def keep_active(self, until_s: float) -> None:
+        """Step time in quanta at least until ``until_s`` (the board is doing something)."""
+        self._active_until_s = max(self._active_until_s, until_s)
 
     # -- the host's side ----------------------------------------------------------------------
     def power_up(self, t: float) -> None:
@@ -142,9 +136,39 @@ class AvrSensorBoard:
         start = max(t, self.powered_at_s + SETUP_S, self._input[-1][0] if self._input else t)
         for offset in range(0, len(data), UART_INPUT_CHUNK):
             self._input.append((start + self.line.byte_time_s(offset), bytes(data[offset:offset + UART_INPUT_CHUNK])))
-        self._active_until_s = max(self._active_until_s, t + IDLE_S)
+        self.keep_active(t + IDLE_S)
         self.advance_to(t)
 
     def close(self) -> None:
         """Stop the emulation."""
         self.harness.close()
+
+
+class AvrSensorBoard(AvrBoard):
+    """The sensor board played by ``whisker_nano.hex`` (see the module docstring).
+
+    Parameters
+    ----------
+    reading
+        The world's ``reading(times_s, config) -> (counts, saturated)``.
+    now_s, clock_drift_ppm
+        As for :class:`AvrBoard`.
+    """
+
+    kind = "sensor"
+
+    def __init__(self, reading: Reading, now_s: float, clock_drift_ppm: float = 0.0) -> None:
+        self.reading = reading
+        self.conversions = 0
+        super().__init__(now_s, clock_drift_ppm)
+
+    def _answer(self, words: list[str]) -> str:
+        """The emulated MLX90393 starts a conversion: the world's counts at that moment."""
+        if words[0] != "F":
+            return super()._answer(words)
+        gain, res, osr, filt = (int(word) for word in words[2:6])
+        config = SensorConfig(gain=gain, res=res, osr=osr, filt=filt)
+        counts, _ = self.reading(np.array([self._time(int(words[1]))]), config)
+        self.conversions += 1
+        x, y, z = (int(c) for c in counts[0])
+        return f"{x} {y} {z} {int(round(conversion_time_ms(osr, filt) * 1000))}"

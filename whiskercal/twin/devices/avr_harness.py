@@ -22,6 +22,8 @@ SKETCHES = {"sensor": "whisker_nano", "stage": "stage_stepper"}
 
 # a harness request line (split into words) -> the answer line
 Responder = Callable[[list[str]], str]
+# a harness report line that needs no answer (the stage's step counters)
+Reporter = Callable[[list[str]], None]
 
 
 def firmware_build_dir() -> Path:
@@ -69,9 +71,10 @@ def _stop(process: subprocess.Popen) -> None:
 class AvrHarness:
     """One running harness: an ATmega328P with ``board``'s sketch, at AVR cycle ``cycle``."""
 
-    def __init__(self, board: str, responder: Responder) -> None:
+    def __init__(self, board: str, responder: Responder, reporter: Reporter | None = None) -> None:
         harness, image = harness_files(board)
         self.responder = responder
+        self.reporter = reporter
         self._process = subprocess.Popen([str(harness), board, str(image)], stdin=subprocess.PIPE,
                                          stdout=subprocess.PIPE, text=True, bufsize=1)
         self._finalizer = weakref.finalize(self, _stop, self._process)
@@ -103,6 +106,8 @@ class AvrHarness:
                 return sent
             elif words[0] == "X":
                 raise SerialException(f"the emulated AVR crashed at cycle {words[1]}")
+            elif words[0] == "P" and self.reporter is not None:
+                self.reporter(words)
             else:
                 self._send(self.responder(words))
 
@@ -118,6 +123,11 @@ class AvrHarness:
         if data:
             self._send(f"I {data.hex()}")
             self._expect_done()
+
+    def send_request(self, line: str) -> None:
+        """A request that only gets "K" (e.g. the stage's ``L`` switch positions)."""
+        self._send(line)
+        self._expect_done()
 
     def close(self) -> None:
         """Stop the process."""
