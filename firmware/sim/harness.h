@@ -10,8 +10,9 @@
 //                                           K <cycle>          the run (or input) is done
 //   I <hex>      bytes into the UART        K <cycle>
 //   (stage)                                 P <cycle> <x> <y>  motor steps, before each run's K
-//   L <x> <y>    where the limit switches   A <cycle> <axis>   an AS5600 is read: the host answers
-//                close, in motor steps                         "<status> <raw angle>" or "nack"
+//   L <x> <y>    where the limit switches   A <cycle> <axis> <x> <y>  an AS5600 is read (with the
+//                close, in motor steps          step counters): the host answers
+//                                               "<status> <raw angle>" or "nack"
 //   Q            quit
 //
 // The harness only advances the AVR when told to, so emulated time is the host's to keep.

@@ -42,7 +42,8 @@ static int ask_encoder(stage_part* p) {
     int axis = (p->mux_channels & 1) ? 0 : (p->mux_channels & 2) ? 1 : -1;
     if (axis < 0) return 0;  // no channel open: nothing answers at 0x36
     char request[64], reply[HARNESS_LINE_MAX];
-    snprintf(request, sizeof request, "A %llu %d", (unsigned long long)p->avr->cycle, axis);
+    snprintf(request, sizeof request, "A %llu %d %ld %ld", (unsigned long long)p->avr->cycle, axis,
+             (long)p->steps[0], (long)p->steps[1]);
     harness_ask(request, reply, sizeof reply);
     unsigned status = 0, raw = 0;
     if (sscanf(reply, "%u %u", &status, &raw) != 2) return 0;

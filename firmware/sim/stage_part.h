@@ -4,7 +4,8 @@
 // (pressed reads low), and a TCA9548A (0x70) with an AS5600 (0x36) on channels 0 and 1.
 // The host keeps the mechanics: it gets the step counters at the end of every run ("P" line),
 // sets where the switches close in steps ("L" request), and answers each encoder transaction
-// ("A <cycle> <axis>" -> "<status> <raw angle>", or "nack" for an encoder that does not answer).
+// ("A <cycle> <axis> <x steps> <y steps>" -> "<status> <raw angle>", or "nack" for an encoder
+// that does not answer).
 #ifndef WC_SIM_STAGE_PART_H
 #define WC_SIM_STAGE_PART_H
 

@@ -130,6 +130,21 @@ class World:
                 self.sensor_board = self._boards.sensor = board
             return self.sensor_board
 
+    def use_emulated_stage_board(self):
+        """Put the compiled stage firmware on simavr in place of the Python stage board (once):
+        its step counters move the carriage from now on. The board in use."""
+        from whiskercal.twin.devices.avr_stage import AvrStageBoard
+
+        with self.lock:
+            if not isinstance(self.stage_board, AvrStageBoard):
+                board = AvrStageBoard(self.stage.carriage_mm(self.now_s), self.now_s,
+                                      self.config.backlash_mm, self.config.stage_faults)
+                self._boards.detach(self.stage_board)
+                self.stage_board = self._boards.stage = board
+                self.stage = board.trace
+                self.contact.use_path_length(board.trace.path_length_mm)
+            return self.stage_board
+
     # -- geometry ---------------------------------------------------------------------------
     def stage_true_mm(self, t: float) -> np.ndarray:
         """Where the carriage really is at time ``t``, in (homed) machine coordinates, mm."""

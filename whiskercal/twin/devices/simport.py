@@ -101,13 +101,11 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
     return world
 
 
-def _firmware(options: dict[str, list[str]], board: str) -> str:
+def _firmware(options: dict[str, list[str]]) -> str:
     """The port's ``firmware=`` option: ``""`` (the Python board) or ``avr`` (the .hex on simavr)."""
     firmware = options.get("firmware", [""])[-1]
     if firmware not in ("", "avr"):
         raise UsageError(f"sim:// option firmware must be avr (the compiled image on simavr), not {firmware!r}")
-    if firmware and board != "sensor":
-        raise SerialException("firmware=avr is available for sim://NAME/sensor only so far")
     return firmware
 
 
@@ -149,7 +147,9 @@ class Serial(SerialBase):
                                   "give the options on the first port only")
         self.world = world
         self.board_kind = board
-        if _firmware(options, board) == "avr":
+        if _firmware(options) == "avr" and board == "stage":
+            world.use_emulated_stage_board()
+        elif _firmware(options) == "avr":
             world.use_emulated_sensor_board()
         self.board = world.stage_board if board == "stage" else world.sensor_board
         self.disconnect_at_s = next((w for n, w, _ in _faults(options) if n == "disconnect"), math.inf)
