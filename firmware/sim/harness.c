@@ -11,7 +11,13 @@
 #include "mlx90393_part.h"
 #include "stage_part.h"
 
-enum { F_CPU_HZ = 16000000, MLX_ADDRESS = 0x0C };
+enum {
+    F_CPU_HZ = 16000000,
+    MLX_ADDRESS = 0x0C,
+    RAM_START = 0x100,   // ATmega328P: 2 KiB of SRAM at 0x100..0x8FF
+    RAM_END = 0x8FF,
+    PAINT = 0xA5,
+};
 
 static avr_t* avr;
 static avr_irq_t* uart_input;
@@ -53,6 +59,33 @@ static int load_hex(const char* path) {
     return 1;
 }
 
+// Fills the SRAM with a pattern before the sketch starts: the C runtime then writes .data and
+// .bss, the stack overwrites what it reaches, and the untouched run in between is what was never
+// used (read back with "M").
+static void paint_ram(void) {
+    for (int address = RAM_START; address <= RAM_END; ++address) avr->data[address] = PAINT;
+}
+
+// "M <cycle> <stack bytes> <never used bytes>": the deepest the stack went since power-up, from
+// the longest painted run (the gap between .bss and the stack's low-water mark).
+static void report_memory(void) {
+    int best_start = RAM_END + 1, best_length = 0;
+    for (int address = RAM_START; address <= RAM_END;) {
+        if (avr->data[address] != PAINT) {
+            ++address;
+            continue;
+        }
+        int start = address;
+        while (address <= RAM_END && avr->data[address] == PAINT) ++address;
+        if (address - start > best_length) {
+            best_length = address - start;
+            best_start = start;
+        }
+    }
+    int stack_bytes = RAM_END - (best_start + best_length) + 1;
+    printf("M %llu %d %d\n", (unsigned long long)avr->cycle, stack_bytes, best_length);
+}
+
 static void attach_uart(void) {
     uint32_t flags = 0;  // neither usleep while the sketch polls nor echo to the console
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
@@ -88,6 +121,8 @@ static void serve(void) {
         } else if (line[0] == 'L' && is_stage) {
             long x = 0, y = 0;
             if (sscanf(line + 1, "%ld %ld", &x, &y) == 2) stage_part_set_switches(&stage, (int32_t)x, (int32_t)y);
+        } else if (line[0] == 'M') {
+            report_memory();
         } else if (line[0] == 'I') {
             feed_uart(line + 2);
         } else if (line[0] == 'Q') {
@@ -115,6 +150,7 @@ int main(int argc, char** argv) {
         fprintf(stderr, "avr_harness: cannot read %s\n", argv[2]);
         return 1;
     }
+    paint_ram();
     attach_uart();
     is_stage = strcmp(argv[1], "stage") == 0;
     if (is_stage) {

@@ -13,6 +13,7 @@
 //   L <x> <y>    where the limit switches   A <cycle> <axis> <x> <y>  an AS5600 is read (with the
 //                close, in motor steps          step counters): the host answers
 //                                               "<status> <raw angle>" or "nack"
+//   M            stack use                  M <cycle> <stack bytes> <never used bytes>, then K
 //   Q            quit
 //
 // The harness only advances the AVR when told to, so emulated time is the host's to keep.

@@ -1,6 +1,7 @@
 #include "stage_part.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <avr_ioport.h>
@@ -31,6 +32,7 @@ static void on_step(stage_part* p, int axis, uint32_t value, uint32_t previous) 
     if (p->avr->data[PORTB_ADDRESS] & ENABLE_BIT) return;  // drivers disabled
     p->steps[axis] += (p->avr->data[PORTD_ADDRESS] & DIR_MASK[axis]) ? -1 : 1;
     ++p->step_events;
+    if (p->step_log) fprintf(p->step_log, "%d %llu\n", axis, (unsigned long long)p->avr->cycle);
     update_switches(p);
 }
 
@@ -110,6 +112,8 @@ void stage_part_init(avr_t* avr, stage_part* part) {
     memset(part, 0, sizeof *part);
     part->avr = avr;
     part->switch_steps[0] = part->switch_steps[1] = INT32_MIN;  // until the host says
+    const char* log_path = getenv("WC_SIM_STEP_LOG");  // "<axis> <cycle>" per step edge, for timing figures
+    if (log_path && *log_path) part->step_log = fopen(log_path, "w");
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), STEP_PIN[0]), on_step_x, part);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), STEP_PIN[1]), on_step_y, part);
     part->twi_irq = avr_alloc_irq(&avr->irq_pool, 0, 2, IRQ_NAMES);

@@ -10,6 +10,7 @@
 #define WC_SIM_STAGE_PART_H
 
 #include <stdint.h>
+#include <stdio.h>
 
 #include <sim_avr.h>
 #include <sim_irq.h>
@@ -25,6 +26,7 @@ typedef struct stage_part {
     int encoder_answers;        // the addressed encoder answered the host's "A" request
     uint8_t as5600_pointer;
     uint8_t as5600_registers[16];
+    FILE* step_log;             // WC_SIM_STEP_LOG: every step edge, for the timing figures
 } stage_part;
 
 void stage_part_init(avr_t* avr, stage_part* part);

@@ -106,8 +106,9 @@ class AvrHarness:
                 return sent
             elif words[0] == "X":
                 raise SerialException(f"the emulated AVR crashed at cycle {words[1]}")
-            elif words[0] == "P" and self.reporter is not None:
-                self.reporter(words)
+            elif words[0] == "P":
+                if self.reporter is not None:
+                    self.reporter(words)
             else:
                 self._send(self.responder(words))
 
@@ -128,6 +129,16 @@ class AvrHarness:
         """A request that only gets "K" (e.g. the stage's ``L`` switch positions)."""
         self._send(line)
         self._expect_done()
+
+    def stack_use(self) -> tuple[int, int]:
+        """(deepest stack since power-up, SRAM bytes never written), bytes: the harness paints
+        the SRAM before the sketch starts and reads it back."""
+        self._send("M")
+        words = self._line()
+        if words[0] != "M":
+            raise SerialException(f"the AVR emulation harness answered {' '.join(words)!r} to M")
+        self._expect_done()
+        return int(words[2]), int(words[3])
 
     def close(self) -> None:
         """Stop the process."""
