@@ -1,6 +1,7 @@
 """The compiled firmware in the loop: a board of the twin played by its .hex on simavr.
 
-``sim://NAME/sensor?firmware=avr`` puts :class:`AvrSensorBoard` where the world's Python sensor
+:class:`AvrBoard` keeps the time and the UART of any emulated board (the stage's is in
+``avr_stage``). ``sim://NAME/sensor?firmware=avr`` puts :class:`AvrSensorBoard` where the world's Python sensor
 board (``virtual_sensor``) would be: the same world, the same physics and noise, but the frames
 come from ``whisker_nano.hex`` running on an emulated ATmega328P, which reads an emulated
 MLX90393 over its TWI (``firmware/sim``). Each conversion the firmware starts asks the world for
@@ -40,8 +41,8 @@ SETUP_S = 0.001
 
 
 @dataclass
-class AvrSensorFaults:
-    """The faults the port sets on an emulated board: its disconnect time (s)."""
+class AvrPortFaults:
+    """What the port sets on an emulated board: its disconnect time (s)."""
 
     disconnect_at_s: float | None = None
 
@@ -57,7 +58,7 @@ class AvrBoard:
     kind = ""
 
     def __init__(self, now_s: float, clock_drift_ppm: float = 0.0) -> None:
-        self.faults = AvrSensorFaults()
+        self.faults = AvrPortFaults()
         self.line = SerialLine()
         self.cycles_per_s = F_CPU_HZ * (1 + clock_drift_ppm * 1e-6)
         self.now_s = now_s
