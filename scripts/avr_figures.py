@@ -13,6 +13,9 @@ import numpy as np
 
 from whiskercal.twin.devices.avr_harness import F_CPU_HZ, AvrHarness
 
+# ATmega328P vector numbers of the interrupts the sketches use
+VECTORS = {11: "TIMER1_COMPA (step)", 16: "TIMER0_OVF (micros)", 18: "USART_RX", 19: "USART_UDRE", 20: "USART_TX",
+           24: "TWI"}
 BAUD = 16_000_000 / (8 * 17)  # UBRR 16 with U2X: 117,647 baud
 BYTE_CYCLES = 10 * F_CPU_HZ / BAUD
 
@@ -50,8 +53,15 @@ def sensor_figures() -> dict:
     seconds = (bench.harness.cycle - started) / F_CPU_HZ
     busy = len(bench.sent) * BYTE_CYCLES / F_CPU_HZ / seconds
     stack, untouched = bench.harness.stack_use()
-    return {"sensor_stack_bytes": stack, "sensor_sram_never_used": untouched,
+    return {**_latency("sensor", bench), "sensor_stack_bytes": stack, "sensor_sram_never_used": untouched,
             "uart_bytes_per_s": len(bench.sent) / seconds, "uart_busy_fraction": busy}
+
+
+def _latency(board: str, bench: Bench) -> dict:
+    """Longest and mean interrupt latency per vector, µs."""
+    return {f"{board}_latency_us {VECTORS.get(vector, vector)}":
+            f"longest {longest / 16:.2f}, mean {total / calls / 16:.2f} over {calls} calls"
+            for vector, (calls, longest, total) in bench.harness.interrupt_latency().items()}
 
 
 def _encoder_answer(words: list[str]) -> str:
@@ -85,10 +95,11 @@ def stage_figures() -> dict:
     for text in ("$H", "?"):
         bench.line(text, 20.0 if text == "$H" else 0.05)
     stack, untouched = bench.harness.stack_use()
+    latency = _latency("stage", bench)
     bench.harness.close()
     steps = np.loadtxt(log.name, dtype=np.int64, ndmin=2)
     os.unlink(log.name)
-    return {"stage_stack_bytes": stack, "stage_sram_never_used": untouched,
+    return {**latency, "stage_stack_bytes": stack, "stage_sram_never_used": untouched,
             "answer_latency_ms": latencies, **_jitter(steps, move_from, move_to)}
 
 

@@ -2,10 +2,12 @@
 // serves the line protocol of harness.h. Usage: avr_harness sensor|stage FIRMWARE.hex
 #include "harness.h"
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include <avr_uart.h>
+#include <sim_interrupts.h>
 #include <sim_hex.h>
 
 #include "mlx90393_part.h"
@@ -86,6 +88,55 @@ static void report_memory(void) {
     printf("M %llu %d %d\n", (unsigned long long)avr->cycle, stack_bytes, best_length);
 }
 
+// Interrupt latency per vector: from its flag raised while the interrupt is enabled to the vector
+// being called, the longest and the total, in cycles ("V" reads them back). A flag that was raised
+// while its interrupt was off (UDRE between transmissions, Timer1 between moves) is not counted.
+enum { VECTORS = 26 };
+static avr_int_vector_t* vector_of[VECTORS];
+static avr_cycle_count_t pending_since[VECTORS];
+static uint64_t latency_max[VECTORS], latency_sum[VECTORS], latency_count[VECTORS];
+
+static void on_pending(avr_irq_t* irq, uint32_t value, void* param) {
+    (void)irq;
+    int vector = (int)(intptr_t)param;
+    if (!value || pending_since[vector]) return;
+    if (vector_of[vector] && !avr_regbit_get(avr, vector_of[vector]->enable)) return;
+    pending_since[vector] = avr->cycle;
+}
+
+static void on_running(avr_irq_t* irq, uint32_t value, void* param) {
+    (void)irq;
+    int vector = (int)(intptr_t)param;
+    if (!value || !pending_since[vector]) return;
+    uint64_t latency = avr->cycle - pending_since[vector];
+    pending_since[vector] = 0;
+    if (latency > latency_max[vector]) latency_max[vector] = latency;
+    latency_sum[vector] += latency;
+    ++latency_count[vector];
+}
+
+static void watch_interrupts(void) {
+    for (int i = 0; i < avr->interrupts.vector_count; ++i) {
+        avr_int_vector_t* v = avr->interrupts.vector[i];
+        if (v && v->vector < VECTORS) vector_of[v->vector] = v;
+    }
+    for (int vector = 1; vector < VECTORS; ++vector) {
+        avr_irq_t* irq = avr_get_interrupt_irq(avr, (uint8_t)vector);
+        if (!irq) continue;
+        avr_irq_register_notify(irq + AVR_INT_IRQ_PENDING, on_pending, (void*)(intptr_t)vector);
+        avr_irq_register_notify(irq + AVR_INT_IRQ_RUNNING, on_running, (void*)(intptr_t)vector);
+    }
+}
+
+// "V <vector> <calls> <longest cycles> <total cycles>" for every vector that ran.
+static void report_latency(void) {
+    for (int vector = 1; vector < VECTORS; ++vector) {
+        if (!latency_count[vector]) continue;
+        printf("V %d %llu %llu %llu\n", vector, (unsigned long long)latency_count[vector],
+               (unsigned long long)latency_max[vector], (unsigned long long)latency_sum[vector]);
+    }
+}
+
 static void attach_uart(void) {
     uint32_t flags = 0;  // neither usleep while the sketch polls nor echo to the console
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
@@ -123,6 +174,8 @@ static void serve(void) {
             if (sscanf(line + 1, "%ld %ld", &x, &y) == 2) stage_part_set_switches(&stage, (int32_t)x, (int32_t)y);
         } else if (line[0] == 'M') {
             report_memory();
+        } else if (line[0] == 'V') {
+            report_latency();
         } else if (line[0] == 'I') {
             feed_uart(line + 2);
         } else if (line[0] == 'Q') {
@@ -152,6 +205,7 @@ int main(int argc, char** argv) {
     }
     paint_ram();
     attach_uart();
+    watch_interrupts();
     is_stage = strcmp(argv[1], "stage") == 0;
     if (is_stage) {
         stage_part_init(avr, &stage);

@@ -14,6 +14,8 @@
 //                close, in motor steps          step counters): the host answers
 //                                               "<status> <raw angle>" or "nack"
 //   M            stack use                  M <cycle> <stack bytes> <never used bytes>, then K
+//   V            interrupt latency          V <vector> <calls> <longest> <total> (cycles from the
+//                                             flag to the vector's call) per vector, then K
 //   Q            quit
 //
 // The harness only advances the AVR when told to, so emulated time is the host's to keep.

@@ -140,6 +140,19 @@ class AvrHarness:
         self._expect_done()
         return int(words[2]), int(words[3])
 
+    def interrupt_latency(self) -> dict[int, tuple[int, int, int]]:
+        """Per interrupt vector since power-up: (calls, longest, total) latency in CPU cycles,
+        from the flag being raised to the vector being called."""
+        self._send("V")
+        latency = {}
+        while True:
+            words = self._line()
+            if words[0] != "V":
+                break
+            latency[int(words[1])] = (int(words[2]), int(words[3]), int(words[4]))
+        self.cycle = int(words[1])
+        return latency
+
     def close(self) -> None:
         """Stop the process."""
         self._finalizer()
