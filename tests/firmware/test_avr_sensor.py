@@ -61,3 +61,16 @@ def test_counts_agree_with_the_python_board_and_the_truth(streams):
     # each frame's board time trails the truth's (the SM command) by the same I2C latency
     lag = truth["t_s"] - (avr.t_s - avr.t_s[0] + truth["t_s"][0])
     assert np.ptp(lag[1:]) < 60e-6, np.ptp(lag[1:])
+
+
+def test_stack_and_interrupt_latency_of_the_sensor_image(streams):
+    world, _ = streams["avr"]
+    harness = world.sensor_board.harness
+    stack, untouched = harness.stack_use()  # painted SRAM read back after 3 s of streaming
+    assert 0 < stack and untouched > 512, (stack, untouched)
+    latency = harness.interrupt_latency()
+    assert {16, 24} <= set(latency)  # TIMER0_OVF (micros) and TWI ran
+    # every interrupt within one UART byte time (85 µs at 117,647 baud): the receiver holds only
+    # two bytes, so a slower one could lose host input
+    longest_us = max(longest for _, longest, _ in latency.values()) / 16
+    assert longest_us < 85, latency
