@@ -51,16 +51,20 @@ clean:
 	rm -rf out build .pytest_cache
 
 # ---- firmware (firmware/Makefile has the details; docs/firmware.md the wiring and flashing) ----
-.PHONY: firmware-host-test
+.PHONY: firmware-host-test firmware-sim
 
 firmware:
 	$(MAKE) -C firmware avr
 
 firmware-deps:
-	apt-get update && apt-get install -y gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev g++ make
+	apt-get update && apt-get install -y gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config g++ make
 
 firmware-host-test:
 	$(MAKE) -C firmware host-test
+
+# The .hex images on simavr with emulated parts (sim://NAME/sensor?firmware=avr, docs/firmware.md)
+firmware-sim:
+	$(MAKE) -C firmware sim
 
 # ---- recorded datasets (data/README.md) ----
 .PHONY: regress record-data

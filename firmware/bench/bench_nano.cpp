@@ -30,12 +30,13 @@ int main() {
     sampler_state sampler;
     sampler_init(sampler);
     sampler_start(sampler, 0);
-    sampler_poll(sampler, 0);  // configures the sensor and starts the first conversion
-    bench_now_us = 2000;       // conversion done (1.84 ms)
+    bench_now_us = 3334;       // the first conversion is due one period after START
+    sampler_poll(sampler, bench_now_us);  // configures the sensor and starts the first conversion
+    bench_now_us = 3334 + 2000;           // conversion done (1.84 ms)
     bench_timer_start();
     sampler_poll(sampler, bench_now_us);  // read, convert, frame, queue
     bench_report("sampler_read_and_send", bench_timer_read());
-    bench_now_us = 3334;
+    bench_now_us = 2 * 3334;
     bench_timer_start();
     sampler_poll(sampler, bench_now_us);  // start the next conversion
     bench_report("sampler_start_conversion", bench_timer_read());

@@ -63,9 +63,11 @@ int16_t mlx_read_measurement(uint16_t raw[3]) {
 int16_t mlx_signed_counts(uint16_t raw, uint8_t res, bool* saturated) {
     int32_t counts;
     int32_t low, high;
+    // NOTE: the bounds are long literals: with the AVR's 16-bit int, -0x8000 is the unsigned
+    // 0x8000 (+32768), which flagged every reading as saturated.
     if (res == 2) {
         counts = (int32_t)raw - 0x8000;
-        low = -0x8000;
+        low = -0x8000L;
         high = 0x7FFF;
     } else if (res == 3) {
         counts = (int32_t)raw - 0x4000;
@@ -73,7 +75,7 @@ int16_t mlx_signed_counts(uint16_t raw, uint8_t res, bool* saturated) {
         high = 0x3FFF;  // RES 3 spans 15 bits
     } else {
         counts = (int16_t)raw;
-        low = -0x8000;
+        low = -0x8000L;
         high = 0x7FFF;
     }
     if (counts <= low || counts >= high) *saturated = true;

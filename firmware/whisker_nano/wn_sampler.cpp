@@ -17,6 +17,7 @@ void sampler_init(sampler_state& s) {
     s.period_us = 1000000UL / SAMPLER_RATE_DEFAULT_HZ;
     s.next_due_us = 0;
     s.started_us = 0;
+    s.commanded_us = 0;
     s.carried_status = 0;
     s.frames_dropped = 0;
 }
@@ -28,7 +29,9 @@ bool sampler_fits(uint16_t rate_hz, uint8_t osr, uint8_t filt) {
 
 void sampler_start(sampler_state& s, uint32_t now_us) {
     s.period_us = 1000000UL / s.rate_hz;
-    s.next_due_us = now_us;
+    // The first conversion one period after START, as every later one: the START answer is
+    // framed before the loop polls again, so starting "now" made the first period short.
+    s.next_due_us = now_us + s.period_us;
     s.converting = false;
     s.sensor_configured = false;  // settings may have changed while stopped
     s.carried_status = 0;
@@ -77,6 +80,9 @@ static void sampler_begin_conversion(sampler_state& s, uint32_t now_us) {
         return;
     }
     s.started_us = now_us;
+    // NOTE: the chip converts from the SM command on, which comes after the configuration
+    // writes and the command's own bytes: counting from now_us read it early (status ERROR).
+    s.commanded_us = hal_micros();
     s.converting = true;
 }
 
@@ -102,7 +108,7 @@ void sampler_poll(sampler_state& s, uint32_t now_us) {
     if (!s.streaming) return;
     if (s.converting) {
         uint32_t conversion_us = mlx_conversion_time_us(s.mlx.osr, s.mlx.filt);
-        if (now_us - s.started_us >= conversion_us) sampler_finish_conversion(s, now_us);
+        if (now_us - s.commanded_us >= conversion_us) sampler_finish_conversion(s, now_us);
         return;
     }
     if ((int32_t)(now_us - s.next_due_us) >= 0) sampler_begin_conversion(s, now_us);

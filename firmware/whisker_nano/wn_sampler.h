@@ -26,7 +26,8 @@ struct sampler_state {
     uint16_t seq;
     uint32_t period_us;
     uint32_t next_due_us;     // when the next conversion should start
-    uint32_t started_us;      // when the current conversion started
+    uint32_t started_us;      // when the current conversion was due (the frame's timestamp)
+    uint32_t commanded_us;    // when the SM command had reached the chip: the wait counts from here
     uint8_t carried_status;   // status bits that belong to the next frame sent (TX_OVERFLOW, LATE)
     uint32_t frames_dropped;  // frames not sent because the transmit buffer was full
 };

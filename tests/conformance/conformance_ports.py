@@ -3,6 +3,8 @@
 - ``firmware``: the firmware cores built for the host (``build/firmware/host/*_sim``), driven
   over a pipe; their simulated clock runs ``SPEED`` times real time.
 - ``twin``: the digital twin's virtual boards, ``sim://NAME/stage`` and ``sim://NAME/sensor``.
+- ``avr``: the compiled .hex on simavr in a twin world, ``sim://NAME/sensor?firmware=avr``
+  (the sensor board so far); skipped when simavr or its library is not installed.
 - ``hardware`` (opt-in): flashed boards on the serial ports named by the environment variables
   ``WHISKERCAL_HW_STAGE`` and ``WHISKERCAL_HW_SENSOR``; skipped when they are not set.
 
@@ -25,6 +27,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "firmware"))
+from avr_emulation import emulation_or_skip  # noqa: E402
 from firmware_build import host_program  # noqa: E402
 
 SPEED = 10.0  # firmware simulators: device seconds per real second
@@ -137,6 +140,12 @@ def open_twin(board: str, query: str = ""):
     name = f"conformance{next(_world_names)}x{time.monotonic_ns()}"
     url = f"sim://{name}/{board}" + (f"?{query}" if query else "")
     return serial.serial_for_url(url, timeout=1.0)
+
+
+def open_emulated(board: str):
+    """Open ``board``'s compiled image on simavr in a fresh twin world; skip if it cannot run."""
+    emulation_or_skip(board)
+    return open_twin(board, "firmware=avr")
 
 
 class HardwarePort(pyserial.Serial):

@@ -8,7 +8,7 @@ import pytest
 
 import sensor_script
 import stage_script
-from conformance_ports import BACKENDS, open_firmware, open_hardware, open_twin
+from conformance_ports import BACKENDS, emulation_or_skip, open_emulated, open_firmware, open_hardware, open_twin
 
 
 def _open(backend: str, board: str):
@@ -16,6 +16,8 @@ def _open(backend: str, board: str):
         return open_firmware("stage_stepper" if board == "stage" else "whisker_nano")
     if backend == "hardware":
         return open_hardware(board)
+    if backend == "avr":
+        return open_emulated(board)
     return open_twin(board)
 
 
@@ -27,9 +29,16 @@ def port(request):
     opened.close()
 
 
+# The compiled images on simavr; homing there takes 17 s of the host's time.
+EMULATED_BOARDS = ("sensor", "stage")
+SLOW_EMULATED = {("avr", stage_script.check_homing_sets_machine_zero)}
+
+
 def _cases(board, checks):
-    cases = [pytest.param((backend, board), check, id=f"{backend}-{check.__name__[6:]}")
-             for backend in BACKENDS for check in checks]
+    backends = BACKENDS + (("avr",) if board in EMULATED_BOARDS else ())
+    cases = [pytest.param((backend, board), check, id=f"{backend}-{check.__name__[6:]}",
+                          marks=[pytest.mark.slow] if (backend, check) in SLOW_EMULATED else [])
+             for backend in backends for check in checks]
     # The same scripts against flashed boards: opt-in, the stage moves (and homes) for real.
     return cases + [pytest.param(("hardware", board), check, id=f"hardware-{check.__name__[6:]}",
                                  marks=pytest.mark.hardware) for check in checks]
@@ -48,12 +57,17 @@ STAGE_FAULTS = {
 }
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", BACKENDS + ("avr",))
 @pytest.mark.parametrize("code", sorted(STAGE_FAULTS))
 def test_stage_fault_alarms(backend, code):
     firmware_options, twin_query = STAGE_FAULTS[code]
-    port = open_firmware("stage_stepper", *firmware_options) if backend == "firmware" \
-        else open_twin("stage", twin_query)
+    if backend == "firmware":
+        port = open_firmware("stage_stepper", *firmware_options)
+    elif backend == "avr":
+        emulation_or_skip("stage")
+        port = open_twin("stage", twin_query + "&firmware=avr")
+    else:
+        port = open_twin("stage", twin_query)
     try:
         stage_script.check_fault_alarm(port, code)
     finally:
@@ -83,6 +97,19 @@ def test_stage_firmware_and_twin_answer_alike():
         twin.close()
 
 
+def test_stage_image_on_simavr_answers_as_the_host_build():
+    emulated = open_emulated("stage")
+    try:
+        answers = _answers(emulated, STAGE_LINES)
+    finally:
+        emulated.close()
+    host = open_firmware("stage_stepper")
+    try:
+        assert answers == _answers(host, STAGE_LINES)
+    finally:
+        host.close()
+
+
 def _answers(port, lines):
     link = stage_script.StageLink(port)
     link.fresh()
@@ -103,3 +130,18 @@ def test_sensor_firmware_and_twin_answer_alike():
         finally:
             port.close()
     assert answers[0] == answers[1]
+
+
+def test_sensor_image_on_simavr_answers_as_the_host_build():
+    port = open_emulated("sensor")
+    try:
+        link = sensor_script.SensorLink(port)
+        emulated = [(line, link.command(line)) for line in SENSOR_LINES]
+    finally:
+        port.close()
+    host = open_firmware("whisker_nano")
+    try:
+        link = sensor_script.SensorLink(host)
+        assert emulated == [(line, link.command(line)) for line in SENSOR_LINES]
+    finally:
+        host.close()

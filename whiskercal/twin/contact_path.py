@@ -47,6 +47,10 @@ class ContactPath:
         self.last_solve_failed = False  # the last solve since the previous ``at`` raised
         self._slips = 0
 
+    def use_path_length(self, path_length_mm: Callable[[float, float], float]) -> None:
+        """Follow another stage's travel from now on (the emulated firmware took over)."""
+        self._path_length_mm = path_length_mm
+
     def at(self, t: float, tool_mm: np.ndarray | None = None):
         """The equilibrium at time ``t`` s (non-decreasing); ``tool_mm``: the end effector at
         ``t`` (whisker frame, mm) when the caller already has it."""

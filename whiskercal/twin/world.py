@@ -118,6 +118,33 @@ class World:
         with self.lock:
             self._boards.detach(board)
 
+    def use_emulated_sensor_board(self):
+        """Put the compiled firmware on simavr in place of the Python sensor board (once);
+        the board in use. Raises ``SerialException`` when the emulation is not built."""
+        from whiskercal.twin.devices.avr_board import AvrSensorBoard
+
+        with self.lock:
+            if not isinstance(self.sensor_board, AvrSensorBoard):
+                board = AvrSensorBoard(self.reading, self.now_s, self.config.clock_drift_ppm)
+                self._boards.detach(self.sensor_board)
+                self.sensor_board = self._boards.sensor = board
+            return self.sensor_board
+
+    def use_emulated_stage_board(self):
+        """Put the compiled stage firmware on simavr in place of the Python stage board (once):
+        its step counters move the carriage from now on. The board in use."""
+        from whiskercal.twin.devices.avr_stage import AvrStageBoard
+
+        with self.lock:
+            if not isinstance(self.stage_board, AvrStageBoard):
+                board = AvrStageBoard(self.stage.carriage_mm(self.now_s), self.now_s,
+                                      self.config.backlash_mm, self.config.stage_faults)
+                self._boards.detach(self.stage_board)
+                self.stage_board = self._boards.stage = board
+                self.stage = board.trace
+                self.contact.use_path_length(board.trace.path_length_mm)
+            return self.stage_board
+
     # -- geometry ---------------------------------------------------------------------------
     def stage_true_mm(self, t: float) -> np.ndarray:
         """Where the carriage really is at time ``t``, in (homed) machine coordinates, mm."""

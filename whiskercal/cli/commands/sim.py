@@ -34,12 +34,16 @@ def command() -> None:
               help="The stock board's config.h homes X and Y (default: grbl's own, Z first).")
 @click.option("--fault", "faults", multiple=True, metavar="NAME@SECONDS",
               help="Inject a fault: missed_steps@T[:mm], stall@T, encoder_magnet@T, encoder_bus@T.")
+@click.option("--firmware", type=click.Choice(["python", "avr"]), default="python", show_default=True,
+              help="avr: both boards are their compiled .hex on simavr (make firmware-sim) instead of "
+                   "the twin's Python boards.")
 @click.option("--duration", type=float, default=None,
               help="Stop after this many real seconds (default: run until Ctrl-C).")
 @click.option("--json", "as_json", is_flag=True, help="Print the pty paths as JSON.")
 @pass_app
 def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod_radius: float,
-          stock: bool, homing: str | None, faults: tuple[str, ...], duration: float | None, as_json: bool) -> None:
+          stock: bool, homing: str | None, faults: tuple[str, ...], firmware: str, duration: float | None,
+          as_json: bool) -> None:
     """Expose a simulated rig on two pseudo-terminals until Ctrl-C.
 
     Prints the stage's and the sensor's pty paths; open them with any serial tool or pass
@@ -57,9 +61,11 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
     if sensor is not None:
         options["sensor"] = [sensor]
     world = world_from_options("serve", options)
+    if firmware == "avr":
+        _use_emulated_boards(world)
     bridge = PtyBridge(world, speed)
     info = {"stage": bridge.paths["stage"], "sensor": bridge.paths["sensor"], "scene": scene,
-            "seed": seed, "speed": speed, "sensor_id": world.sensor.sensor_id}
+            "seed": seed, "speed": speed, "sensor_id": world.sensor.sensor_id, "firmware": firmware}
     if as_json:
         echo_json(info)
     else:
@@ -72,3 +78,16 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
         pass
     finally:
         bridge.close()
+
+
+def _use_emulated_boards(world) -> None:
+    """Both boards as their .hex on simavr; a missing harness is the user's to build."""
+    from serial.serialutil import SerialException
+
+    from whiskercal.errors import UsageError
+
+    try:
+        world.use_emulated_stage_board()
+        world.use_emulated_sensor_board()
+    except SerialException as error:
+        raise UsageError(str(error)) from error

@@ -30,7 +30,7 @@ from whiskercal.twin.world import World, create_world, get_world
 RECEIVE_BUFFER_BYTES = 4096
 _MIN_STEP_S = 1e-7
 _WORLD_OPTIONS = ("scene", "rod_radius", "seed", "stock", "homing", "corrupt", "drop", "speed", "sensor",
-                  "backlash", "drift_ppm", "fault")
+                  "backlash", "drift_ppm", "fault", "firmware")
 _STAGE_FAULTS = {"missed_steps": "missed_steps_at_s", "stall": "stall_at_s",
                  "encoder_magnet": "encoder_magnet_at_s", "encoder_bus": "encoder_bus_at_s"}
 
@@ -101,6 +101,14 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
     return world
 
 
+def _firmware(options: dict[str, list[str]]) -> str:
+    """The port's ``firmware=`` option: ``""`` (the Python board) or ``avr`` (the .hex on simavr)."""
+    firmware = options.get("firmware", [""])[-1]
+    if firmware not in ("", "avr"):
+        raise UsageError(f"sim:// option firmware must be avr (the compiled image on simavr), not {firmware!r}")
+    return firmware
+
+
 def _homing(text: str) -> str:
     if text not in ("", "xy"):
         raise UsageError(f"sim:// option homing must be xy (the board homes X and Y), not {text!r}")
@@ -114,7 +122,7 @@ def _flag(text: str, key: str) -> bool:
 
 
 def _world_level(options: dict[str, list[str]]) -> dict[str, list[str]]:
-    kept = {k: v for k, v in options.items() if k != "fault"}
+    kept = {k: v for k, v in options.items() if k not in ("fault", "firmware")}
     world_faults = [f"{n}@{w}:{a}" for n, w, a in _faults(options) if n != "disconnect"]
     if world_faults:
         kept["fault"] = world_faults
@@ -139,6 +147,10 @@ class Serial(SerialBase):
                                   "give the options on the first port only")
         self.world = world
         self.board_kind = board
+        if _firmware(options) == "avr" and board == "stage":
+            world.use_emulated_stage_board()
+        elif _firmware(options) == "avr":
+            world.use_emulated_sensor_board()
         self.board = world.stage_board if board == "stage" else world.sensor_board
         self.disconnect_at_s = next((w for n, w, _ in _faults(options) if n == "disconnect"), math.inf)
         if board == "sensor" and self.disconnect_at_s < math.inf:
