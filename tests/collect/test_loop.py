@@ -109,7 +109,7 @@ def test_the_encoder_alarm_stops_the_run_with_the_encoder_message(tmp_path):
 
 
 def test_overload_guard_backs_off_and_keeps_points(tmp_path):
-    plan = small_plan(safety={"overload_z_uT": 7500.0})
+    plan = small_plan(safety={"overload_z_uT": 7500.0, "on_overload": "stop"})
     with pytest.raises(OverloadError, match="over the safe limit of 7500 µT") as info:
         _, stage, _ = run(tmp_path, plan=plan)
     grid = read_raw_grid(tmp_path / "raw.h5")
@@ -119,12 +119,29 @@ def test_overload_guard_backs_off_and_keeps_points(tmp_path):
 
 def test_overload_guard_lifts_the_rod_above_the_whisker(tmp_path):
     world = FakeWorld()
-    plan = small_plan(safety={"overload_z_uT": 7500.0})
+    plan = small_plan(safety={"overload_z_uT": 7500.0, "on_overload": "stop"})
     stage, sensor = FakeStage(world), FakeSensor(world)
     with pytest.raises(OverloadError):
         collect(None, None, tmp_path / "raw.h5", plan, stage_client=stage, sensor_client=sensor)
     assert plan.to_whisker(stage.true_mm)[1] >= plan.config.approach.safe_y_mm - 1e-9
     assert world.z_uT(stage.true_mm) == 0.0
+
+
+def test_by_default_an_overload_ends_its_column_and_the_run_goes_on(tmp_path):
+    plan = small_plan(safety={"overload_z_uT": 7500.0})
+    summary, stage, _ = run(tmp_path, plan=plan)
+    grid = read_raw_grid(tmp_path / "raw.h5")
+    assert grid.complete and 0 < summary.beyond_guard < len(plan)
+    assert len(grid) + summary.beyond_guard == len(plan)
+    assert np.all(np.abs(grid.z_uT) < 7500.0)
+    assert any("beyond the overload guard" in w for w in summary.warnings)
+    # what was skipped is the deep end of columns: above every skipped point of a column, the
+    # points taken; below the first skipped one, none
+    taken = set(grid.plan_index.tolist())
+    points = plan.rod_center_mm
+    for index in set(range(len(plan))) - taken:
+        below = np.isclose(points[:, 0], points[index, 0]) & (points[:, 1] < points[index, 1])
+        assert not (set(np.flatnonzero(below).tolist()) & taken)
 
 
 def test_disconnect_saves_points_and_resume_completes_each_once(tmp_path):

@@ -83,7 +83,7 @@ class RawHeader:
 
 
 # settings that only decide what a run reports: changing them still resumes a run
-_NOT_SHAPING = ("max_frame_loss",)
+_NOT_SHAPING = ("max_frame_loss", "on_overload")
 
 
 def plan_fingerprint(plan_stage_mm: np.ndarray, config: Mapping[str, Any]) -> str:

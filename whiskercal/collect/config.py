@@ -18,6 +18,7 @@ from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import merge_overrides, read_toml
 
 DEFAULT_CONFIG_PATH = Path(__file__).with_name("default_grid.toml")
+ON_OVERLOAD = ("end-column", "stop")
 
 
 @dataclass(frozen=True)
@@ -97,13 +98,15 @@ class SensorSettings:
 @dataclass(frozen=True)
 class SafetyConfig:
     """Travel (mm), margin inside it (mm), overload |z| limit (µT), encoder tolerance (mm),
-    and the fraction of sensor frames lost (dropped + corrupt) above which a run warns."""
+    the fraction of sensor frames lost (dropped + corrupt) above which a run warns, and what an
+    overload does: ``end-column`` (skip the rest of that column, go on) or ``stop``."""
 
     travel_mm: tuple[float, float]
     margin_mm: float
     overload_z_uT: float
     encoder_tolerance_mm: float
     max_frame_loss: float = 0.01
+    on_overload: str = "end-column"
 
 
 @dataclass(frozen=True)
@@ -221,6 +224,8 @@ def _validate(config: CollectConfig) -> None:
         problems.append("acquisition needs samples_per_point >= 1, baseline_samples >= 2, settle_s >= 0")
     if min(motion.travel_feed_mm_min, motion.approach_feed_mm_min, motion.accel_mm_s2) <= 0:
         problems.append("motion feeds and acceleration must be positive")
+    if config.safety.on_overload not in ON_OVERLOAD:
+        problems.append(f"safety.on_overload must be one of {', '.join(ON_OVERLOAD)}")
     if config.safety.max_frame_loss > 1.0:
         problems.append("safety.max_frame_loss is a fraction of the frames, at most 1")
     if config.approach.safe_y_mm <= config.rig.rod_radius_mm:
@@ -229,8 +234,37 @@ def _validate(config: CollectConfig) -> None:
         raise UsageError("invalid collect config: " + "; ".join(problems))
 
 
+# The default bands were chosen for this trace length (mm); other builds get them scaled.
+DEFAULT_TRACE_LENGTH_MM = 78.0
+# How far past the tip the rod counts as clear of the whisker, mm (the default: 80 for 78).
+REACH_PAST_TIP_MM = 2.0
+
+
+def follow_trace_length(defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
+    """The defaults for a build whose ``[rig] trace_length_mm`` the user's file gives.
+
+    The reach band scales with the trace length (the default's 22.5..71.75 mm for 78 mm) and
+    the reach past which the rod is clear of the whisker follows the tip; the 3 mm lattice, the
+    angle band and the overload guard stay (the point count follows the build, so the paper's
+    180-point check is off). A key the file gives is kept as given (``merge_overrides``).
+    """
+    length = given.get("rig", {}).get("trace_length_mm") if isinstance(given.get("rig"), dict) \
+        else None
+    if not _is_real(length) or not 0 < length < math.inf or length == DEFAULT_TRACE_LENGTH_MM:
+        return defaults
+    factor = float(length) / DEFAULT_TRACE_LENGTH_MM
+    grid = dict(defaults["grid"], expected_points=0,
+                reach_min_mm=round(defaults["grid"]["reach_min_mm"] * factor, 2),
+                reach_max_mm=round(defaults["grid"]["reach_max_mm"] * factor, 2))
+    rig = dict(defaults["rig"], whisker_reach_mm=float(length) + REACH_PAST_TIP_MM)
+    return {**defaults, "grid": grid, "rig": rig}
+
+
 def load_config(path: str | Path | None = None) -> CollectConfig:
     """The defaults, overridden by the TOML file at ``path`` when given.
+
+    A file that gives ``[rig] trace_length_mm`` for another build gets defaults that follow it
+    (``follow_trace_length``).
 
     Raises
     ------
@@ -241,7 +275,8 @@ def load_config(path: str | Path | None = None) -> CollectConfig:
     values = read_toml(DEFAULT_CONFIG_PATH)
     if path is None:
         return config_from_dict(values)
-    values = merge_overrides(values, read_toml(path), str(path))
+    given = read_toml(path)
+    values = merge_overrides(follow_trace_length(values, given), given, str(path))
     try:
         return config_from_dict(values)
     except UsageError as error:

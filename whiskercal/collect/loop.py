@@ -66,6 +66,8 @@ class Collector:
         self.here_mm: np.ndarray | None = None
         self.taken_now = 0
         self.stopped = False
+        # plan indices skipped because the guard tripped at or above them in their column
+        self.beyond_guard: set[int] = set()
 
     @property
     def devices(self) -> Devices:
@@ -79,9 +81,15 @@ class Collector:
         self._baseline_before()
         started = time.monotonic()
         for index in range(len(self.plan)):
-            if index in self.checkpoint.taken:
+            if index in self.checkpoint.taken or index in self.beyond_guard:
                 continue
-            self._take_point(index)
+            try:
+                self._take_point(index)
+            except OverloadError:
+                if self.config.safety.on_overload == "stop":
+                    raise
+                self._end_column(index)
+                continue
             self.taken_now += 1
             self.on_progress(Progress(len(self.checkpoint.taken), len(self.plan),
                                       self.taken_now, time.monotonic() - started))
@@ -92,6 +100,14 @@ class Collector:
                 return False
         self._baseline_after()
         return True
+
+    def _end_column(self, index: int) -> None:
+        """Skip ``index`` and the deeper points of its column (the rod is already backed off)."""
+        points = self.plan.rod_center_mm
+        same_column = np.isclose(points[:, 0], points[index, 0])
+        deeper = np.flatnonzero(same_column & (points[:, 1] <= points[index, 1]))
+        self.beyond_guard.update(int(i) for i in deeper if int(i) not in self.checkpoint.taken)
+        self.checkpoint.add_stream(self.recorder.take_chunk())
 
     # -- baselines --------------------------------------------------------------------------
     def _baseline_before(self) -> None:

@@ -40,6 +40,7 @@ class RunSummary:
     baseline_drift_uT: float | None
     output: str
     frame_loss: float = 0.0  # (dropped + corrupt) / frames sent, this session
+    beyond_guard: int = 0    # planned points skipped past an overload, this session
     warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -77,7 +78,8 @@ OPEN_LOOP_WARNING = ("the stage reports no encoders (a stock grbl board): missed
                      "detected, so every point's position is the commanded one (open loop)")
 
 
-def make_header(plan: GridPlan, devices: Devices, sensor_id: str) -> RawHeader:
+def make_header(plan: GridPlan, devices: Devices, sensor_id: str,
+                twin_sensor: dict | None = None) -> RawHeader:
     """The dataset header: plan, full config (with a plan summary) and device identities."""
     config = plan.config.to_dict()
     config["plan"] = {"points": len(plan), "order": "columns in +x, each in -y",
@@ -85,8 +87,20 @@ def make_header(plan: GridPlan, devices: Devices, sensor_id: str) -> RawHeader:
     config["devices"] = {"stage": devices.stage, "sensor": devices.sensor,
                          "stage_settings": {str(k): v for k, v in devices.stage_settings.items()},
                          "encoders": ENCODERS if devices.has_encoder else "none"}
+    if twin_sensor is not None:  # the twin's whole build, so fit can find its truth by any id
+        config["devices"]["twin_sensor"] = twin_sensor
     return RawHeader(plan_stage_mm=plan.stage_mm, plan_rod_center_mm=plan.rod_center_mm,
                      config=config, sensor_id=sensor_id, rod_radius_mm=plan.config.rig.rod_radius_mm)
+
+
+def twin_sensor_description(rig: RigSession) -> dict | None:
+    """The twin sensor's full description (``twin.sensor_file``) on a sim:// port, else None."""
+    sensor = getattr(getattr(rig.sensor_port, "world", None), "sensor", None)
+    if sensor is None:
+        return None
+    from whiskercal.twin.sensor_file import sensor_to_dict
+
+    return sensor_to_dict(sensor)
 
 
 def _sensor_id(config: CollectConfig, rig: RigSession) -> str:
@@ -154,7 +168,8 @@ def _session(rig: RigSession, out: Path, plan: GridPlan, resume: bool, on_progre
              stop_requested) -> RunSummary:
     """Check, open the checkpoint and run the collector on an open rig session."""
     check_limits(plan, rig.travel_mm)
-    header = make_header(plan, rig.devices, _sensor_id(plan.config, rig))
+    header = make_header(plan, rig.devices, _sensor_id(plan.config, rig),
+                         twin_sensor_description(rig))
     checkpoint = open_checkpoint(out, header, resume)
     if checkpoint.complete:  # killed after completing, before the journal was removed
         checkpoint.close()
@@ -198,14 +213,26 @@ def _summary(collector: Collector, checkpoint: Checkpoint, out: Path) -> RunSumm
     session = collector.rig.summary()
     kept, dropped, corrupt = collector.recorder.total_frames, session.dropped, session.corrupt
     warnings = [frame_loss_warning(kept, dropped, corrupt, collector.config.safety.max_frame_loss),
-                None if collector.rig.devices.has_encoder else OPEN_LOOP_WARNING]
+                None if collector.rig.devices.has_encoder else OPEN_LOOP_WARNING,
+                _beyond_guard_warning(collector)]
     return RunSummary(points=len(checkpoint.taken), planned=len(collector.plan),
                       complete=checkpoint.complete, stopped=collector.stopped,
                       taken_this_run=collector.taken_now, stage_time_s=session.stage_time_s,
                       wall_time_s=session.wall_time_s, dropped=session.dropped,
                       corrupt=session.corrupt, baseline_drift_uT=drift, output=str(out),
                       frame_loss=frame_loss(kept, dropped, corrupt),
+                      beyond_guard=len(collector.beyond_guard),
                       warnings=[w for w in warnings if w])
+
+
+def _beyond_guard_warning(collector: Collector) -> str | None:
+    skipped = collector.beyond_guard
+    if not skipped:
+        return None
+    columns = len({round(float(collector.plan.rod_center_mm[i, 0]), 6) for i in skipped})
+    return (f"{len(skipped)} planned points lie beyond the overload guard (|z| over "
+            f"{collector.config.safety.overload_z_uT:g} µT) at the deep end of {columns} columns "
+            "and were skipped: the grid stops where this build nears the sensor's safe range")
 
 
 def read_stage_settings(stage_port) -> dict[int, float]:

@@ -6,11 +6,17 @@ from __future__ import annotations
 from whiskercal.errors import UsageError
 
 
-def twin_sensor(sensor_id: str):
-    """The twin's :class:`~whiskercal.twin.params.SensorParams` of this id, or None."""
+def twin_sensor(raw):
+    """The twin's :class:`~whiskercal.twin.params.SensorParams` a raw grid was collected on, or
+    None: the full description the dataset recorded (``devices.twin_sensor``), else the shipped
+    sensor of the same id."""
     from whiskercal.twin.params import SENSORS
+    from whiskercal.twin.sensor_file import sensor_from_dict
 
-    return SENSORS.get(sensor_id)
+    devices = raw.config.get("devices", {}) if isinstance(raw.config, dict) else {}
+    if isinstance(devices, dict) and devices.get("twin_sensor"):
+        return sensor_from_dict(devices["twin_sensor"], "the raw grid's devices.twin_sensor")
+    return SENSORS.get(raw.sensor_id)
 
 
 def recorded_trace_lengths_mm(raw) -> list[tuple[float, str]]:
@@ -20,7 +26,7 @@ def recorded_trace_lengths_mm(raw) -> list[tuple[float, str]]:
     rig = raw.config.get("rig", {}) if isinstance(raw.config, dict) else {}
     if "trace_length_mm" in rig:
         found.append((float(rig["trace_length_mm"]), "the raw grid's rig config"))
-    sensor = twin_sensor(raw.sensor_id)
+    sensor = twin_sensor(raw)
     if sensor is not None:
         found.append((float(sensor.whisker.reach_mm), f"the twin sensor {raw.sensor_id!r}"))
     return found

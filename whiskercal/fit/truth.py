@@ -90,7 +90,7 @@ def compare_lookup(lookup, z_uT: np.ndarray, true_tip_mm: np.ndarray) -> TruthCo
 def lookup_vs_twin_truth(raw, lookup) -> TruthComparison | None:
     """A lookup (a :class:`~whiskercal.model.lookup.TipLookup`) over its z range against the
     twin's true tips, or None unless the raw grid came from a twin sensor."""
-    sensor = twin_sensor(raw.sensor_id)
+    sensor = twin_sensor(raw)
     if raw.truth is None or sensor is None:
         return None
     return compare_lookup(lookup, *true_tips_in_range(sensor, lookup.z_min_uT, lookup.z_max_uT))

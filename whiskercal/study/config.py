@@ -34,6 +34,29 @@ def default_config() -> dict[str, Any]:
     return tomllib.loads(text)
 
 
+# The default depths and slide were chosen for this tip reach (mm); other builds get them scaled.
+DEFAULT_TIP_REACH_MM = 78.0
+
+
+def follow_tip_reach(defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
+    """The defaults for a build whose ``[geometry] tip_reach_mm`` the user's file gives.
+
+    The nine depths (5..45 mm for 78 mm) and the slide (80 mm, centred on first contact) scale
+    with the reach, depths rounded to 0.5 mm; a key the file gives is kept as given.
+    """
+    geometry = given.get("geometry")
+    reach = geometry.get("tip_reach_mm") if isinstance(geometry, dict) else None
+    if isinstance(reach, bool) or not isinstance(reach, (int, float)) \
+            or not 0 < reach < math.inf or reach == DEFAULT_TIP_REACH_MM:
+        return defaults
+    factor = float(reach) / DEFAULT_TIP_REACH_MM
+    trials = defaults["trials"]
+    depths = sorted({max(0.5, round(2.0 * d * factor) / 2.0) for d in trials["depths_mm"]})
+    travel = round(trials["travel_mm"] * factor, 1)
+    scaled = dict(trials, depths_mm=depths, travel_mm=travel, slide_start_mm=-travel / 2.0)
+    return {**defaults, "trials": scaled}
+
+
 def load_config(path: str | Path | None = None) -> dict[str, Any]:
     """Defaults, overridden by the TOML file at ``path`` when given, validated.
 
@@ -44,7 +67,8 @@ def load_config(path: str | Path | None = None) -> dict[str, Any]:
     """
     defaults = config = default_config()
     if path is not None:
-        config = merge_overrides(config, read_toml(path), str(path))
+        given = read_toml(path)
+        config = merge_overrides(follow_tip_reach(config, given), given, str(path))
     where = "study config" if path is None else str(path)
     _check_types(config, defaults, where)
     _validate(config, where)
