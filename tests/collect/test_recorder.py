@@ -101,7 +101,7 @@ def test_the_loop_backs_off_when_z_saturates_mid_grid(tmp_path):
     world = FakeWorld()
     stage = FakeStage(world)
     with pytest.raises(OverloadError, match="Z axis saturated"):
-        collect(None, None, tmp_path / "raw.h5", small_plan(), stage_client=stage,
+        collect(None, None, tmp_path / "raw.h5", small_plan(safety={"on_overload": "stop"}), stage_client=stage,
                 sensor_client=SaturatingSensor(world, z_below_uT=-3000.0))
     assert "!" in stage.commands  # the move was held, then the rod lifted
 

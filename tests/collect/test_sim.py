@@ -231,7 +231,7 @@ def test_overload_guard_holds_the_stage_and_lifts_the_rod_on_the_twin(tmp_path):
     from whiskercal.rig.sensor import SensorClient
     from whiskercal.rig.stage import StageClient
 
-    plan = build_plan(load_config(fast_config(tmp_path)).replace(safety={"overload_z_uT": 5000.0}))
+    plan = build_plan(load_config(fast_config(tmp_path)).replace(safety={"overload_z_uT": 5000.0, "on_overload": "stop"}))
     stage_url, sensor_url = urls()
     stage, sensor = StageClient(stage_url), SensorClient(sensor_url)
     with pytest.raises(OverloadError, match="5000 µT; the rod was backed off"):
