@@ -25,7 +25,7 @@ from pathlib import Path
 from whiskercal import __version__
 from whiskercal.regress.golden import DEFAULT_PIPELINE
 from whiskercal.regress.pack import compact_copy
-from whiskercal.twin.params import sensor_by_id
+from whiskercal.twin.sensor_file import resolve_sensor
 
 HERE = Path(__file__).resolve().parent
 
@@ -35,13 +35,16 @@ DATASETS = (
      "collect_config": None, "study_config": None},
     {"name": "twin-short-60mm", "sensor": "twin-short-60mm", "seeds": (201, 202),
      "collect_config": "collect.toml", "study_config": "study.toml"},
+    # a build described only in a file, calibrated from its trace length (collect.toml)
+    {"name": "twin-long-110mm", "sensor": "sensors/long-110mm.toml", "seeds": (301, 302),
+     "collect_config": "collect.toml", "study_config": "study.toml"},
 )
 
 
 def _run(argv: list[str]) -> tuple[dict, float]:
     """Run a whiskercal command with --json; return its JSON output and wall time (s)."""
     started = time.perf_counter()
-    done = subprocess.run(argv, check=True, capture_output=True, text=True)
+    done = subprocess.run(argv, check=True, capture_output=True, text=True, cwd=HERE.parent)
     return json.loads(done.stdout), time.perf_counter() - started
 
 
@@ -96,7 +99,8 @@ def _relative(command: list[str], directory: Path, out: Path) -> list[str]:
 
 
 def _readme(spec: dict, commands: list[str], outputs: list, sizes: dict) -> str:
-    sensor = sensor_by_id(spec["sensor"])
+    sensor = resolve_sensor(HERE.parent / spec["sensor"] if spec["sensor"].endswith(".toml")
+                            else spec["sensor"])
     (grid, grid_wall), (study, study_wall) = outputs
     grid_seed, study_seed = spec["seeds"]
     lines = [

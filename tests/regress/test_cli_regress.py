@@ -31,7 +31,7 @@ def test_regress_passes_on_the_recorded_data():
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     assert report["ok"] is True
-    assert [d["dataset"] for d in report["datasets"]] == ["twin-paper-75mm", SHORT]
+    assert [d["dataset"] for d in report["datasets"]] == ["twin-long-110mm", "twin-paper-75mm", SHORT]
     assert all(d["changes"] == [] and d["quantities"] > 100 for d in report["datasets"])
 
 

@@ -20,7 +20,7 @@ SHORT = DATA / "twin-short-60mm"
 
 def test_the_recorded_datasets_are_found():
     names = [d.name for d in find_datasets(DATA)]
-    assert names == ["twin-paper-75mm", "twin-short-60mm"]
+    assert names == ["twin-long-110mm", "twin-paper-75mm", "twin-short-60mm"]
     assert [d.name for d in find_datasets(SHORT)] == ["twin-short-60mm"]
 
 

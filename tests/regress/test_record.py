@@ -20,15 +20,15 @@ RECORD_TIMEOUT_S = 600
 
 def test_the_recorded_data_stay_small_enough_for_git():
     total = sum(p.stat().st_size for p in DATA.rglob("*") if p.is_file())
-    assert total < 4.5e6  # bytes; data/README.md gives the budget
+    assert total < 5.0e6  # bytes; data/README.md gives the budget
 
 
-@pytest.mark.parametrize("name", ["twin-paper-75mm", "twin-short-60mm"])
+@pytest.mark.parametrize("name", ["twin-paper-75mm", "twin-short-60mm", "twin-long-110mm"])
 def test_each_dataset_readme_says_how_it_was_recorded(name):
     readme = (DATA / name / "README.md").read_text(encoding="utf-8")
     golden = json.loads((DATA / name / "golden.json").read_text(encoding="utf-8"))
     for needed in ("whiskercal collect --stage", "whiskercal optimal-depth run --stage",
-                   f"sensor={golden['sensor_id']}", "seed=", "World seeds",
+                   "sensor=", golden["sensor_id"], "seed=", "World seeds",
                    f"whiskercal {golden['whiskercal_version']}", '"whisker": {'):
         assert needed in readme, needed
 

@@ -14,6 +14,8 @@ TRACERS = ("fast", "paper")
 INTERPOLANTS = ("auto", "linear", "cubic", "pchip", "akima", "polynomial")
 SAMPLES_RANGE = (2, 10_000)
 TIP_MODELS = ("auto", "mechanics", "level-set")
+# The trace length MAX_EXTENSION_MM was measured for (mm): the default sensor's.
+REFERENCE_TRACE_LENGTH_MM = 78.0
 
 
 @dataclass(frozen=True)
@@ -39,8 +41,9 @@ class FitOptions:
     entry_radius_mm : float or None
         Radius about the root where the trace enters the data, mm; None: a third of the trace
         length, at least the grid's nearest point.
-    max_extension_mm : float
-        Longest straight extrapolation of a tip past the grid's far edge that is trusted, mm.
+    max_extension_mm : float or None
+        Longest straight extrapolation of a tip past the grid that is trusted, mm; None: 9.5 mm
+        (measured on the default sensor, docs/model.md) scaled by trace length / 78 mm.
     allow_extrapolation : bool
         Keep a calibration whose tips lie farther past the grid, with that z range marked.
     rod_correction : bool
@@ -60,7 +63,7 @@ class FitOptions:
     interpolant: str = "auto"
     trace_length_mm: float | None = None
     entry_radius_mm: float | None = None
-    max_extension_mm: float = MAX_EXTENSION_MM
+    max_extension_mm: float | None = None
     allow_extrapolation: bool = False
     rod_correction: bool = True
     threshold_uT: float = CollisionParams.threshold_uT
@@ -79,7 +82,8 @@ class FitOptions:
         low, high = SAMPLES_RANGE
         if not (isinstance(self.samples, int) and low <= self.samples <= high):
             raise UsageError(f"samples must be an integer {low}..{high}, not {self.samples!r}")
-        number(self.max_extension_mm, "max_extension_mm", low=0, unit="mm")
+        if self.max_extension_mm is not None:
+            number(self.max_extension_mm, "max_extension_mm", low=0, unit="mm")
         positive(self.threshold_uT, "threshold_uT (the collision threshold)", unit="µT")
         if self.trace_length_mm is not None:
             positive(self.trace_length_mm, "trace_length_mm (root to tip)", high=1000, unit="mm")
@@ -102,4 +106,12 @@ class FitOptions:
             degree=self.degree, coordinates=self.coordinates, samples=self.samples,
             tracer=self.tracer, lookup_kind=self.interpolant, trace_length_mm=trace_length_mm,
             entry_radius_mm=self.entry_radius_mm, correct_rod_radius=self.rod_correction,
-            max_extension_mm=self.max_extension_mm, allow_extrapolation=self.allow_extrapolation)
+            max_extension_mm=self.extension_limit_mm(trace_length_mm),
+            allow_extrapolation=self.allow_extrapolation)
+
+    def extension_limit_mm(self, trace_length_mm: float) -> float:
+        """The extrapolation limit (mm): as given, else the one measured for the default's
+        78 mm trace length scaled with the build's (a whisker's deflected shape scales with it)."""
+        if self.max_extension_mm is not None:
+            return self.max_extension_mm
+        return MAX_EXTENSION_MM * trace_length_mm / REFERENCE_TRACE_LENGTH_MM

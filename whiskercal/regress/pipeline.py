@@ -30,7 +30,7 @@ class StageFailedError(WhiskercalError):
 FIT_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
                "points_used", "points_total", "lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm",
                "lookup_vs_truth_points", "contact_error_uncorrected_mm",
-               "contact_error_corrected_mm")
+               "contact_error_corrected_mm", "tip_model")
 # Per-trial columns of the study report kept as golden quantities.
 TRIAL_COLUMNS = ("n_samples", "contact_fraction", "median_z_uT", "raw_mean_mm", "raw_std_mm",
                  "filtered_mean_mm", "filtered_std_mm", "off_plane_fraction", "n_slips",
@@ -94,6 +94,9 @@ def fit_quantities(data) -> dict[str, Any]:
     for key in FIT_METRICS:
         if key in data.metrics:
             found[f"fit.{key}"] = _plain(data.metrics[key])
+    # whether the fit warned of its tip error: a decision, where the estimate's digits are not
+    found["fit.tip_error_warned"] = any("tip error" in str(w)
+                                       for w in data.metrics.get("warnings", []))
     return found
 
 

@@ -64,7 +64,8 @@ def _summary(data, elapsed_s: float) -> dict:
               "of the trace length, at least the grid's nearest point].")
 @click.option("--max-extension-mm", type=click.FloatRange(min=0.0), default=None,
               help="Longest straight extrapolation of a tip past the grid's far edge that is "
-              "trusted, mm [default: 9.5, measured on the twin: docs/model.md].")
+              "trusted, mm [default: 9.5 for a 78 mm trace length, measured on the twin "
+              "(docs/model.md), scaled with the trace length].")
 @click.option("--allow-extrapolation", is_flag=True,
               help="Write the artifact even when some tips lie farther past the grid than "
               "--max-extension-mm; that z range is marked and the runtime refuses it.")
@@ -111,8 +112,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
         degree=parse_degree(degree), coordinates=coordinates, samples=samples, tracer=tracer,
         interpolant=interpolant, trace_length_mm=trace_length_mm,
         entry_radius_mm=entry_radius_mm, allow_extrapolation=allow_extrapolation,
-        max_extension_mm=(FitOptions.max_extension_mm if max_extension_mm is None
-                          else max_extension_mm),
+        max_extension_mm=max_extension_mm,
         rod_correction=not no_rod_correction, threshold_uT=threshold_uT, tip_model=tip_model)
     say = (lambda message: click.echo(f"  {message} ...", err=True)) if app.interactive else None
     result = fit(grid, options, say)
