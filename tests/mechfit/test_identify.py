@@ -76,3 +76,14 @@ def test_a_build_the_fit_gets_badly_wrong_is_warned_not_silent():
     assert row["tip_curve"]["rmse_mm"] > 0.25  # the miss is real
     assert row["warned"] and not row["silent_failure"]
     assert any("cannot be estimated" in w for w in row["warnings"])
+
+
+@pytest.mark.slow
+def test_where_the_level_set_cannot_be_traced_an_identified_mechanics_ships_and_says_so():
+    row = sensor_family.measure(next(s for s in sensor_family.FAMILY
+                                     if s.sensor_id == "default-stiff-root"))
+    assert "refused" not in row and row["tip_model"] == "mechanics"
+    assert row["warnings"][0].startswith("the level set cannot be traced")
+    # against the twin's truth: within the goal, and the estimate finite
+    assert row["tip_curve"]["rmse_mm"] <= 0.25 and row["tip_curve"]["max_mm"] <= 0.5
+    assert math.isfinite(row["estimated_tip_error_mm"])

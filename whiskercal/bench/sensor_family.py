@@ -24,7 +24,8 @@ from whiskercal.bench import tip_accuracy as accuracy
 from whiskercal.bench.timing import machine_info
 from whiskercal.errors import WhiskercalError
 from whiskercal.fit.tip_model import WARN_TIP_ERROR_MM, choose_tip_model
-from whiskercal.model.calibrate import CalibrationOptions, calibrate
+from whiskercal.fit.run import calibrate_grid
+from whiskercal.model.calibrate import CalibrationOptions
 from whiskercal.twin.params import DEFAULT_SENSOR
 from whiskercal.twin.physics.whisker import WhiskerParams
 
@@ -52,8 +53,9 @@ def calibrate_build(sensor, seed: int = 0):
     started = time.perf_counter()
     length = sensor.whisker.reach_mm
     options = CalibrationOptions(trace_length_mm=length, allow_extrapolation=True)
-    level_set = calibrate(grid.rod_center_mm, grid.fields_uT[:, 0], accuracy.ROD_RADIUS_MM, options)
-    calibration, choice = choose_tip_model(_as_raw(grid), level_set, "auto", length, 20)
+    raw = _as_raw(grid)
+    level_set, untraceable = calibrate_grid(raw, options, None)
+    calibration, choice = choose_tip_model(raw, level_set, "auto", length, 20, untraceable)
     return grid, calibration, choice, time.perf_counter() - started
 
 

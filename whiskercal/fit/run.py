@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import platform
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -16,7 +16,7 @@ from whiskercal.fit.tip_model import choose_tip_model
 from whiskercal.fit.trace_length import resolve_trace_length
 from whiskercal.fit.truth import compare_with_twin_truth
 from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrate
-from whiskercal.model.errors import ExtrapolationLimitError
+from whiskercal.model.errors import ExtrapolationLimitError, FitError, ModelError
 
 if TYPE_CHECKING:
     from whiskercal.artifacts.raw_grid import RawGrid
@@ -47,11 +47,11 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     """
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
     model_options = options.calibration_options(length_mm)
-    calibration = _calibrate(raw, model_options, progress)
+    calibration, untraceable = calibrate_grid(raw, model_options, progress)
     if progress is not None:
         progress("mechanics-informed tip model and the error estimate")
     calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
-                                              options.samples)
+                                              options.samples, untraceable)
     truth = compare_with_twin_truth(raw, calibration)
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
                **raw_metrics(raw), **tip_model.metrics,
@@ -75,13 +75,22 @@ def calibrate_raw(raw: RawGrid, options: CalibrationOptions,
                      progress)
 
 
-def _calibrate(raw: RawGrid, options: CalibrationOptions, progress) -> Calibration:
-    """``calibrate_raw`` with the refusal of a short grid told how to proceed."""
+def calibrate_grid(raw: RawGrid, options: CalibrationOptions, progress
+               ) -> tuple[Calibration, ModelError | None]:
+    """``calibrate_raw`` with the refusal of a short grid told how to proceed.
+
+    When the level set cannot be traced at all, the surface alone and why: the tip model
+    may still come from the mechanics (``fit.tip_model``), which decides whether to refuse.
+    """
     try:
-        return calibrate_raw(raw, options, progress)
+        return calibrate_raw(raw, options, progress), None
     except ExtrapolationLimitError as error:
         raise ExtrapolationLimitError(f"{error}; collect a grid that reaches farther, or pass "
                                       "--allow-extrapolation to mark that range") from None
+    except FitError:
+        raise
+    except ModelError as error:
+        return calibrate_raw(raw, replace(options, surface_only=True)), error
 
 
 def _provenance(options: CalibrationOptions, raw_path: str) -> dict:

@@ -30,7 +30,9 @@ from whiskercal.errors import UsageError
 from whiskercal.fit.options import TIP_MODELS
 from whiskercal.mechfit.identify import (MAX_CHI2_PER_DOF, MechanicsCalibration,
                                          calibrate_mechanics, tip_change_mm)
-from whiskercal.model.calibrate import Calibration
+from whiskercal.model.calibrate import Calibration, contact_mask
+from whiskercal.model.errors import ModelError
+from whiskercal.model.lookup import LookupReport
 
 # The tip error (RMS, mm) above which a calibration is reported as not meeting its goal.
 WARN_TIP_ERROR_MM = 0.25
@@ -48,8 +50,12 @@ class TipModelChoice:
 
 
 def _mechanics(raw, calibration: Calibration, length_mm: float, samples: int):
-    """The mechanics calibration of the grid's contacts, or the reason there is none."""
-    used = calibration.used
+    """The mechanics calibration of the grid's contacts, or the reason there is none.
+
+    Every contact counts, the near-root ones the level set's surface leaves out included: the
+    model has no trouble there, and they carry most of the root's compliance.
+    """
+    used = contact_mask(raw.z_uT, raw.z_sem_uT)
     noise = float(np.median(raw.z_sem_uT[used])) if used.any() else math.nan
     try:
         return calibrate_mechanics(raw.rod_center_mm[used], raw.z_uT[used], raw.rod_radius_mm,
@@ -74,7 +80,8 @@ def _finite_or_nan(value: float) -> float:
 
 
 def _level_set_estimate(calibration: Calibration, mechanics: MechanicsCalibration | None) -> float:
-    if mechanics is None or not math.isfinite(mechanics.estimated_tip_error_mm):
+    if calibration.lookup is None or mechanics is None \
+            or not math.isfinite(mechanics.estimated_tip_error_mm):
         return math.nan
     distance = tip_change_mm(calibration.lookup, mechanics.lookup)  # over the level set's range
     return math.hypot(distance, mechanics.estimated_tip_error_mm)
@@ -83,7 +90,9 @@ def _level_set_estimate(calibration: Calibration, mechanics: MechanicsCalibratio
 def _use_mechanics(calibration: Calibration, mechanics: MechanicsCalibration) -> Calibration:
     """The calibration with the mechanics' lookup as its tip model (no level-set extrapolation)."""
     lookup = mechanics.lookup
-    report = replace(calibration.lookup_report, kind=lookup.kind, knot_extension_mm=None)
+    report = calibration.lookup_report or LookupReport(
+        lookup.kind, math.nan, np.full(2, math.nan), {}, np.zeros(0), np.zeros((0, 2)))
+    report = replace(report, kind=lookup.kind, knot_extension_mm=None)
     return replace(calibration, lookup=lookup, lookup_report=report, extrapolated=False,
                    trusted_z_uT=(lookup.z_min_uT, lookup.z_max_uT))
 
@@ -97,13 +106,18 @@ def _pick(requested: str, mechanics, mechanics_error: float, level_set_error: fl
 
 
 def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: float,
-                     samples: int) -> tuple[Calibration, TipModelChoice]:
+                     samples: int, untraceable: ModelError | None = None
+                     ) -> tuple[Calibration, TipModelChoice]:
     """The calibration with the tip model ``requested`` (or chosen by ``auto``), and the choice.
+
+    ``untraceable``: why the level set could not be traced (``calibration`` then has no
+    lookup); an identified mechanics model ships instead, whatever was requested.
 
     Raises
     ------
     UsageError
-        ``mechanics`` was requested and the mechanics cannot be fitted to this grid.
+        ``mechanics`` was requested and the mechanics cannot be fitted to this grid, or the
+        level set is untraceable and the mechanics is not identified.
     """
     if requested not in TIP_MODELS:
         raise UsageError(f"tip model must be one of {', '.join(TIP_MODELS)}, not {requested!r}")
@@ -111,8 +125,12 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
     if mechanics is None and requested == "mechanics":
         raise UsageError(f"the mechanics-informed tip model cannot be fitted: {why_not}")
     mech_error = mechanics.estimated_tip_error_mm if mechanics is not None else math.inf
+    if untraceable is not None and not math.isfinite(mech_error):
+        raise type(untraceable)(f"{untraceable}; nor can the mechanics-informed model stand in: "
+                                f"{why_not or 'the grid does not identify the suspension'}")
     level_error = _level_set_estimate(calibration, mechanics)
-    name = _pick(requested, mechanics, mech_error, level_error)
+    name = "mechanics" if untraceable is not None else \
+        _pick(requested, mechanics, mech_error, level_error)
     estimate = _finite_or_nan(mech_error) if name == "mechanics" else level_error
     metrics = {"tip_model": name, "estimated_tip_error_mm": estimate,
                "level_set_estimated_tip_error_mm": level_error}
@@ -122,6 +140,9 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
         calibration = _use_mechanics(calibration, mechanics) if name == "mechanics" else calibration
     choice = TipModelChoice(name, estimate, metrics)
     choice.warnings = _warnings(choice, mechanics, why_not)
+    if untraceable is not None:
+        choice.warnings.insert(0, f"the level set cannot be traced ({untraceable}): the "
+                                  "mechanics-informed tip model ships instead")
     return calibration, choice
 
 

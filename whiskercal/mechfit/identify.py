@@ -100,7 +100,8 @@ class MechanicsCalibration:
 
 def _theta_of(fit: MechanicsFit) -> np.ndarray:
     s = fit.suspension
-    share = s.stub_mm / (s.trace_length_mm * MAX_STUB_FRACTION)
+    # the logistic's ends are reached in floating point: keep its inverse finite
+    share = min(max(s.stub_mm / (s.trace_length_mm * MAX_STUB_FRACTION), 1e-12), 1.0 - 1e-12)
     return np.array([math.log(s.rot_compliance), math.log(s.trans_compliance),
                      math.log(share / (1.0 - share))])
 

@@ -68,6 +68,9 @@ class CalibrationOptions:
     seed: int = 0
     max_extension_mm: float = MAX_EXTENSION_MM
     allow_extrapolation: bool = False
+    # fit the surface and set up the level-set problem, trace nothing (lookup None): for a tip
+    # model of another kind when the level set cannot be traced
+    surface_only: bool = False
 
 
 @dataclass
@@ -77,8 +80,8 @@ class Calibration:
     surface: Surface
     fit: FitReport
     problem: LevelSetProblem
-    lookup: TipLookup
-    lookup_report: LookupReport
+    lookup: TipLookup | None              # None: fitted with ``surface_only``
+    lookup_report: LookupReport | None
     contact_points_mm: np.ndarray
     z_uT: np.ndarray
     used: np.ndarray                      # mask of the raw points used
@@ -159,14 +162,16 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     surface, report = fit_surface(points, z, options.degree, options.coordinates, options.folds,
                                   options.seed)
     problem = build_problem(surface, points, z, options)
-    say(f"tracing {options.samples} tips and the hold-out set")
-    lookup, lookup_report = build_lookup(problem, options.samples, options.tracer,
-                                         options.lookup_kind)
-    calibration = Calibration(surface, report, problem, lookup, lookup_report, points, z, used,
+    calibration = Calibration(surface, report, problem, None, None, points, z, used,
                               points - rod_center_mm[used], float(options.max_extension_mm))
+    _check_fit(calibration, None if z_sem_uT is None else z_sem_uT[used])
+    if options.surface_only:
+        return calibration
+    say(f"tracing {options.samples} tips and the hold-out set")
+    calibration.lookup, calibration.lookup_report = build_lookup(
+        problem, options.samples, options.tracer, options.lookup_kind)
     _note_untraced(calibration)
     _check_extrapolation(calibration, options)
-    _check_fit(calibration, None if z_sem_uT is None else z_sem_uT[used])
     say("redrawing the grid's scatter")
     _check_scatter(calibration, options.seed)
     return calibration
