@@ -22,17 +22,9 @@ from whiskercal.collect.run import collect
 from whiskercal.session import EncoderMismatchError
 from whiskercal.errors import ArtifactError, UsageError
 
-SMALL = """
-[motion]
-travel_feed_mm_min = 3000.0
-approach_feed_mm_min = 1500.0
-[acquisition]
-settle_s = 0.05
-samples_per_point = 5
-baseline_samples = 30
-[sensor]
-rate_hz = 100
-[grid]
+from fast_collect import FAST
+
+SMALL = FAST + """[grid]
 reach_min_mm = 45.5
 reach_max_mm = 52.5
 angle_min_near_deg = -40.0

@@ -14,25 +14,18 @@ from whiskercal.fit.trace_length import twin_sensor
 from whiskercal.twin.params import SENSORS
 from whiskercal.twin.sensor_file import load_sensor
 
+from fast_collect import FAST
+
 BUILD = """
 sensor_id = "lab-build-82mm"
 [whisker]
 length_mm = 82.0
 diameter_mm = 0.27
 """
-CONFIG = """
+CONFIG = FAST + """
 [rig]
 trace_length_mm = 85.0
 whisker_reach_mm = 88.0
-[motion]
-travel_feed_mm_min = 3000.0
-approach_feed_mm_min = 1500.0
-[acquisition]
-settle_s = 0.05
-samples_per_point = 5
-baseline_samples = 30
-[sensor]
-rate_hz = 100
 [grid]
 step_mm = 4.0
 reach_min_mm = 40.5
@@ -70,18 +63,9 @@ sensor_id = "lab-build-45mm"
 [whisker]
 length_mm = 45.0
 """
-ONLY_THE_TRACE_LENGTH = """
+ONLY_THE_TRACE_LENGTH = FAST + """
 [rig]
 trace_length_mm = 48.0
-[motion]
-travel_feed_mm_min = 3000.0
-approach_feed_mm_min = 1500.0
-[acquisition]
-settle_s = 0.05
-samples_per_point = 5
-baseline_samples = 30
-[sensor]
-rate_hz = 100
 """
 
 

@@ -28,17 +28,8 @@ from whiskercal.collect.plan import build_plan
 from whiskercal.collect.run import collect
 from whiskercal.errors import DeviceError
 
-FAST = """
-[motion]
-travel_feed_mm_min = 3000.0
-approach_feed_mm_min = 1500.0
-[acquisition]
-settle_s = 0.05
-samples_per_point = 5
-baseline_samples = 30
-[sensor]
-rate_hz = 100
-"""
+from fast_collect import FAST
+
 # A band of a few dozen points for the tests that run the grid more than once.
 SMALL = FAST + """
 [grid]

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from short_study import short_study
 from twin_calibration import run_twin_study, write_twin_calibration
 from whiskercal import runtime
 from whiskercal.artifacts.plane_study import PHASE_SLIDE, read_study
@@ -19,19 +20,7 @@ from whiskercal.twin.sensor_file import resolve_sensor
 
 SENSOR_FILE = Path(__file__).resolve().parents[2] / "sensors" / "stiff-root-75mm.toml"
 
-STUDY = """
-[trials]
-depths_mm = [5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0]
-travel_mm = 10.0
-slide_start_mm = -5.0
-approach_speed_mm_s = 30.0
-rapid_speed_mm_s = 60.0
-retract_mm = 3.0
-[contact]
-search_step_mm = 0.25
-samples_per_step = 5
-baseline_samples = 60
-"""
+STUDY = short_study([5, 10, 15, 20, 25, 30, 35, 40, 45])
 
 
 @pytest.fixture(scope="module")

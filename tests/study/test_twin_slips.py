@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from short_study import short_study
 from twin_calibration import run_twin_study
 from whiskercal import runtime
 from whiskercal.artifacts.plane_study import PHASE_SLIDE, read_study
@@ -11,20 +12,7 @@ from whiskercal.study.truth import match_rows
 
 # One trial at the paper's 40 mm, slid at 1 mm/s: the twin's sawtooth (period ~0.1 mm at this
 # depth) spans ~30 samples at 300 Hz. At the study's 10 mm/s it spans ~3 and is not resolved.
-SLOW_SLIDE = """
-[trials]
-depths_mm = [40.0]
-speed_mm_s = 1.0
-travel_mm = 3.0
-slide_start_mm = -1.5
-approach_speed_mm_s = 30.0
-rapid_speed_mm_s = 60.0
-retract_mm = 3.0
-[contact]
-search_step_mm = 0.25
-samples_per_step = 5
-baseline_samples = 60
-"""
+SLOW_SLIDE = short_study([40.0], travel_mm=3.0, slide="speed_mm_s = 1.0\n")
 
 
 @pytest.fixture(scope="module")
