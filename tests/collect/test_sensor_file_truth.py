@@ -36,17 +36,24 @@ expected_points = 0
 """
 
 
-def test_a_toml_build_is_recorded_whole_and_its_truth_found_by_fit(tmp_path):
+def _collect_on_twin(tmp_path, build_text: str, config_text: str, seed: int):
+    """``whiskercal collect`` on a new twin world of the build in ``build_text``; the raw file
+    and the build's file."""
     build, config = tmp_path / "build.toml", tmp_path / "collect.toml"
-    build.write_text(BUILD), config.write_text(CONFIG)
-    assert "lab-build-82mm" not in SENSORS
+    build.write_text(build_text), config.write_text(config_text)
     name = f"t{uuid.uuid4().hex[:10]}"
     raw_path = tmp_path / "raw.h5"
     result = CliRunner().invoke(cli, [
-        "collect", "--stage", f"sim://{name}/stage?sensor={build}&seed=3",
+        "collect", "--stage", f"sim://{name}/stage?sensor={build}&seed={seed}",
         "--sensor", f"sim://{name}/sensor", "--config", str(config), "--out", str(raw_path),
         "--json"])
     assert result.exit_code == 0, result.output
+    return raw_path, build
+
+
+def test_a_toml_build_is_recorded_whole_and_its_truth_found_by_fit(tmp_path):
+    assert "lab-build-82mm" not in SENSORS
+    raw_path, build = _collect_on_twin(tmp_path, BUILD, CONFIG, seed=3)
     raw = read_raw_grid(raw_path)
     assert raw.sensor_id == "lab-build-82mm"
     assert twin_sensor(raw) == load_sensor(build)
@@ -70,16 +77,7 @@ trace_length_mm = 48.0
 
 
 def test_a_config_giving_only_the_trace_length_collects_a_grid_for_that_build(tmp_path):
-    build, config = tmp_path / "build.toml", tmp_path / "collect.toml"
-    build.write_text(SHORT_BUILD), config.write_text(ONLY_THE_TRACE_LENGTH)
-    name = f"t{uuid.uuid4().hex[:10]}"
-    raw_path = tmp_path / "raw.h5"
-    result = CliRunner().invoke(cli, [
-        "collect", "--stage", f"sim://{name}/stage?sensor={build}&seed=4",
-        "--sensor", f"sim://{name}/sensor", "--config", str(config), "--out", str(raw_path),
-        "--json"])
-    assert result.exit_code == 0, result.output
-    raw = read_raw_grid(raw_path)
+    raw = read_raw_grid(_collect_on_twin(tmp_path, SHORT_BUILD, ONLY_THE_TRACE_LENGTH, seed=4)[0])
     reach = np.hypot(*raw.rod_center_mm.T)
     # the band scaled from the default's 22.5..71.75 mm for 78 mm: nothing past the tip
     assert reach.min() >= 22.5 * 48 / 78 - 1e-9 and reach.max() <= 71.75 * 48 / 78 + 1e-9
