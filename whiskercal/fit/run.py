@@ -75,8 +75,8 @@ def calibrate_raw(raw: RawGrid, options: CalibrationOptions,
                      progress)
 
 
-def calibrate_grid(raw: RawGrid, options: CalibrationOptions, progress
-               ) -> tuple[Calibration, ModelError | None]:
+def calibrate_grid(raw: RawGrid, options: CalibrationOptions,
+                   progress) -> tuple[Calibration, ModelError | None]:
     """``calibrate_raw`` with the refusal of a short grid told how to proceed.
 
     When the level set cannot be traced at all, the surface alone and why: the tip model

@@ -49,7 +49,7 @@ class TipModelChoice:
     warnings: list[str] = field(default_factory=list)
 
 
-def _mechanics(raw, calibration: Calibration, length_mm: float, samples: int):
+def _mechanics(raw, length_mm: float, samples: int):
     """The mechanics calibration of the grid's contacts, or the reason there is none.
 
     Every contact counts, the near-root ones the level set's surface leaves out included: the
@@ -84,7 +84,7 @@ def _level_set_estimate(calibration: Calibration, mechanics: MechanicsCalibratio
             or not math.isfinite(mechanics.estimated_tip_error_mm):
         return math.nan
     distance = tip_change_mm(calibration.lookup, mechanics.lookup)  # over the level set's range
-    return math.hypot(distance, mechanics.estimated_tip_error_mm)
+    return _finite_or_nan(math.hypot(distance, mechanics.estimated_tip_error_mm))
 
 
 def _use_mechanics(calibration: Calibration, mechanics: MechanicsCalibration) -> Calibration:
@@ -121,7 +121,7 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
     """
     if requested not in TIP_MODELS:
         raise UsageError(f"tip model must be one of {', '.join(TIP_MODELS)}, not {requested!r}")
-    mechanics, why_not = _mechanics(raw, calibration, length_mm, samples)
+    mechanics, why_not = _mechanics(raw, length_mm, samples)
     if mechanics is None and requested == "mechanics":
         raise UsageError(f"the mechanics-informed tip model cannot be fitted: {why_not}")
     mech_error = mechanics.estimated_tip_error_mm if mechanics is not None else math.inf
