@@ -15,13 +15,13 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
-from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
 
 from whiskercal.bench import tip_accuracy as accuracy
 from whiskercal.bench.timing import machine_info
+from whiskercal.bench.twin_grid import raw_like
 from whiskercal.errors import WhiskercalError
 from whiskercal.fit.tip_model import WARN_TIP_ERROR_MM, choose_tip_model
 from whiskercal.fit.run import calibrate_grid
@@ -39,21 +39,14 @@ FAMILY = accuracy.FAMILY + (
 QUICK_BUILDS = 1
 
 
-def _as_raw(grid) -> SimpleNamespace:
-    """The parts of a raw grid the tip-model choice reads, from a simulated grid."""
-    n = len(grid.rod_center_mm)
-    return SimpleNamespace(rod_center_mm=grid.rod_center_mm, z_uT=grid.fields_uT[:, 0],
-                           z_sem_uT=np.full(n, accuracy.NOISE_UT[0]),
-                           rod_radius_mm=accuracy.ROD_RADIUS_MM)
-
-
 def calibrate_build(sensor, seed: int = 0):
     """A build's simulated grid calibrated as ``fit`` does: (grid, calibration, choice, seconds)."""
     grid = accuracy.simulate_fields(sensor, seed)
     started = time.perf_counter()
     length = sensor.whisker.reach_mm
     options = CalibrationOptions(trace_length_mm=length, allow_extrapolation=True)
-    raw = _as_raw(grid)
+    raw = raw_like(grid.rod_center_mm, grid.fields_uT[:, 0], accuracy.NOISE_UT[0],
+                   accuracy.ROD_RADIUS_MM)
     level_set, untraceable = calibrate_grid(raw, options, None)
     calibration, choice = choose_tip_model(raw, level_set, "auto", length, 20, untraceable)
     return grid, calibration, choice, time.perf_counter() - started

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -70,6 +71,14 @@ def simulate_grid(sensor: SensorParams = DEFAULT_SENSOR, grid: GridConfig | None
 def noisy_z(grid: SimulatedGrid, noise_uT: float = AVERAGED_NOISE_UT, seed: int = 0) -> np.ndarray:
     """The grid's z (µT) with seeded Gaussian noise of the averaged reading."""
     return grid.z_true_uT + np.random.default_rng(seed).normal(0.0, noise_uT, grid.z_true_uT.shape)
+
+
+def raw_like(rod_center_mm: np.ndarray, z_uT: np.ndarray, noise_uT: float,
+             rod_radius_mm: float) -> SimpleNamespace:
+    """The parts of a raw grid the fit's tip-model choice reads (``fit.tip_model``), for a
+    simulated grid whose points' mean z have a standard error of ``noise_uT``."""
+    return SimpleNamespace(rod_center_mm=rod_center_mm, z_uT=z_uT, rod_radius_mm=rod_radius_mm,
+                           z_sem_uT=np.full(len(z_uT), float(noise_uT)))
 
 
 def calibrate_grid(grid: SimulatedGrid, z_uT: np.ndarray | None = None, **options) -> Calibration:
