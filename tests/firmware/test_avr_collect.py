@@ -1,26 +1,24 @@
 """A small grid collected through whisker_nano.hex on simavr gives what the Python sensor board
 gives with the same seed: the same points, z within the sensor noise, no frame lost."""
 
+import sys
 import uuid
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from avr_emulation import emulation_or_skip
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "collect"))  # the collect tests' helpers
+from fast_collect import FAST_MOTION  # noqa: E402
 from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.collect.config import load_config
 from whiskercal.collect.plan import build_plan
 from whiskercal.collect.run import collect
 
 # Short dwell and fast moves as in tests/collect/test_sim.py; the sensor at its 300 Hz default.
-SMALL_GRID = """
-[motion]
-travel_feed_mm_min = 3000.0
-approach_feed_mm_min = 1500.0
-[acquisition]
-settle_s = 0.05
-samples_per_point = 5
-baseline_samples = 30
+SMALL_GRID = FAST_MOTION + """
 [grid]
 reach_min_mm = 45
 reach_max_mm = 52

@@ -1,6 +1,7 @@
 """Two depths of the flat-plane study through both compiled images on simavr agree with the
 Python boards of a world with the same seed."""
 
+import sys
 import uuid
 from pathlib import Path
 
@@ -8,25 +9,16 @@ import numpy as np
 import pytest
 
 from avr_emulation import emulation_or_skip
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "study"))  # the study tests' helpers
+from short_study import short_study  # noqa: E402
 from whiskercal.artifacts.plane_study import PHASE_SLIDE, read_study
 from whiskercal.study.config import load_config
 from whiskercal.study.run import run_study
 from whiskercal.twin.devices import simport
 
 # tests/study/conftest.py's short study, at two depths
-TWO_DEPTHS = """
-[trials]
-depths_mm = [10.0, 30.0]
-travel_mm = 10.0
-slide_start_mm = -5.0
-approach_speed_mm_s = 30.0
-rapid_speed_mm_s = 60.0
-retract_mm = 3.0
-[contact]
-search_step_mm = 0.25
-samples_per_step = 5
-baseline_samples = 60
-"""
+TWO_DEPTHS = short_study([10.0, 30.0])
 
 
 def _study(folder: Path, emulated: bool):
