@@ -64,8 +64,8 @@ def measure(sensor, seed: int = 0) -> dict:
                 "silent_failure": False}
     z_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
     z_true, tips_true = accuracy.truth_tip_curve(sensor)
-    curve = accuracy._lookup_errors(calibration.lookup, z_true, tips_true, z_range)
-    realistic = accuracy._realistic_errors({"lookup": calibration.lookup},
+    curve = accuracy.lookup_errors(calibration.lookup, z_true, tips_true, z_range)
+    realistic = accuracy.realistic_errors({"lookup": calibration.lookup},
                                            accuracy.realistic_contacts(sensor), z_range)
     estimate = choice.estimated_tip_error_mm
     warned = bool(choice.warnings)

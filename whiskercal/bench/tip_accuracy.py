@@ -195,7 +195,7 @@ def _mechanics(sensor, grid, axes):
     return out
 
 
-def _lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
+def lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
     inside = (z_true >= z_range[0]) & (z_true <= z_range[1])
     z, tips = z_true[inside], tips_true[inside]
     covered = (z >= lookup.z_min_uT) & (z <= lookup.z_max_uT)
@@ -206,7 +206,7 @@ def _lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
     return errors
 
 
-def _realistic_errors(candidate, contacts, z_range) -> dict:
+def realistic_errors(candidate, contacts, z_range) -> dict:
     y, z = contacts["fields_uT"][:, 0], contacts["fields_uT"][:, 1]
     inside = (y >= z_range[0]) & (y <= z_range[1])
     lookup, tips = candidate["lookup"], contacts["tip_mm"][inside]
@@ -254,9 +254,9 @@ def measure_build(sensor: SensorParams, candidates=tuple(CANDIDATES), seed: int 
             row["error"] = f"{type(error).__name__}: {error}"
             rows.append(row), say(row)
             continue
-        row.update(fit_s=candidate["fit_s"], tip_curve=_lookup_errors(
+        row.update(fit_s=candidate["fit_s"], tip_curve=lookup_errors(
             candidate["lookup"], z_true, tips_true, z_range),
-            realistic=_realistic_errors(candidate, contacts, z_range), **_speeds(candidate))
+            realistic=realistic_errors(candidate, contacts, z_range), **_speeds(candidate))
         if "fit" in candidate:
             fit = candidate["fit"]
             row["fitted"] = {"stub_mm": fit.suspension.stub_mm,

@@ -15,7 +15,8 @@ from whiskercal.fit.result import FitResult
 from whiskercal.fit.tip_model import choose_tip_model
 from whiskercal.fit.trace_length import resolve_trace_length
 from whiskercal.fit.truth import compare_with_twin_truth
-from whiskercal.model.calibrate import Calibration, CalibrationOptions, calibrate
+from whiskercal.model.calibrate import (Calibration, CalibrationOptions, calibrate,
+                                        calibrate_surface, trace_lookup)
 from whiskercal.model.errors import ExtrapolationLimitError, FitError, ModelError
 
 if TYPE_CHECKING:
@@ -82,15 +83,20 @@ def calibrate_grid(raw: RawGrid, options: CalibrationOptions,
     When the level set cannot be traced at all, the surface alone and why: the tip model
     may still come from the mechanics (``fit.tip_model``), which decides whether to refuse.
     """
+    calibration = calibrate_surface(raw.rod_center_mm, raw.z_uT, raw.rod_radius_mm, options,
+                                    z_sem_uT(raw), progress)
+    surface_warnings = list(calibration.warnings)
     try:
-        return calibrate_raw(raw, options, progress), None
+        trace_lookup(calibration, options, progress)
     except ExtrapolationLimitError as error:
         raise ExtrapolationLimitError(f"{error}; collect a grid that reaches farther, or pass "
                                       "--allow-extrapolation to mark that range") from None
     except FitError:
         raise
     except ModelError as error:
-        return calibrate_raw(raw, replace(options, surface_only=True)), error
+        return replace(calibration, lookup=None, lookup_report=None,
+                       warnings=surface_warnings), error
+    return calibration, None
 
 
 def _provenance(options: CalibrationOptions, raw_path: str) -> dict:

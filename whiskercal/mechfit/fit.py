@@ -72,11 +72,16 @@ class _Objective:
         self.evaluations += 1
         return suspension, poses, np.array(in_contact)
 
+    def evaluate(self, theta: np.ndarray):
+        """One solve: (suspension, poses, pose map, residual µT, residual in standard errors)."""
+        suspension, poses, in_contact = self.solve(theta)
+        pose_map, residual = fit_pose_map(poses, self.fields, self.degree)
+        scaled = residual * self.weights
+        scaled[~in_contact] = 1e3  # a trial that loses a contact the grid had is far off
+        return suspension, poses, pose_map, residual, scaled
+
     def __call__(self, theta: np.ndarray) -> np.ndarray:
-        _, poses, in_contact = self.solve(theta)
-        _, residual = fit_pose_map(poses, self.fields, self.degree, self.weights)
-        residual[~in_contact] = 1e3  # a trial that loses a contact the grid had is far off
-        return residual.ravel()
+        return self.evaluate(theta)[4].ravel()
 
 
 def _theta_start(trace_mm: float, rot_compliance: float) -> np.ndarray:
@@ -119,8 +124,7 @@ def fit_mechanics(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_m
                            degree)
     result = least_squares(objective, theta, diff_step=1e-4, xtol=1e-10, ftol=1e-10,
                            max_nfev=200)
-    suspension, poses, _ = objective.solve(result.x)
-    pose_map, residual = fit_pose_map(poses, fields, degree)
+    suspension, poses, pose_map, residual, _ = objective.evaluate(result.x)
     return MechanicsFit(suspension, pose_map, poses, residual,
                         np.sqrt(np.mean(residual ** 2, axis=0)), tuple(range(fields.shape[1])),
                         time.perf_counter() - started, objective.evaluations + sum(t[3] for t in tried),

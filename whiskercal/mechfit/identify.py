@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from whiskercal.errors import UsageError
-from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, fit_pose_map, exponents
+from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, exponents
 from whiskercal.mechfit.fit import MAX_STUB_FRACTION, MechanicsFit, _Objective, fit_mechanics
 from whiskercal.mechfit.tables import DEFAULT_KIND, DEFAULT_SAMPLES, monotone_z_range, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
@@ -125,9 +125,8 @@ class _Problem:
 
     def as_fit(self, objective: _Objective, theta: np.ndarray) -> tuple[MechanicsFit, float]:
         """The fit at ``theta`` and its χ² (standard errors; a lost contact counts heavily)."""
-        chi2 = float(np.sum(objective(theta) ** 2))
-        suspension, poses, _ = objective.solve(theta)
-        pose_map, residual = fit_pose_map(poses, self.fields, DEFAULT_DEGREE)
+        suspension, poses, pose_map, residual, scaled = objective.evaluate(theta)
+        chi2 = float(np.sum(scaled ** 2))
         fit = MechanicsFit(suspension, pose_map, poses, residual,
                            np.sqrt(np.mean(residual ** 2, axis=0)), (0,), 0.0,
                            objective.evaluations)

@@ -18,6 +18,7 @@ from whiskercal.errors import UsageError
 from whiskercal.mechfit.fit import MechanicsFit
 from whiskercal.mechfit.tipcurve import TipFamily, tip_family
 from whiskercal.model.lookup import TipLookup
+from whiskercal.twin.truth import first_branch
 
 DEFAULT_SAMPLES = 20
 DEFAULT_KIND = "cubic"
@@ -28,9 +29,8 @@ DEFAULT_BETAS_DEG = tuple(range(-40, 71, 10))
 
 def monotone_z_range(z_uT: np.ndarray) -> tuple[float, float]:
     """The z range (µT) from rest over which z falls strictly along the curve (one-to-one)."""
-    steps = np.diff(z_uT)
-    stop = int(np.argmax(steps >= 0)) if np.any(steps >= 0) else len(steps)
-    return float(z_uT[stop]), float(z_uT[0])
+    branch, _ = first_branch(z_uT, z_uT)
+    return float(branch[-1]), float(z_uT[0])
 
 
 def z_lookup(fit: MechanicsFit, z_range_uT: tuple[float, float], samples: int = DEFAULT_SAMPLES,
@@ -55,8 +55,7 @@ def z_lookup(fit: MechanicsFit, z_range_uT: tuple[float, float], samples: int = 
 
 
 def _monotone_count(z: np.ndarray) -> int:
-    steps = np.diff(z)
-    return int(np.argmax(steps >= 0)) + 1 if np.any(steps >= 0) else len(z)
+    return len(first_branch(z, z)[0])
 
 
 def _refine(fit: MechanicsFit, family: TipFamily, knots: np.ndarray, tips: np.ndarray) -> np.ndarray:

@@ -68,9 +68,6 @@ class CalibrationOptions:
     seed: int = 0
     max_extension_mm: float = MAX_EXTENSION_MM
     allow_extrapolation: bool = False
-    # fit the surface and set up the level-set problem, trace nothing (lookup None): for a tip
-    # model of another kind when the level set cannot be traced
-    surface_only: bool = False
 
 
 @dataclass
@@ -80,7 +77,7 @@ class Calibration:
     surface: Surface
     fit: FitReport
     problem: LevelSetProblem
-    lookup: TipLookup | None              # None: fitted with ``surface_only``
+    lookup: TipLookup | None              # None until ``trace_lookup``
     lookup_report: LookupReport | None
     contact_points_mm: np.ndarray
     z_uT: np.ndarray
@@ -146,6 +143,17 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     progress : callable(str), optional
         Told the name of each stage as it starts.
     """
+    calibration = calibrate_surface(rod_center_mm, z_uT, rod_radius_mm, options, z_sem_uT,
+                                    progress)
+    trace_lookup(calibration, options, progress)
+    return calibration
+
+
+def calibrate_surface(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
+                      options: CalibrationOptions = CalibrationOptions(),
+                      z_sem_uT: np.ndarray | None = None, progress=None) -> Calibration:
+    """``calibrate`` up to the level-set problem: the surface and its evidence, no lookup yet
+    (``trace_lookup`` adds it; a tip model of another kind may stand in where it cannot)."""
     say = progress or (lambda _message: None)
     rod_center_mm, z_uT = np.asarray(rod_center_mm, float), np.asarray(z_uT, float)
     z_sem_uT = None if z_sem_uT is None else np.asarray(z_sem_uT, float)
@@ -165,16 +173,23 @@ def calibrate(rod_center_mm: np.ndarray, z_uT: np.ndarray, rod_radius_mm: float,
     calibration = Calibration(surface, report, problem, None, None, points, z, used,
                               points - rod_center_mm[used], float(options.max_extension_mm))
     _check_fit(calibration, None if z_sem_uT is None else z_sem_uT[used])
-    if options.surface_only:
-        return calibration
+    return calibration
+
+
+def trace_lookup(calibration: Calibration, options: CalibrationOptions, progress=None) -> None:
+    """Trace the lookup of a ``calibrate_surface`` result, check its extrapolation and scatter.
+
+    Raises a ModelError (a TraceError or one of its kinds) when the level set cannot be traced
+    soundly, ExtrapolationLimitError when the grid stops too far short of the tip.
+    """
+    say = progress or (lambda _message: None)
     say(f"tracing {options.samples} tips and the hold-out set")
     calibration.lookup, calibration.lookup_report = build_lookup(
-        problem, options.samples, options.tracer, options.lookup_kind)
+        calibration.problem, options.samples, options.tracer, options.lookup_kind)
     _note_untraced(calibration)
     _check_extrapolation(calibration, options)
     say("redrawing the grid's scatter")
     _check_scatter(calibration, options.seed)
-    return calibration
 
 
 def _note_untraced(calibration: Calibration) -> None:
