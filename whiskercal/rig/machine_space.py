@@ -74,12 +74,14 @@ class MachineSpace:
                 f"workspace {_box(self.low_mm, self.high_mm)} ({self.layout}); not sent")
 
 
-def machine_space(settings: dict[int, float], homed_mm=None) -> MachineSpace:
+def machine_space(settings: dict[int, float], homed_mm=None, here_mm=None) -> MachineSpace:
     """The mapping for a stock grbl 1.1 board with these ``$$`` settings.
 
     ``homed_mm`` is the machine position (mm) right after ``$H``, which tells a
-    HOMING_FORCE_SET_ORIGIN build from a stock one; without it (no homing this run) the stock
-    layout is assumed. A homed position that fits neither raises DeviceError.
+    HOMING_FORCE_SET_ORIGIN build from a stock one; a homed position that fits neither raises
+    DeviceError. Without it (no homing this run) the stock layout is assumed unless the board
+    stands where only a HOMING_FORCE_SET_ORIGIN build can (``here_mm`` above 0 on an axis that
+    homes toward its minimum): a board standing at 0 fits both, and stock grbl is assumed.
     """
     travel = np.array([float(settings.get(n, 200.0)) for n in TRAVEL])
     if not settings.get(HOMING_ENABLE, 0):
@@ -87,7 +89,12 @@ def machine_space(settings: dict[int, float], homed_mm=None) -> MachineSpace:
     toward_min = np.array([bool(int(settings.get(HOMING_DIR_MASK, 0)) & (1 << axis))
                            for axis in range(2)])
     pulloff = float(settings.get(HOMING_PULLOFF, _DEFAULT_PULLOFF_MM))
-    layout = _STOCK if homed_mm is None else _layout(settings, homed_mm, toward_min, travel, pulloff)
+    if homed_mm is not None:
+        layout = _layout(settings, homed_mm, toward_min, travel, pulloff)
+    elif here_mm is not None and np.any(toward_min & (np.asarray(here_mm, float)[:2] > 1e-3)):
+        layout = _FORCE_SET_ORIGIN
+    else:
+        layout = _STOCK
     if layout == _FORCE_SET_ORIGIN:
         low, high = np.where(toward_min, 0.0, -travel), np.where(toward_min, travel, 0.0)
         origin = np.where(toward_min, 0.0, -travel)

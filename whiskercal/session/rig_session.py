@@ -228,7 +228,9 @@ class RigSession:
         """The stock board's layout, from its settings and where homing left it; a board whose
         position lies outside the workspace that layout gives cannot be mapped."""
         here_mm = np.asarray(self.stage.status().mpos_mm, float)[:2]
-        space = board_space(self.devices.stage_settings, here_mm if self.config.home else None)
+        homed = self.config.home
+        space = board_space(self.devices.stage_settings, here_mm if homed else None,
+                            None if homed else here_mm)
         if np.any(here_mm < space.low_mm - 1e-3) or np.any(here_mm > space.high_mm + 1e-3):
             raise DeviceError(
                 f"the stage's machine position {np.round(here_mm, 3).tolist()} mm lies outside the "
