@@ -50,8 +50,10 @@ STOCK_SETTINGS = {10: 1, 23: 3}
 _LOCKED = 0  # ``alarm`` value for the lock after power-up: Alarm state without an ALARM:N
 # The modal groups (grbl 1.1 / RS274NGC numbers) of the G codes this stage knows.
 _NON_MODAL, _MOTION, _PLANE, _DISTANCE, _FEED_MODE, _UNITS = 0, 1, 2, 3, 5, 6
-_G_GROUPS = {4: _NON_MODAL, 53: _NON_MODAL, 0: _MOTION, 1: _MOTION, 17: _PLANE, 90: _DISTANCE, 91: _DISTANCE,
+_G_GROUPS = {4: _NON_MODAL, 0: _MOTION, 1: _MOTION, 17: _PLANE, 90: _DISTANCE, 91: _DISTANCE,
              94: _FEED_MODE, 21: _UNITS}
+# stock grbl also knows G53 (move in machine coordinates); whiskercal's firmware does not
+_STOCK_G_GROUPS = {**_G_GROUPS, 53: _NON_MODAL}
 
 
 class GcodeError(Exception):
@@ -81,16 +83,18 @@ def _bad_word(first: str) -> StageError:
     return StageError.BAD_NUMBER_FORMAT if first.isalpha() else StageError.EXPECTED_COMMAND_LETTER
 
 
-def read_block(words: list[tuple[str, float]]) -> tuple[dict[int, int], dict[str, float]]:
+def read_block(words: list[tuple[str, float]],
+               known: dict[int, int] = _G_GROUPS) -> tuple[dict[int, int], dict[str, float]]:
     """A block's G codes by modal group and its X, Y, F, P words, checked word by word as grbl does.
 
-    N words (line numbers) are accepted and ignored; any other letter is ``error:20``.
+    ``known`` maps the G codes the board knows to their groups (stock grbl adds G53). N words
+    (line numbers) are accepted and ignored; any other letter is ``error:20``.
     """
     groups: dict[int, int] = {}
     values: dict[str, float] = {}
     for letter, value in words:
         if letter == "G":
-            _g_word(value, groups)
+            _g_word(value, groups, known)
         elif letter in "XYFP":
             if letter in values:
                 raise GcodeError(StageError.WORD_REPEATED)
@@ -102,8 +106,8 @@ def read_block(words: list[tuple[str, float]]) -> tuple[dict[int, int], dict[str
     return groups, values
 
 
-def _g_word(value: float, groups: dict[int, int]) -> None:
-    group = _G_GROUPS.get(int(value)) if value == int(value) else None  # G38.2 and the like: none
+def _g_word(value: float, groups: dict[int, int], known: dict[int, int]) -> None:
+    group = known.get(int(value)) if value == int(value) else None  # G38.2 and the like: none
     if group is None:
         raise GcodeError(StageError.UNSUPPORTED_COMMAND)
     if group == _MOTION and _MOTION in groups:
@@ -514,14 +518,12 @@ class VirtualStage:
 
     def _gcode(self, words: list[tuple[str, float]], t: float) -> None:
         """Check a whole block first; modal state and the queue change only when it is accepted."""
-        groups, values = read_block(words)
+        groups, values = read_block(words, _STOCK_G_GROUPS if self.stock else _G_GROUPS)
         motion = groups.get(_MOTION, self._motion)
         absolute = groups[_DISTANCE] == 90 if _DISTANCE in groups else self._absolute
         feed = (values["F"] or None) if "F" in values else self._feed_mm_min  # F0: undefined
         dwell = groups.get(_NON_MODAL) == 4
         machine = groups.get(_NON_MODAL) == 53
-        if machine and not self.stock:
-            raise GcodeError(StageError.UNSUPPORTED_COMMAND)  # whiskercal's firmware has no G53
         if dwell and "P" not in values:
             raise GcodeError(StageError.VALUE_WORD_MISSING)
         axes = "X" in values or "Y" in values
