@@ -16,6 +16,7 @@ from scipy.interpolate import LinearNDInterpolator
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fit import MechanicsFit
+from whiskercal.mechfit.loadgrid import load_grid
 from whiskercal.mechfit.tipcurve import TipFamily, tip_family
 from whiskercal.model.lookup import TipLookup
 from whiskercal.twin.truth import first_branch
@@ -25,6 +26,10 @@ DEFAULT_KIND = "cubic"
 # Load tilts of the 2-D family, from the tip's normal toward the root (+) and away (-): friction
 # up to mu 0.4 tilts the load by 22°, a plane tilted 40° from the tip's normal by 40°.
 DEFAULT_BETAS_DEG = tuple(range(-40, 71, 10))
+DEFAULT_SHAPE = (121, 121)
+# space-fixed loads are kept where the root's pose stays within this multiple of the grid's
+# largest (the pose map is trusted near what the grid showed it)
+POSE_ENVELOPE = 1.5
 
 
 def monotone_z_range(z_uT: np.ndarray) -> tuple[float, float]:
@@ -120,16 +125,8 @@ class FieldTipTable:
         return out.reshape(y.shape + (2,))
 
 
-def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
-                    betas_deg=DEFAULT_BETAS_DEG, shape: tuple[int, int] = (121, 121)
-                    ) -> FieldTipTable:
-    """The (Y, Z) -> tip table from the model's tip loads tilted by each of ``betas_deg``.
-
-    The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans what
-    the families reach there.
-    """
-    if fit.pose_map.coefficients.shape[1] < 2:
-        raise UsageError("a (Y, Z) table needs a fit of both axes.")
+def _family_points(fit: MechanicsFit, betas_deg):
+    """(Y, Z) µT and tips mm of the tip-load families tilted from the tip's normal."""
     fields, tips = [], []
     for beta in betas_deg:
         try:
@@ -138,7 +135,33 @@ def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
             continue
         fields.append(fit.pose_map(family.pose)[:, :2])
         tips.append(family.tip_mm)
-    fields, tips = np.concatenate(fields), np.concatenate(tips)
+    return np.concatenate(fields), np.concatenate(tips)
+
+
+def _load_grid_points(fit: MechanicsFit):
+    """(Y, Z) µT and tips mm of space-fixed tip loads, kept within the grid's pose envelope."""
+    grid = load_grid(fit.suspension)
+    limit = POSE_ENVELOPE * np.max(np.abs(fit.poses), axis=0)
+    inside = np.all(np.abs(grid.pose) <= limit, axis=1)
+    return fit.pose_map(grid.pose[inside])[:, :2], grid.tip_mm[inside]
+
+
+def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
+                    betas_deg=DEFAULT_BETAS_DEG, shape: tuple[int, int] = DEFAULT_SHAPE,
+                    space_fixed: bool = True) -> FieldTipTable:
+    """The (Y, Z) -> tip table from the model's tip loads.
+
+    Loads tilted by each of ``betas_deg`` from the tip's normal and, with ``space_fixed``, the
+    load grid of ``loadgrid.py`` (near-axial pushes included) within 1.5 times the grid's largest
+    pose. The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans
+    what the loads reach there.
+    """
+    if fit.pose_map.coefficients.shape[1] < 2:
+        raise UsageError("a (Y, Z) table needs a fit of both axes.")
+    fields, tips = _family_points(fit, betas_deg)
+    if space_fixed:
+        more = _load_grid_points(fit)
+        fields, tips = np.concatenate([fields, more[0]]), np.concatenate([tips, more[1]])
     inside = (fields[:, 0] >= y_range_uT[0] - 0.05 * np.ptp(y_range_uT)) & (fields[:, 0] <= 0.0)
     fields, tips = fields[inside], tips[inside]
     scale = np.ptp(fields, axis=0)

@@ -1,0 +1,92 @@
+"""The mechanics and the magnet's pose map fitted jointly to the grid's Y and Z.
+
+The polynomial fit (``fit.py``) identifies the suspension from Y; its pose map cannot be trusted
+off the shaft-contact manifold. Here the suspension starts from that fit, the magnet map
+(``magnetmap.py``) is fitted to both axes on its poses, and then both are refined together: the
+outer least squares runs over the three mechanical parameters and the map's seven geometric ones,
+the map's strengths follow by linear least squares at every evaluation (variable projection).
+The rod contacts are solved only when the mechanics change (a finite-difference step in a
+geometric parameter reuses the last poses), so a refinement costs a few grid solves an iteration.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from whiskercal.errors import UsageError
+from whiskercal.mechfit.fit import MechanicsFit, _Objective, fit_mechanics
+from whiskercal.mechfit.magnetmap import (DEFAULT_ORDERS, MagnetPoseMap, _linear_strengths,
+                                          fit_magnet_map, relative_basis)
+
+JOINT_EVALUATIONS = 300
+
+
+class _JointObjective:
+    """Residuals (standard errors) of (mechanics theta (3), geometry (7)); poses cached per theta."""
+
+    def __init__(self, mechanics: _Objective, fields, weights, orders):
+        self.mechanics, self.fields, self.weights, self.orders = mechanics, fields, weights, orders
+        self._theta, self._solved = None, None
+
+    def poses(self, theta: np.ndarray):
+        if self._theta is None or not np.array_equal(theta, self._theta):
+            self._solved = self.mechanics.solve(theta)
+            self._theta = theta.copy()
+        return self._solved
+
+    def evaluate(self, params: np.ndarray):
+        suspension, poses, in_contact = self.poses(params[:3])
+        basis = relative_basis(params[3:], poses, self.orders)
+        if not np.all(np.isfinite(basis)):
+            return suspension, poses, None, np.full(self.fields.size, 1e6)
+        strengths, scaled = _linear_strengths(basis, self.fields, self.weights)
+        scaled = scaled.reshape(self.fields.shape)
+        scaled[~in_contact] = 1e3
+        return suspension, poses, strengths, scaled.ravel()
+
+    def __call__(self, params: np.ndarray) -> np.ndarray:
+        return self.evaluate(params)[3]
+
+
+def _theta_of(fit: MechanicsFit, objective: _Objective) -> np.ndarray:
+    """The outer parameters (logs, logistic stub share) of a fitted suspension."""
+    s = fit.suspension
+    share = s.stub_mm / (s.trace_length_mm * 0.2)
+    return np.array([np.log(s.rot_compliance), np.log(s.trans_compliance),
+                     np.log(share / (1.0 - share))])
+
+
+def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
+                         trace_length_mm: float, noise_uT, orders=DEFAULT_ORDERS,
+                         start: MechanicsFit | None = None) -> MechanicsFit:
+    """Fit the suspension and a magnet pose map to a rod grid's Y and Z (n, 2) µT from rest.
+
+    ``start``: a polynomial fit on Y to start from (made here when not given). Same arguments
+    otherwise as :func:`whiskercal.mechfit.fit.fit_mechanics`.
+    """
+    started = time.perf_counter()
+    fields = np.asarray(fields_uT, float)
+    if fields.ndim != 2 or fields.shape[1] != 2:
+        raise UsageError("the magnet fit needs the Y and Z axes, (n, 2) µT.")
+    noise = np.broadcast_to(np.asarray(noise_uT, float), (2,))
+    centers = np.asarray(rod_center_mm, float)
+    if start is None:
+        start = fit_mechanics(centers, fields[:, 0], rod_radius_mm, trace_length_mm, noise[0])
+    first_map, _ = fit_magnet_map(start.poses, fields, 1.0 / noise, orders)
+    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields,
+                           noise, 1)
+    joint = _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
+    params = np.concatenate([_theta_of(start, mechanics), first_map.geometry])
+    result = least_squares(joint, params, diff_step=1e-5, x_scale=0.1, xtol=1e-10, ftol=1e-10,
+                           max_nfev=JOINT_EVALUATIONS)
+    suspension, poses, strengths, scaled = joint.evaluate(result.x)
+    pose_map = MagnetPoseMap(result.x[3:].copy(), strengths, tuple(orders), 2)
+    residual = scaled.reshape(fields.shape) / (1.0 / noise)
+    return MechanicsFit(suspension, pose_map, poses, residual,
+                        np.sqrt(np.mean(residual ** 2, axis=0)), (0, 1),
+                        time.perf_counter() - started + start.fit_time_s,
+                        start.evaluations + mechanics.evaluations,
+                        start.starts + [{"joint_magnet_cost": float(result.cost)}])
