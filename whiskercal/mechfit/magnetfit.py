@@ -4,7 +4,9 @@ The polynomial fit (``fit.py``) identifies the suspension from Y; its pose map c
 off the shaft-contact manifold. Here the suspension starts from that fit, the magnet map
 (``magnetmap.py``) is fitted to both axes on its poses, and then both are refined together: the
 outer least squares runs over the three mechanical parameters and the map's seven geometric ones,
-the map's strengths follow by linear least squares at every evaluation (variable projection).
+the map's strengths follow by linear least squares at every evaluation (variable projection),
+from two starts (the Y fit, and the Y fit with the usual translational compliance), the better
+kept.
 The rod contacts are solved only when the mechanics change (a finite-difference step in a
 geometric parameter reuses the last poses), so a refinement costs a few grid solves an iteration.
 """
@@ -17,7 +19,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from whiskercal.errors import UsageError
-from whiskercal.mechfit.fit import MechanicsFit, _Objective, fit_mechanics
+from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, TRANS_SHARE_START, MechanicsFit,
+                                    _Objective, fit_mechanics)
 from whiskercal.mechfit.magnetmap import (DEFAULT_ORDERS, MagnetPoseMap, _linear_strengths,
                                           fit_magnet_map, relative_basis)
 
@@ -51,12 +54,31 @@ class _JointObjective:
         return self.evaluate(params)[3]
 
 
-def _theta_of(fit: MechanicsFit, objective: _Objective) -> np.ndarray:
+def _theta_of(fit: MechanicsFit) -> np.ndarray:
     """The outer parameters (logs, logistic stub share) of a fitted suspension."""
     s = fit.suspension
-    share = s.stub_mm / (s.trace_length_mm * 0.2)
+    share = min(max(s.stub_mm / (s.trace_length_mm * MAX_STUB_FRACTION), 1e-3), 1.0 - 1e-3)
     return np.array([np.log(s.rot_compliance), np.log(s.trans_compliance),
                      np.log(share / (1.0 - share))])
+
+
+def _joint_starts(start: MechanicsFit) -> list[np.ndarray]:
+    """The Y fit as it is, and with its translational compliance reset to the usual start: Y
+    alone often cannot tell a shift from a turn (it may leave no shift at all), Z can."""
+    theta = _theta_of(start)
+    reset = theta.copy()
+    reset[1] = theta[0] + np.log(TRANS_SHARE_START)
+    return [theta, reset]
+
+
+def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders):
+    """One joint refinement from mechanics ``theta``: (least-squares result, objective)."""
+    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1)
+    joint = _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
+    first_map, _ = fit_magnet_map(joint.poses(theta)[1], fields, 1.0 / noise, orders)
+    result = least_squares(joint, np.concatenate([theta, first_map.geometry]), diff_step=1e-5,
+                           x_scale=0.1, xtol=1e-10, ftol=1e-10, max_nfev=JOINT_EVALUATIONS)
+    return result, joint
 
 
 def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
@@ -75,18 +97,15 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
     centers = np.asarray(rod_center_mm, float)
     if start is None:
         start = fit_mechanics(centers, fields[:, 0], rod_radius_mm, trace_length_mm, noise[0])
-    first_map, _ = fit_magnet_map(start.poses, fields, 1.0 / noise, orders)
-    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields,
-                           noise, 1)
-    joint = _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
-    params = np.concatenate([_theta_of(start, mechanics), first_map.geometry])
-    result = least_squares(joint, params, diff_step=1e-5, x_scale=0.1, xtol=1e-10, ftol=1e-10,
-                           max_nfev=JOINT_EVALUATIONS)
+    fits = [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders)
+            for theta in _joint_starts(start)]
+    result, joint = min(fits, key=lambda f: f[0].cost)
+    evaluations = start.evaluations + sum(f[1].mechanics.evaluations for f in fits)
     suspension, poses, strengths, scaled = joint.evaluate(result.x)
     pose_map = MagnetPoseMap(result.x[3:].copy(), strengths, tuple(orders), 2)
     residual = scaled.reshape(fields.shape) / (1.0 / noise)
     return MechanicsFit(suspension, pose_map, poses, residual,
                         np.sqrt(np.mean(residual ** 2, axis=0)), (0, 1),
                         time.perf_counter() - started + start.fit_time_s,
-                        start.evaluations + mechanics.evaluations,
+                        evaluations,
                         start.starts + [{"joint_magnet_cost": float(result.cost)}])
