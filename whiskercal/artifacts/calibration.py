@@ -15,7 +15,7 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
 - ``/filter``, ``/collision``: settings as attributes.
 - ``/metrics``: fit and lookup evidence, and ``warnings`` (JSON list of sentences, 1.2);
   ``/metrics/truth`` when the raw grid came from the twin.
-- ``/field_table`` (optional, 1.3; ``fit --field-table``): the (Y, Z) -> tip table of the
+- ``/field_table`` (optional, 1.4; ``fit --field-table``): the (Y, Z) -> tip table of the
   mechanics with the magnet's map (docs/calibration.md): ``y_uT`` (ny,) and ``axial_uT`` (nz,),
   evenly spaced axes of the deflection (Y) and the chip-normal (Z) axis from their static
   readings, and ``tip_mm`` (ny, nz, 2), NaN outside what tip loads reach. A runtime given both
@@ -49,7 +49,7 @@ from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
 SCHEMA_VERSION = "1.2.0"  # 1.1: /target (the study); 1.2: extrapolation marks
-FIELD_TABLE_VERSION = "1.3.0"  # written only by artifacts that carry /field_table
+FIELD_TABLE_VERSION = "1.4.0"  # written only by artifacts that carry /field_table
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
 TARGET_GROUP = "target"
@@ -107,7 +107,7 @@ class CalibrationData:
     lookup_extension_mm: np.ndarray | None = None
     extrapolated: bool = False
     trusted_z_uT: tuple[float, float] | None = None  # with extrapolated: None means no part
-    # 1.3: the (Y, Z) -> tip table: {"y_uT", "axial_uT", "tip_mm"} arrays (None: Y only)
+    # 1.4: the (Y, Z) -> tip table: {"y_uT", "axial_uT", "tip_mm"} arrays (None: Y only)
     field_table: dict[str, np.ndarray] | None = None
 
     @property

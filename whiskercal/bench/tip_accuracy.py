@@ -45,7 +45,8 @@ from whiskercal.twin.physics.whisker import WhiskerParams
 
 ROD_RADIUS_MM = 1.5
 NOISE_UT = (1.0, 1.6)    # averaged Y and Z readings (5.6 and 9.0 µT over 30 samples)
-SAMPLE_NOISE_UT = (5.6, 9.0)  # one sample of Y and Z, as the runtime sees a contact
+SAMPLE_NOISE_UT = (5.6, 9.0)
+REALISTIC_GOAL_MM = 0.3  # RMS on plane contacts with friction (issue 13)  # one sample of Y and Z, as the runtime sees a contact
 OVERLOAD_UT = 15000.0    # collect's default overload guard on |Y|
 DEFAULT_TRACE_MM = 78.0  # the trace length the default plan's bands were chosen for
 TILTS_DEG = (0, 10, 20, 30, 40)
@@ -320,32 +321,48 @@ def measure_build(sensor: SensorParams, candidates=tuple(CANDIDATES), seed: int 
     return rows
 
 
+def _chart_keys(row: dict) -> None:
+    """The charts' keys: tip-curve and realistic RMS (mm), the runtime's time per sample (s).
+
+    A candidate with a (Y, Z) table is charted as the runtime reads it (the table, the z lookup
+    where the table has no tip), with one sample's noise on both axes."""
+    row["error_vs_truth_mm"] = row["tip_curve"]["rmse_mm"]
+    row["label"] = row["build"]
+    realistic = row["realistic"]
+    best = realistic.get("y_and_z_sample_noise", realistic["y_only"])
+    row["realistic_rmse_mm"] = best["rmse_mm"]
+    row["runtime_s"] = row.get("table_s", row.get("lookup_s"))
+
+
 def _summary(rows: list[dict]) -> dict:
-    """Per method: builds meeting the goals (0.25 mm RMS, 0.5 mm max; realistic 0.3 mm RMS)."""
+    """Per method: builds meeting the goals (0.25 mm RMS, 0.5 mm max on the tip curve; 0.3 mm
+    RMS on realistic contacts)."""
     out = {}
     for method in CANDIDATES:
         mine = [r for r in rows if r["method"] == method]
         ok = [r for r in mine if "tip_curve" in r and r["tip_curve"]["coverage"] >= 0.95
               and r["tip_curve"]["rmse_mm"] <= 0.25 and r["tip_curve"]["max_mm"] <= 0.5]
-        out[method] = {"builds": len(mine), "meeting_tip_goal": [r["build"] for r in ok]}
+        realistic = [r for r in mine if r.get("realistic_rmse_mm", np.inf) <= REALISTIC_GOAL_MM]
+        out[method] = {"builds": len(mine), "meeting_tip_goal": [r["build"] for r in ok],
+                       "meeting_realistic_goal": [r["build"] for r in realistic]}
     return out
 
 
 def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0) -> dict:
     """Tip errors, fit and lookup times of every candidate on every build (mm, s).
 
-    ``quick``: the default sensor only, without the (Y, Z) candidate (about a minute).
+    ``quick``: the default sensor only, without the polynomial (Y, Z) candidate (a few
+    minutes).
     """
     say = progress or (lambda _row: None)
     builds = FAMILY[:QUICK_BUILDS] if quick else FAMILY
-    candidates = ("level-set", "mechanics-y") if quick else tuple(CANDIDATES)
+    candidates = ("level-set", "mechanics-y", "magnet-yz") if quick else tuple(CANDIDATES)
     rows = []
     for sensor in builds:
         rows += measure_build(sensor, candidates, seed, say)
     for row in rows:
         if "tip_curve" in row:
-            row["error_vs_truth_mm"] = row["tip_curve"]["rmse_mm"]
-            row["label"] = row["build"]
+            _chart_keys(row)
     return {
         "benchmark": "tip-accuracy", "quick": quick, "machine": machine_info(),
         "units": {"time": "s", "error": "mm", "field": "µT"},
@@ -356,5 +373,11 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
         "rows": rows,
         "pareto": {"x": "fit_s", "y": "error_vs_truth_mm", "series": ["method"], "label": "label",
                    "x_label": "fit time (s)", "y_label": "tip RMS error vs twin truth (mm)"},
+        "pareto_realistic": {"x": "fit_s", "y": "realistic_rmse_mm", "series": ["method"],
+                             "label": "label", "x_label": "fit time (s)",
+                             "y_label": "tip RMS on plane contacts with friction (mm)"},
+        "pareto_lookup": {"x": "runtime_s", "y": "realistic_rmse_mm", "series": ["method"],
+                          "label": "label", "x_label": "lookup time per sample (s)",
+                          "y_label": "tip RMS on plane contacts with friction (mm)"},
         "supports": _summary(rows),
     }
