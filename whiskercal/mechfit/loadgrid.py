@@ -87,3 +87,33 @@ def load_grid(suspension: Suspension, magnitudes=DEFAULT_MAGNITUDES, alphas_deg=
             break
     return LoadGrid(np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
                     np.array([r[2] for r in rows]), np.array([r[3] for r in rows]))
+
+
+# Past the axis a push holds the wire bent toward -y only above a force that grows without
+# bound as the bend vanishes, and each (direction, size) has a small and a large bend: neither
+# continuation in size nor in slope from rest reaches all of it. Newton from a few root moments
+# finds both bends directly; a bend toward +y is the other branch and is left out.
+PAST_AXIS_ALPHAS_DEG = tuple(np.arange(85.0, 110.01, 0.5))
+PAST_AXIS_MAGNITUDES = tuple(np.round(np.arange(1.5, 6.001, 0.04), 3))
+PAST_AXIS_MOMENT_GUESSES = (0.0, -1.0, -2.0)
+
+
+def past_axis_loads(suspension: Suspension, alphas_deg=PAST_AXIS_ALPHAS_DEG,
+                    magnitudes=PAST_AXIS_MAGNITUDES) -> LoadGrid:
+    """Tip loads at and past the wire's axis that bend it toward -y, every branch Newton finds
+    from :data:`PAST_AXIS_MOMENT_GUESSES` (duplicates dropped)."""
+    rows = []
+    for alpha in alphas_deg:
+        for magnitude in magnitudes:
+            found = []
+            for guess in PAST_AXIS_MOMENT_GUESSES:
+                solved = tip_load(suspension, _force(magnitude, alpha), guess)
+                if solved is None or solved[0][0] >= 0.0:
+                    continue
+                if all(abs(solved[2] - other) > 1e-6 for other in found):
+                    found.append(solved[2])
+                    rows.append((solved[0], solved[1], math.radians(alpha), magnitude))
+    if not rows:
+        return LoadGrid(np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0))
+    return LoadGrid(np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
+                    np.array([r[2] for r in rows]), np.array([r[3] for r in rows]))

@@ -16,7 +16,7 @@ from scipy.interpolate import LinearNDInterpolator
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fit import MechanicsFit
-from whiskercal.mechfit.loadgrid import load_grid
+from whiskercal.mechfit.loadgrid import load_grid, past_axis_loads
 from whiskercal.mechfit.tipcurve import TipFamily, tip_family
 from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.lookup import TipLookup
@@ -103,10 +103,12 @@ def _family_points(fit: MechanicsFit, betas_deg):
 
 def _load_grid_points(fit: MechanicsFit):
     """(Y, Z) µT and tips mm of space-fixed tip loads, kept within the grid's pose envelope."""
-    grid = load_grid(fit.suspension)
+    grids = (load_grid(fit.suspension), past_axis_loads(fit.suspension))
+    pose = np.concatenate([g.pose for g in grids if len(g.pose)])
+    tips = np.concatenate([g.tip_mm for g in grids if len(g.pose)])
     limit = POSE_ENVELOPE * np.max(np.abs(fit.poses), axis=0)
-    inside = np.all(np.abs(grid.pose) <= limit, axis=1)
-    return fit.pose_map(grid.pose[inside])[:, :2], grid.tip_mm[inside]
+    inside = np.all(np.abs(pose) <= limit, axis=1)
+    return fit.pose_map(pose[inside])[:, :2], tips[inside]
 
 
 def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
@@ -115,8 +117,8 @@ def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
     """The (Y, Z) -> tip table from the model's tip loads.
 
     Loads tilted by each of ``betas_deg`` from the tip's normal and, with ``space_fixed``, the
-    load grid of ``loadgrid.py`` (near-axial pushes included) within 1.5 times the grid's largest
-    pose. The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans
+    space-fixed loads of ``loadgrid.py`` (pushes along and past the wire's axis included) within
+    1.5 times the grid's largest pose. The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans
     what the loads reach there.
     """
     if fit.pose_map.coefficients.shape[1] < 2:

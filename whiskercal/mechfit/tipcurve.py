@@ -26,7 +26,8 @@ _SECANT_ITER = 40
 class TipFamily:
     """Tip-load equilibria by tip slope (rad) for one load tilt ``beta_rad``.
 
-    ``pose`` (n, 3): root rotation rad, shift mm; ``tip_mm`` (n, 2); ``force`` (n, 2) in EI/L².
+    ``pose`` (n, 3): root rotation rad, shift mm; ``tip_mm`` (n, 2); ``force`` (n, 2) in EI/L²;
+    ``moment`` (n,): the solve's root moment (nondimensional), a warm start for neighbours.
     """
 
     beta_rad: float
@@ -34,6 +35,7 @@ class TipFamily:
     pose: np.ndarray
     tip_mm: np.ndarray
     force: np.ndarray
+    moment: np.ndarray | None = None
 
 
 def _direction(slope: float, beta: float, world: bool = False) -> np.ndarray:
@@ -81,6 +83,7 @@ def tip_family(suspension: Suspension, beta_rad: float = 0.0,
     """
     slopes = -np.arange(0.0, max_slope_rad + 0.5 * step_rad, step_rad)
     poses, tips, forces = [np.zeros(3)], [np.array([suspension.trace_length_mm, 0.0])], [np.zeros(2)]
+    moments = [0.0]
     magnitude, moment = 0.0, 0.0
     kept = 1
     for slope in slopes[1:]:
@@ -89,8 +92,9 @@ def tip_family(suspension: Suspension, beta_rad: float = 0.0,
             break
         magnitude, (_, pose, tip, moment) = found
         poses.append(pose), tips.append(tip), forces.append(magnitude * _direction(slope, beta_rad, world))
+        moments.append(moment)
         kept += 1
     if kept < 4:
         raise UsageError(f"no tip-load branch for a load tilted {math.degrees(beta_rad):.0f}°.")
     return TipFamily(float(beta_rad), slopes[:kept], np.array(poses), np.array(tips),
-                     np.array(forces))
+                     np.array(forces), np.array(moments))
