@@ -6,7 +6,7 @@ off the shaft-contact manifold. Here the suspension starts from that fit, the ma
 outer least squares runs over the three mechanical parameters and the map's seven geometric ones,
 the map's strengths follow by linear least squares at every evaluation (variable projection),
 from two starts (the Y fit, and the Y fit with the usual translational compliance), the better
-kept.
+kept; when neither explains the grid to twice its noise, from the Y fit's generic starts too.
 The rod contacts are solved only when the mechanics change (a finite-difference step in a
 geometric parameter reuses the last poses), so a refinement costs a few grid solves an iteration.
 """
@@ -19,12 +19,15 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from whiskercal.errors import UsageError
-from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, TRANS_SHARE_START, MechanicsFit,
-                                    _Objective, fit_mechanics)
+from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, ROT_COMPLIANCE_STARTS,
+                                    TRANS_SHARE_START, MechanicsFit, _Objective, _theta_start,
+                                    fit_mechanics)
 from whiskercal.mechfit.magnetmap import (DEFAULT_ORDERS, MagnetPoseMap, _linear_strengths,
                                           fit_magnet_map, relative_basis)
 
 JOINT_EVALUATIONS = 300
+# residual RMS (in standard errors) above which the fit tries the generic starts too
+UNEXPLAINED_RATIO = 2.0
 
 
 class _JointObjective:
@@ -71,6 +74,11 @@ def _joint_starts(start: MechanicsFit) -> list[np.ndarray]:
     return [theta, reset]
 
 
+def _unexplained(result, n: int) -> bool:
+    """More than twice the noise left on average (the residuals are in standard errors)."""
+    return 2.0 * result.cost / n > UNEXPLAINED_RATIO ** 2
+
+
 def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders):
     """One joint refinement from mechanics ``theta``: (least-squares result, objective)."""
     mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1)
@@ -99,6 +107,11 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
         start = fit_mechanics(centers, fields[:, 0], rod_radius_mm, trace_length_mm, noise[0])
     fits = [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders)
             for theta in _joint_starts(start)]
+    if _unexplained(min(fits, key=lambda f: f[0].cost)[0], fields.size):
+        # the Y fit led astray (Y alone did not pin the suspension down): the generic starts
+        fits += [_joint_fit(_theta_start(trace_length_mm, rot), centers, fields, noise,
+                            rod_radius_mm, trace_length_mm, orders)
+                 for rot in ROT_COMPLIANCE_STARTS]
     result, joint = min(fits, key=lambda f: f[0].cost)
     evaluations = start.evaluations + sum(f[1].mechanics.evaluations for f in fits)
     suspension, poses, strengths, scaled = joint.evaluate(result.x)
