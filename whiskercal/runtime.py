@@ -24,8 +24,9 @@ Two axes: an artifact written with ``whiskercal fit --field-table`` carries a (Y
 table (docs/calibration.md). Given the Z axis too (``axial_uT``, µT from its static reading),
 the tracker reads the tip there (bilinear, a few microseconds), which tells a tip pushed with
 friction or by a slanted surface from one pushed square at the same Y; where the table has no
-tip (outside what tip loads reach) it falls back to the z lookup. Without the table, or
-without ``axial_uT``, the tracker is the z lookup alone, as for every older artifact.
+tip (outside what tip loads reach) it falls back to the z lookup, whose out-of-range policy
+then applies (a z the table answers is never out of range). Without the table, or without
+``axial_uT``, the tracker is the z lookup alone, as for every older artifact.
 
 Out-of-range z in contact (``out_of_range``, per tracker):
 
