@@ -6,7 +6,6 @@ z lookup where the table has no tip.
 """
 
 import math
-import shutil
 from dataclasses import replace
 from pathlib import Path
 

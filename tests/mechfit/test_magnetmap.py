@@ -6,7 +6,6 @@ the degree-3 polynomial fitted to the same grid is off by orders of magnitude mo
 """
 
 import numpy as np
-import pytest
 
 from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, pose_fields_of_poses,
                                            realistic_pose_contacts, simulate_fields,

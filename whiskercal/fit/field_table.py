@@ -9,7 +9,6 @@ every direction (``mechfit.tables.field_tip_table``), and the tips resampled on 
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 

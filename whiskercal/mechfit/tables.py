@@ -9,7 +9,6 @@ tip's normal, and is read by bilinear interpolation.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import LinearNDInterpolator
