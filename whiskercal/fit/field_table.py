@@ -23,6 +23,8 @@ from whiskercal.model.calibrate import contact_mask
 SENSOR_AXIS_Z = 2
 # the joint fit should explain both axes to about their noise; more says the model does not
 MAX_RESIDUAL_RATIO = 2.0
+# a stiffness ratio four times off that fits within this Δχ² is not excluded by the grid
+MIN_DELTA_CHI2 = 9.0
 
 
 @dataclass
@@ -50,6 +52,16 @@ def _noise(raw, used) -> np.ndarray:
                      np.median(raw.field_std_uT[used, SENSOR_AXIS_Z] / n)])
 
 
+def _identification_warnings(profile: list[dict]) -> list[str]:
+    """A warning when a k_θ·L/EI four times off fits the grid about as well (Δχ² below 9)."""
+    loose = [p["stiffness_ratio"] for p in profile if p["delta_chi2"] < MIN_DELTA_CHI2]
+    if not loose:
+        return []
+    shown = ", ".join(f"{r:.3g}" for r in loose)
+    return [f"the grid's Y and Z do not pin the suspension down (k_theta*L/EI {shown} fits "
+            "about as well as the best); the (Y, Z) table may be off by millimetres"]
+
+
 def fit_field_table(raw, length_mm: float) -> FieldTableFit:
     """Fit the mechanics and the magnet map to the grid's contacts, and tabulate the tips.
 
@@ -73,7 +85,9 @@ def fit_field_table(raw, length_mm: float) -> FieldTableFit:
                "residual_rms_uT": fit.rms_uT.tolist(), "noise_uT": noise.tolist(),
                "magnet_map": fit.pose_map.as_dict(), "table_shape": list(table.tips_mm.shape[:2]),
                "table_answered_fraction": answered, "fit_s": time.perf_counter() - started}
-    warnings = []
+    profile = fit.starts[-1].get("ratio_profile", [])
+    metrics["ratio_profile"] = profile
+    warnings = _identification_warnings(profile)
     if not np.all(ratio <= MAX_RESIDUAL_RATIO):
         warnings.append(f"the (Y, Z) model leaves {np.max(ratio):.1f}x the noise unexplained "
                         "(a magnet or suspension it cannot describe); its table may be off")

@@ -28,6 +28,9 @@ from whiskercal.mechfit.magnetmap import (DEFAULT_ORDERS, MagnetPoseMap, _linear
 JOINT_EVALUATIONS = 300
 # residual RMS (in standard errors) above which the fit tries the generic starts too
 UNEXPLAINED_RATIO = 2.0
+# the identification test: k_θ·L/EI held at these multiples of the best fit's
+PROFILE_FACTORS = (0.25, 4.0)
+PROFILE_EVALUATIONS = 120
 
 
 class _JointObjective:
@@ -91,10 +94,13 @@ def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, or
 
 def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
                          trace_length_mm: float, noise_uT, orders=DEFAULT_ORDERS,
-                         start: MechanicsFit | None = None) -> MechanicsFit:
+                         start: MechanicsFit | None = None,
+                         profile_factors=PROFILE_FACTORS) -> MechanicsFit:
     """Fit the suspension and a magnet pose map to a rod grid's Y and Z (n, 2) µT from rest.
 
-    ``start``: a polynomial fit on Y to start from (made here when not given). Same arguments
+    ``start``: a polynomial fit on Y to start from (made here when not given).
+    ``profile_factors``: k_θ·L/EI multiples at which :func:`ratio_profile` tests the fit's
+    identification (in ``starts[-1]["ratio_profile"]``; none when empty). Same arguments
     otherwise as :func:`whiskercal.mechfit.fit.fit_mechanics`.
     """
     started = time.perf_counter()
@@ -117,8 +123,31 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
     suspension, poses, strengths, scaled = joint.evaluate(result.x)
     pose_map = MagnetPoseMap(result.x[3:].copy(), strengths, tuple(orders), 2)
     residual = scaled.reshape(fields.shape) / (1.0 / noise)
+    profile = ratio_profile(result, joint) if profile_factors else []
     return MechanicsFit(suspension, pose_map, poses, residual,
                         np.sqrt(np.mean(residual ** 2, axis=0)), (0, 1),
                         time.perf_counter() - started + start.fit_time_s,
                         evaluations,
-                        start.starts + [{"joint_magnet_cost": float(result.cost)}])
+                        start.starts + [{"joint_magnet_cost": float(result.cost),
+                                         "ratio_profile": profile}])
+
+
+def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> list[dict]:
+    """How much worse the grid is fitted with k_θ·L/EI held at ``factors`` times the best's.
+
+    Each point refits everything else (stub, translational compliance, the map's geometry);
+    ``delta_chi2`` is twice the cost increase (residuals in standard errors): below about 9 the
+    grid cannot tell that ratio from the best one.
+    """
+    out = []
+    for factor in factors:
+        fixed = result.x[0] - np.log(factor)  # log rotational compliance = -log ratio
+
+        def residual(rest, fixed=fixed):
+            return joint(np.insert(rest, 0, fixed))
+
+        held = least_squares(residual, np.delete(result.x, 0), diff_step=1e-5, x_scale=0.1,
+                             xtol=1e-8, ftol=1e-8, max_nfev=PROFILE_EVALUATIONS)
+        out.append({"stiffness_ratio": float(np.exp(-fixed)),
+                    "delta_chi2": float(2.0 * (held.cost - result.cost))})
+    return out
