@@ -316,7 +316,9 @@ def measure_build(sensor: SensorParams, candidates=tuple(CANDIDATES), seed: int 
             row["fitted"] = {"stub_mm": fit.suspension.stub_mm,
                              "stiffness_ratio": 1.0 / fit.suspension.rot_compliance,
                              "trans_compliance": fit.suspension.trans_compliance,
-                             "residual_rms_uT": fit.rms_uT.tolist(), "evaluations": fit.evaluations}
+                             "residual_rms_uT": fit.rms_uT.tolist(), "evaluations": fit.evaluations,
+                             "ratio_profile": (fit.starts[-1].get("ratio_profile")
+                                               if fit.starts else None)}
         rows.append(row), say(row)
     return rows
 
