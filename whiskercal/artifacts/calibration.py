@@ -15,6 +15,11 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
 - ``/filter``, ``/collision``: settings as attributes.
 - ``/metrics``: fit and lookup evidence, and ``warnings`` (JSON list of sentences, 1.2);
   ``/metrics/truth`` when the raw grid came from the twin.
+- ``/field_table`` (optional, 1.4; ``fit --field-table``): the (Y, Z) -> tip table of the
+  mechanics with the magnet's map (docs/calibration.md): ``y_uT`` (ny,) and ``axial_uT`` (nz,),
+  evenly spaced axes of the deflection (Y) and the chip-normal (Z) axis from their static
+  readings, and ``tip_mm`` (ny, nz, 2), NaN outside what tip loads reach. A runtime given both
+  axes reads the tip there and falls back to ``/lookup`` where the table has none.
 - ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``,
   ``depth_mm`` and why (:class:`Target`). It is never written into an artifact in place:
   :func:`write_with_target` makes the next version as a new file.
@@ -44,6 +49,7 @@ from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
 SCHEMA_VERSION = "1.2.0"  # 1.1: /target (the study); 1.2: extrapolation marks
+FIELD_TABLE_VERSION = "1.4.0"  # written only by artifacts that carry /field_table
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
 TARGET_GROUP = "target"
@@ -101,6 +107,8 @@ class CalibrationData:
     lookup_extension_mm: np.ndarray | None = None
     extrapolated: bool = False
     trusted_z_uT: tuple[float, float] | None = None  # with extrapolated: None means no part
+    # 1.4: the (Y, Z) -> tip table: {"y_uT", "axial_uT", "tip_mm"} arrays (None: Y only)
+    field_table: dict[str, np.ndarray] | None = None
 
     @property
     def target_z_uT(self) -> float | None:
@@ -135,7 +143,8 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
-            write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+            write_provenance(handle, schema=SCHEMA, schema_version=(
+                SCHEMA_VERSION if data.field_table is None else FIELD_TABLE_VERSION),
                              sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
             handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
             _write_surface(handle.create_group("surface"), data)
@@ -143,6 +152,8 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
             _write_lookup(handle.create_group("lookup"), data)
             _write_settings(handle, data)
             _write_metrics(handle.create_group("metrics"), data)
+            if data.field_table is not None:
+                _write_field_table(handle.create_group("field_table"), data.field_table)
     except OSError as error:
         raise ArtifactError(f"{path}: cannot write the calibration artifact ({error})") from None
     return path
@@ -181,6 +192,19 @@ def _write_lookup(group: h5py.Group, data: CalibrationData) -> None:
     group.attrs["extrapolated"] = bool(data.extrapolated)
     trusted = data.trusted_z_uT if data.trusted_z_uT is not None else (math.nan, math.nan)
     group.attrs["trusted_z_uT"] = np.asarray(trusted, float)
+
+
+def _write_field_table(group: h5py.Group, table: dict[str, np.ndarray]) -> None:
+    write_array(group, "y_uT", np.asarray(table["y_uT"], float), "µT")
+    write_array(group, "axial_uT", np.asarray(table["axial_uT"], float), "µT")
+    write_array(group, "tip_mm", np.asarray(table["tip_mm"], float), "mm")
+
+
+def _read_field_table(handle: h5py.File, path: Path) -> dict[str, np.ndarray] | None:
+    if "field_table" not in handle:
+        return None
+    group = handle["field_table"]
+    return {name: read_array(group, name, path) for name in ("y_uT", "axial_uT", "tip_mm")}
 
 
 def _write_settings(handle: h5py.File, data: CalibrationData) -> None:
@@ -267,6 +291,7 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         created=as_text(handle.attrs.get("created", "")),
         whiskercal_version=as_text(handle.attrs.get("whiskercal_version", "")),
         **_read_extrapolation(trace, lookup),
+        field_table=_read_field_table(handle, path),
     )
 
 
@@ -343,10 +368,21 @@ def validate(data: CalibrationData, path: str | Path = "") -> None:
         (data.trusted_z_uT is None or bool(data.lookup_z_uT[0] <= data.trusted_z_uT[0]
                                            <= data.trusted_z_uT[1] <= data.lookup_z_uT[-1]),
          "a trusted z range inside the lookup's"),
+        (_field_table_ok(data.field_table), "a field table of shape (ny, nz, 2) on increasing, "
+         "evenly spaced axes"),
     ]
     for ok, expectation in checks:
         if not ok:
             raise ArtifactError(f"{where}corrupt calibration artifact: expected {expectation}")
+
+
+def _field_table_ok(table: dict[str, np.ndarray] | None) -> bool:
+    if table is None:
+        return True
+    y, z, tips = (np.asarray(table[k], float) for k in ("y_uT", "axial_uT", "tip_mm"))
+    even = all(a.ndim == 1 and len(a) >= 2 and np.all(np.diff(a) > 0)
+               and np.allclose(np.diff(a), a[1] - a[0], rtol=1e-6) for a in (y, z))
+    return bool(even and tips.shape == (len(y), len(z), 2))
 
 
 # --- the target: a new version of an existing artifact ------------------------------------------

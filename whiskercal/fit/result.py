@@ -48,20 +48,25 @@ class FitResult:
     rod_radius_mm: float
     inputs: dict[str, str] = field(default_factory=dict)
     config: dict[str, Any] = field(default_factory=dict)
+    field_table: dict[str, Any] | None = None
+    """The (Y, Z) -> tip table's arrays (``fit.field_table``), None without ``--field-table``."""
 
     def artifact_data(self):
         """The calibration artifact's content (a :class:`~whiskercal.artifacts.calibration.CalibrationData`)."""
+        from dataclasses import replace
+
         from whiskercal.artifacts.calibration import data_from_calibration
         from whiskercal.model.collision import CollisionParams
         from whiskercal.model.kalman import KalmanParams
 
-        return data_from_calibration(
+        data = data_from_calibration(
             self.calibration, sensor_id=self.sensor_id, rod_radius_mm=self.rod_radius_mm,
             tracer=self.calibration_options.tracer, kalman=KalmanParams(),
             collision=CollisionParams(threshold_uT=self.options.threshold_uT),
             metrics={**self.metrics, "warnings": list(self.warnings)},
             truth=None if self.truth is None else self.truth.arrays(),
             inputs=self.inputs, config=self.config)
+        return data if self.field_table is None else replace(data, field_table=self.field_table)
 
     def write(self, path: str | Path) -> Path:
         """Write the calibration artifact (HDF5, replaced whole) and return its path."""

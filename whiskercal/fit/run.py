@@ -54,14 +54,29 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
                                               options.samples, untraceable)
     truth = compare_with_twin_truth(raw, calibration)
+    table = _field_table(raw, length_mm, options, progress)
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
                **raw_metrics(raw), **tip_model.metrics,
-               **(truth.metrics() if truth is not None else {})}
+               **(truth.metrics() if truth is not None else {}),
+               **(table.metrics if table is not None else {})}
     return FitResult(calibration, options, model_options, metrics,
-                     length_warnings + calibration.warnings + tip_model.warnings, truth,
+                     length_warnings + calibration.warnings + tip_model.warnings
+                     + (table.warnings if table is not None else []), truth,
                      raw.sensor_id,
                      raw.rod_radius_mm, inputs={"raw_grid": raw.sha256},
-                     config=_provenance(model_options, raw.path))
+                     config=_provenance(model_options, raw.path),
+                     field_table=None if table is None else table.table)
+
+
+def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress):
+    """The (Y, Z) -> tip table when asked for (``fit.field_table``), else None."""
+    if not options.field_table:
+        return None
+    from whiskercal.fit.field_table import fit_field_table
+
+    if progress is not None:
+        progress("mechanics with the magnet's map on Y and Z, and the (Y, Z) -> tip table")
+    return fit_field_table(raw, length_mm)
 
 
 def z_sem_uT(raw: RawGrid) -> np.ndarray:
