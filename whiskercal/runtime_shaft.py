@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from whiskercal.artifacts import shaft_surface as shaft_surface_group
 from whiskercal.artifacts.calibration import surface_of
 from whiskercal.model.shaft import (REASON_AMBIGUOUS, REASON_WIDE, LocalizerState, ShaftLocalizer,
                                     ShaftParams)
@@ -113,10 +114,19 @@ class ShaftTracker:
         return KIND_UNKNOWN
 
 
+def shaft_surface_of(calibration):
+    """The surface the localizer uses and its misfit on the grid (µT): the artifact's own shaft
+    surface (``/shaft_surface``, since 1.4), else the tip model's surface and its fit RMSE."""
+    data = calibration.data
+    if data.shaft_surface is not None:
+        return shaft_surface_group.surface_of(data.shaft_surface), data.shaft_surface.rmse_uT
+    return surface_of(data), float(data.metrics.get("rmse_uT") or 0.0)
+
+
 def shaft_params_of(calibration, **overrides) -> ShaftParams:
     """Localizer settings for a loaded calibration: a sample's noise and the surface's misfit
-    (its fit RMSE) in quadrature, its trace length."""
-    misfit = float(calibration.data.metrics.get("rmse_uT") or 0.0)
+    (the RMSE of the surface it uses) in quadrature, its trace length."""
+    misfit = shaft_surface_of(calibration)[1]
     params = ShaftParams(noise_uT=float(np.hypot(SAMPLE_NOISE_UT, misfit)), systematic_uT=misfit,
                          min_fit_uT=MIN_FIT_UT,
                          search_x_mm=(5.0, float(calibration.data.trace_length_mm)))
@@ -128,5 +138,6 @@ def shaft_tracker(calibration, **overrides) -> ShaftTracker:
 
     ``overrides``: any :class:`~whiskercal.model.shaft.ShaftParams` field.
     """
-    return ShaftTracker(surface_of(calibration.data), shaft_params_of(calibration, **overrides),
+    surface = shaft_surface_of(calibration)[0]
+    return ShaftTracker(surface, shaft_params_of(calibration, **overrides),
                         calibration.data.trace_length_mm)

@@ -15,6 +15,8 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
 - ``/filter``, ``/collision``: settings as attributes.
 - ``/metrics``: fit and lookup evidence, and ``warnings`` (JSON list of sentences, 1.2);
   ``/metrics/truth`` when the raw grid came from the twin.
+- ``/shaft_surface`` (optional, 1.4): the shaft localizer's own surface, radial patches
+  (``whiskercal.artifacts.shaft_surface``); without it the localizer uses ``/surface``.
 - ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``,
   ``depth_mm`` and why (:class:`Target`). It is never written into an artifact in place:
   :func:`write_with_target` makes the next version as a new file.
@@ -36,14 +38,18 @@ from typing import Any
 import h5py
 import numpy as np
 
+from whiskercal.artifacts import shaft_surface as shaft_surface_group
 from whiskercal.artifacts.h5io import (as_text, check_schema, now_iso, open_h5, read_array,
                                        read_json_attr, sha256_file, write_array, write_provenance)
 from whiskercal.atomic import atomic_path, refuse_input_as_output
+from whiskercal.artifacts.shaft_surface import ShaftSurfaceData
 from whiskercal.errors import ArtifactError
 from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
-SCHEMA_VERSION = "1.2.0"  # 1.1: /target (the study); 1.2: extrapolation marks
+# 1.1: /target (the study); 1.2: extrapolation marks; 1.3 is a 1.2 with a target; 1.4: the
+# shaft localizer's own surface, /shaft_surface (whiskercal.artifacts.shaft_surface)
+SCHEMA_VERSION = "1.4.0"
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
 TARGET_GROUP = "target"
@@ -101,6 +107,8 @@ class CalibrationData:
     lookup_extension_mm: np.ndarray | None = None
     extrapolated: bool = False
     trusted_z_uT: tuple[float, float] | None = None  # with extrapolated: None means no part
+    # 1.4: the shaft localizer's own surface (None in older artifacts)
+    shaft_surface: ShaftSurfaceData | None = None
 
     @property
     def target_z_uT(self) -> float | None:
@@ -124,7 +132,7 @@ def _nan_to_none(value):
 
 
 def write_calibration(path: str | Path, data: CalibrationData) -> Path:
-    """Write a calibration artifact (version 1.2.0); the file is replaced atomically.
+    """Write a calibration artifact (version 1.4.0); the file is replaced atomically.
 
     Raises
     ------
@@ -143,6 +151,8 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
             _write_lookup(handle.create_group("lookup"), data)
             _write_settings(handle, data)
             _write_metrics(handle.create_group("metrics"), data)
+            if data.shaft_surface is not None:
+                shaft_surface_group.write(handle, data.shaft_surface)
     except OSError as error:
         raise ArtifactError(f"{path}: cannot write the calibration artifact ({error})") from None
     return path
@@ -264,6 +274,7 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         inputs=read_json_attr(handle, "inputs_sha256", {}),
         config=read_json_attr(handle, "config", {}),
         target=_read_target(handle),
+        shaft_surface=shaft_surface_group.read(handle, path),
         created=as_text(handle.attrs.get("created", "")),
         whiskercal_version=as_text(handle.attrs.get("whiskercal_version", "")),
         **_read_extrapolation(trace, lookup),

@@ -29,6 +29,7 @@ import numpy as np
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
 from whiskercal.mechfit.identify import MAX_CHI2_PER_DOF
 from whiskercal.model.calibrate import contact_mask, correct_for_rod
+from whiskercal.model.errors import ModelError
 from whiskercal.model.patched_surface import PatchedSurface
 from whiskercal.model.surface import fit_fixed
 
@@ -62,7 +63,7 @@ def grid_contacts(rod_center_mm, z_uT, z_sem_uT, rod_radius_mm) -> tuple[np.ndar
     """Every contact of the grid as a contact point (rod-corrected, mm) and its z (µT)."""
     used = contact_mask(np.asarray(z_uT, float), z_sem_uT)
     centers, z = np.asarray(rod_center_mm, float)[used], np.asarray(z_uT, float)[used]
-    first, _ = fit_fixed(centers, z, MIDDLE_DEGREE)
+    first, _ = fit_fixed(centers, z, degree_for(len(z), MIDDLE_DEGREE))
     return correct_for_rod(centers, z, rod_radius_mm, first), z
 
 
@@ -86,13 +87,32 @@ def mechanics_contacts(fit, trace_length_mm: float, rod_radius_mm: float, z_limi
     return points[keep], z[keep]
 
 
+def degree_for(points: int, wanted: int) -> int:
+    """The highest degree up to ``wanted`` with at least two points per coefficient."""
+    degree = wanted
+    while degree > 1 and points < (degree + 1) * (degree + 2):
+        degree -= 1
+    return degree
+
+
 def _patch(points, z, extra_points, extra_z, low_mm, high_mm, degree):
     radial, extra_radial = np.hypot(*points.T), np.hypot(*extra_points.T)
     inside, extra_inside = (radial >= low_mm) & (radial <= high_mm), \
         (extra_radial >= low_mm) & (extra_radial <= high_mm)
-    surface, _ = fit_fixed(np.vstack([points[inside], extra_points[extra_inside]]),
-                           np.concatenate([z[inside], extra_z[extra_inside]]), degree)
+    band_z = np.concatenate([z[inside], extra_z[extra_inside]])
+    surface, _ = fit_fixed(np.vstack([points[inside], extra_points[extra_inside]]), band_z,
+                           degree_for(len(band_z), degree))
     return surface
+
+
+def shaft_surface_for(raw, trace_length_mm: float, mechanics=None) -> ShaftSurfaceFit | None:
+    """:func:`fit_shaft_surface` of a raw grid (``artifacts.raw_grid.RawGrid``), or None when
+    the grid has too few contacts for any surface (the localizer then uses the tip model's)."""
+    try:
+        return fit_shaft_surface(raw.rod_center_mm, raw.z_uT, raw.z_sem_uT, raw.rod_radius_mm,
+                                 trace_length_mm, mechanics)
+    except (ModelError, ValueError, np.linalg.LinAlgError):
+        return None
 
 
 def fit_shaft_surface(rod_center_mm, z_uT, z_sem_uT, rod_radius_mm: float,
@@ -103,7 +123,7 @@ def fit_shaft_surface(rod_center_mm, z_uT, z_sem_uT, rod_radius_mm: float,
     None (then the grid's own polynomial alone).
     """
     points, z = grid_contacts(rod_center_mm, z_uT, z_sem_uT, rod_radius_mm)
-    middle, _ = fit_fixed(points, z, MIDDLE_DEGREE)
+    middle, _ = fit_fixed(points, z, degree_for(len(z), MIDDLE_DEGREE))
     usable = mechanics is not None and mechanics.chi2_per_dof <= MAX_CHI2_PER_DOF
     if not usable:
         surface = PatchedSurface([middle], np.zeros(0), BLEND_MM)

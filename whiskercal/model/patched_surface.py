@@ -43,15 +43,15 @@ class PatchedSurface:
 
     def _weights(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each patch's weight (k, ...) at radial distances r, and its derivative in r."""
-        steps = [_smoothstep((r - edge) / self.blend_mm + 0.5) for edge in self.edges_mm]
-        ones, zeros = np.ones_like(r), np.zeros_like(r)
-        weights, slopes = [], []
-        for k in range(len(self.patches)):
-            below, below_slope = steps[k - 1] if k > 0 else (ones, zeros)
-            above, above_slope = steps[k] if k < len(steps) else (zeros, zeros)
-            weights.append(below * (1.0 - above))
-            slopes.append((below_slope * (1.0 - above) - below * above_slope) / self.blend_mm)
-        return np.array(weights), np.array(slopes)
+        t = (r[None, ...] - self.edges_mm.reshape((-1,) + (1,) * r.ndim)) / self.blend_mm + 0.5
+        step, step_slope = _smoothstep(t)
+        ones, zeros = np.ones((1,) + r.shape), np.zeros((1,) + r.shape)
+        below, above = np.concatenate([ones, step]), np.concatenate([step, zeros])
+        below_slope = np.concatenate([zeros, step_slope])
+        above_slope = np.concatenate([step_slope, zeros])
+        weights = below * (1.0 - above)
+        slopes = (below_slope * (1.0 - above) - below * above_slope) / self.blend_mm
+        return weights, slopes
 
     def _only_patch(self, r: np.ndarray) -> Surface | None:
         """The one patch that alone holds every r (outside every blend), if there is one; the
