@@ -11,7 +11,7 @@ three radial patches (:class:`~whiskercal.model.patched_surface.PatchedSurface`)
   points included), 1.4 µT RMS on the default grid;
 - toward the root and toward the tip, where the grid is sparse or absent: polynomials fitted to
   the grid's contacts there plus the mechanics-informed model (``mechfit``, fitted to every
-  contact by ``fit``'s tip model) solved for rod contacts on columns reaching from 10 % of the
+  contact by ``fit``'s tip model) solved for rod contacts on columns reaching from 15 % of the
   trace to its end. The mechanics extrapolates as a whisker does, a polynomial does not.
 
 Without an identified mechanics model (none fitted, or its χ² per degree of freedom over
@@ -43,9 +43,10 @@ BLEND_MM = 4.0
 # 12 mm inside it, so each overlaps the grid by more than the blend.
 ROOT_EDGE_INSIDE_MM, ROOT_FIT_INSIDE_MM = 2.0, 7.0
 TIP_EDGE_INSIDE_MM, TIP_FIT_INSIDE_MM = 4.0, 12.0
-# the mechanics is solved on rod columns every 1.5 mm from 8 % of the trace to 1 mm past it, each
-# pushed in 1 mm steps to 60 % of its x (31°) or the grid's largest |z|
-COLUMN_STEP_MM, PUSH_STEP_MM, ROOT_START_FRACTION = 1.5, 1.0, 0.08
+# the mechanics is solved on rod columns every 1.5 mm from 15 % of the trace to 1 mm past it, each
+# pushed in (0.25 mm steps at first, then 1 mm) to 60 % of its x (31°) or the grid's largest |z|
+COLUMN_STEP_MM, PUSH_STEP_MM, ROOT_START_FRACTION = 1.5, 1.0, 0.15
+FIRST_PUSHES_MM = np.array([0.25, 0.5, 0.75, 1.0, 1.5])
 
 
 @dataclass
@@ -74,8 +75,11 @@ def mechanics_contacts(fit, trace_length_mm: float, rod_radius_mm: float, z_limi
     ``z_limit_uT``."""
     xs = np.arange(ROOT_START_FRACTION * trace_length_mm, trace_length_mm + 1.0, COLUMN_STEP_MM)
     xs = xs[[any(lo - 2.0 <= x <= hi + 2.0 for lo, hi in bands_mm) for x in xs]]
-    centers = np.array([[x, y] for x in xs
-                        for y in np.arange(rod_radius_mm, -0.6 * x, -PUSH_STEP_MM)])
+    # the first millimetre of each push in finer steps: z changes fastest there near the root
+    pushes = np.concatenate([FIRST_PUSHES_MM, np.arange(2.0, 0.6 * xs.max() + rod_radius_mm,
+                                                        PUSH_STEP_MM)]) if xs.size else []
+    centers = np.array([[x, rod_radius_mm - push] for x in xs for push in pushes
+                        if rod_radius_mm - push > -0.6 * x])
     if centers.size == 0:
         return np.zeros((0, 2)), np.zeros(0)
     equilibria = rod_equilibria(fit.suspension, centers, rod_radius_mm)
@@ -84,7 +88,9 @@ def mechanics_contacts(fit, trace_length_mm: float, rod_radius_mm: float, z_limi
     z = fit.pose_map(poses)[:, 0]
     points = np.array([e.contact_mm for e in equilibria])
     keep = shaft & (np.abs(z) <= z_limit_uT) & np.all(np.isfinite(points), axis=1)
-    return points[keep], z[keep]
+    # where a contact begins, on the undeflected whisker, z is its reading at rest: 0
+    touch = np.column_stack([xs, np.zeros_like(xs)])
+    return np.vstack([points[keep], touch]), np.concatenate([z[keep], np.zeros(len(xs))])
 
 
 def degree_for(points: int, wanted: int) -> int:
