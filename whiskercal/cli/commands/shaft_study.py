@@ -94,3 +94,28 @@ def format_table(report) -> str:
 
 def _mm(value: float) -> str:
     return "-" if value is None or math.isnan(value) else f"{value:.3f}"
+
+
+@command.command("plane")
+@click.argument("study_path", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--artifact", "artifact_path", required=True,
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="The calibration artifact (CAL.h5) whose surface localizes the contact.")
+@click.option("--json", "as_json", is_flag=True, help="Print the rows as JSON.")
+@pass_app
+def plane_command(app: App, study_path: Path, artifact_path: Path, as_json: bool) -> None:
+    """Run the shaft localizer over a flat-plane study's shaft (tangential) contacts (twin only)."""
+    from whiskercal import runtime
+    from whiskercal.shaftstudy.plane_phases import plane_phases
+
+    rows = plane_phases(study_path, runtime.load(artifact_path))
+    if as_json:
+        echo_json({"study": str(study_path), "trials": [row.as_dict() for row in rows]})
+        return
+    if not rows:
+        click.echo(f"{study_path}: no trial has contacts on the shaft")
+    for row in rows:
+        click.echo(f"depth {row.depth_mm:g} mm: {row.samples_on_shaft} samples on the shaft, "
+                   f"called shaft {row.called_shaft:.1%}, tip {row.called_tip:.1%}, localized "
+                   f"{row.localized_share:.1%}, median error {_mm(row.median_error_mm)} mm, "
+                   f"rough point {_mm(row.rough_median_error_mm)} mm")
