@@ -92,11 +92,11 @@ def test_round_trip_through_the_artifact(tmp_path, patched):
     assert back.schema_version == "1.4.0"
     assert (back.shaft_surface.rmse_uT, back.shaft_surface.source) == (2.5, "grid+mechanics")
     probe = _band_points(10.0, 80.0, seed=5)
-    loaded, misfit = shaft_surface_of(SimpleNamespace(data=back))
+    loaded, misfit, _ = shaft_surface_of(SimpleNamespace(data=back))
     np.testing.assert_array_equal(loaded(probe), patched(probe))
     assert misfit == 2.5
     # without the group the localizer falls back to the tip model's surface and its RMSE
-    old, old_misfit = shaft_surface_of(SimpleNamespace(data=fixture))
+    old, old_misfit, _ = shaft_surface_of(SimpleNamespace(data=fixture))
     np.testing.assert_array_equal(old(probe), surface_of(fixture)(probe))
     assert old_misfit == fixture.metrics["rmse_uT"]
 

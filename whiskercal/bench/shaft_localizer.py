@@ -26,7 +26,8 @@ from whiskercal.mechfit.identify import calibrate_mechanics
 from whiskercal.model.calibrate import contact_mask
 from whiskercal.model.shaft import ShaftLocalizer, ShaftParams
 from whiskercal.model.shaft_pf import ParticleLocalizer
-from whiskercal.runtime_shaft import SAMPLE_NOISE_UT, ShaftTracker
+from whiskercal.runtime_shaft import (SAMPLE_NOISE_UT, SHAFT_SURFACE_MISFIT_LENGTH_MM,
+                                      ShaftTracker)
 from whiskercal.shaftstudy.config import load_config
 from whiskercal.shaftstudy.report import track_trial, trial_row
 from whiskercal.shaftstudy.run import run_shaft_study
@@ -80,6 +81,8 @@ def _row(name: str, degree, make, surface_misfit, length: float, trials) -> dict
     surface, misfit = surface_misfit
     params = ShaftParams(noise_uT=float(np.hypot(SAMPLE_NOISE_UT, misfit)), systematic_uT=misfit,
                          search_x_mm=(5.0, length))
+    if degree == SHAFT:  # as the runtime sets it for the shaft surface
+        params = replace(params, misfit_length_mm=SHAFT_SURFACE_MISFIT_LENGTH_MM)
     series = [track_trial(None, trial, ShaftTracker(surface, params, length,
                                                     localizer=make(surface, params)))
               for trial in trials]
