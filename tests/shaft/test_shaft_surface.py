@@ -14,7 +14,8 @@ from shaft_synthetic import AngleSurface, contact_path  # noqa: E402
 
 from whiskercal.artifacts import shaft_surface as group
 from whiskercal.artifacts.calibration import read_calibration, surface_of
-from whiskercal.fit.shaft_surface import degree_for, fit_shaft_surface
+from whiskercal.fit.shaft_surface import fit_shaft_surface
+from whiskercal.model.grid_contacts import degree_for
 from whiskercal.model.patched_surface import PatchedSurface
 from whiskercal.model.shaft import ShaftLocalizer, ShaftParams
 from whiskercal.model.surface import fit_fixed

@@ -28,12 +28,12 @@ import numpy as np
 
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
 from whiskercal.mechfit.identify import MAX_CHI2_PER_DOF
-from whiskercal.model.calibrate import contact_mask, correct_for_rod
 from whiskercal.model.errors import ModelError
+from whiskercal.model.grid_contacts import SHAFT_DEGREE, degree_for, grid_contacts
 from whiskercal.model.patched_surface import PatchedSurface
 from whiskercal.model.surface import fit_fixed
 
-MIDDLE_DEGREE = 8
+MIDDLE_DEGREE = SHAFT_DEGREE
 ROOT_DEGREE = 8
 TIP_DEGREE = 5
 BLEND_MM = 4.0
@@ -60,14 +60,6 @@ class ShaftSurfaceFit:
     mechanics_points: int
 
 
-def grid_contacts(rod_center_mm, z_uT, z_sem_uT, rod_radius_mm) -> tuple[np.ndarray, np.ndarray]:
-    """Every contact of the grid as a contact point (rod-corrected, mm) and its z (µT)."""
-    used = contact_mask(np.asarray(z_uT, float), z_sem_uT)
-    centers, z = np.asarray(rod_center_mm, float)[used], np.asarray(z_uT, float)[used]
-    first, _ = fit_fixed(centers, z, degree_for(len(z), MIDDLE_DEGREE))
-    return correct_for_rod(centers, z, rod_radius_mm, first), z
-
-
 def mechanics_contacts(fit, trace_length_mm: float, rod_radius_mm: float, z_limit_uT: float,
                        bands_mm: list[tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
     """Contact points (mm) and z (µT) of the fitted mechanics (``mechfit`` ``MechanicsFit``)
@@ -91,14 +83,6 @@ def mechanics_contacts(fit, trace_length_mm: float, rod_radius_mm: float, z_limi
     # where a contact begins, on the undeflected whisker, z is its reading at rest: 0
     touch = np.column_stack([xs, np.zeros_like(xs)])
     return np.vstack([points[keep], touch]), np.concatenate([z[keep], np.zeros(len(xs))])
-
-
-def degree_for(points: int, wanted: int) -> int:
-    """The highest degree up to ``wanted`` with at least two points per coefficient."""
-    degree = wanted
-    while degree > 1 and points < (degree + 1) * (degree + 2):
-        degree -= 1
-    return degree
 
 
 def _patch(points, z, extra_points, extra_z, low_mm, high_mm, degree):

@@ -18,8 +18,8 @@ import numpy as np
 
 from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.artifacts.shaft_study import read_shaft_study
-from whiskercal.fit.shaft_surface import MIDDLE_DEGREE, degree_for, grid_contacts
 from whiskercal.model.calibrate import contact_mask
+from whiskercal.model.grid_contacts import SHAFT_DEGREE, degree_for, grid_contacts
 from whiskercal.model.surface import fit_fixed
 from whiskercal.rig.overload import SENSOR_AXIS_Y
 from whiskercal.runtime_shaft import SAMPLE_NOISE_UT
@@ -60,7 +60,7 @@ class StaticLocalizer:
         points, y = grid_contacts(raw.rod_center_mm, field[:, SENSOR_AXIS_Y], raw.z_sem_uT,
                                   raw.rod_radius_mm)
         z = field[used, SENSOR_AXIS_Z]
-        degree = degree_for(len(y), MIDDLE_DEGREE)
+        degree = degree_for(len(y), SHAFT_DEGREE)
         self.f_y, self.f_z = fit_fixed(points, y, degree)[0], fit_fixed(points, z, degree)[0]
         misfit_y = float(np.sqrt(np.mean((self.f_y(points) - y) ** 2)))
         misfit_z = float(np.sqrt(np.mean((self.f_z(points) - z) ** 2)))
