@@ -20,6 +20,8 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
   evenly spaced axes of the deflection (Y) and the chip-normal (Z) axis from their static
   readings, and ``tip_mm`` (ny, nz, 2), NaN outside what tip loads reach. A runtime given both
   axes reads the tip there and falls back to ``/lookup`` where the table has none.
+- ``/shaft_surface`` (optional, 1.4): the shaft localizer's own surface, radial patches
+  (``whiskercal.artifacts.shaft_surface``); without it the localizer uses ``/surface``.
 - ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``,
   ``depth_mm`` and why (:class:`Target`). It is never written into an artifact in place:
   :func:`write_with_target` makes the next version as a new file.
@@ -41,15 +43,19 @@ from typing import Any
 import h5py
 import numpy as np
 
+from whiskercal.artifacts import shaft_surface as shaft_surface_group
 from whiskercal.artifacts.h5io import (as_text, check_schema, now_iso, open_h5, read_array,
                                        read_json_attr, sha256_file, write_array, write_provenance)
 from whiskercal.atomic import atomic_path, refuse_input_as_output
+from whiskercal.artifacts.shaft_surface import ShaftSurfaceData
 from whiskercal.errors import ArtifactError
 from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
-SCHEMA_VERSION = "1.2.0"  # 1.1: /target (the study); 1.2: extrapolation marks
-FIELD_TABLE_VERSION = "1.4.0"  # written only by artifacts that carry /field_table
+# 1.1: /target (the study); 1.2: extrapolation marks; 1.3 is a 1.2 with a target; 1.4: the
+# shaft localizer's own surface, /shaft_surface (whiskercal.artifacts.shaft_surface), and the
+# (Y, Z) -> tip table, /field_table: both optional, found by their presence
+SCHEMA_VERSION = "1.4.0"
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
 TARGET_GROUP = "target"
@@ -109,6 +115,8 @@ class CalibrationData:
     trusted_z_uT: tuple[float, float] | None = None  # with extrapolated: None means no part
     # 1.4: the (Y, Z) -> tip table: {"y_uT", "axial_uT", "tip_mm"} arrays (None: Y only)
     field_table: dict[str, np.ndarray] | None = None
+    # 1.4: the shaft localizer's own surface (None in older artifacts)
+    shaft_surface: ShaftSurfaceData | None = None
 
     @property
     def target_z_uT(self) -> float | None:
@@ -132,7 +140,7 @@ def _nan_to_none(value):
 
 
 def write_calibration(path: str | Path, data: CalibrationData) -> Path:
-    """Write a calibration artifact (version 1.2.0); the file is replaced atomically.
+    """Write a calibration artifact (version 1.4.0); the file is replaced atomically.
 
     Raises
     ------
@@ -143,8 +151,7 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
-            write_provenance(handle, schema=SCHEMA, schema_version=(
-                SCHEMA_VERSION if data.field_table is None else FIELD_TABLE_VERSION),
+            write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
                              sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
             handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
             _write_surface(handle.create_group("surface"), data)
@@ -154,6 +161,8 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
             _write_metrics(handle.create_group("metrics"), data)
             if data.field_table is not None:
                 _write_field_table(handle.create_group("field_table"), data.field_table)
+            if data.shaft_surface is not None:
+                shaft_surface_group.write(handle, data.shaft_surface)
     except OSError as error:
         raise ArtifactError(f"{path}: cannot write the calibration artifact ({error})") from None
     return path
@@ -288,6 +297,7 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         inputs=read_json_attr(handle, "inputs_sha256", {}),
         config=read_json_attr(handle, "config", {}),
         target=_read_target(handle),
+        shaft_surface=shaft_surface_group.read(handle, path),
         created=as_text(handle.attrs.get("created", "")),
         whiskercal_version=as_text(handle.attrs.get("whiskercal_version", "")),
         **_read_extrapolation(trace, lookup),

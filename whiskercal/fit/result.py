@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from whiskercal.fit.options import FitOptions
+from whiskercal.fit.shaft_surface import ShaftSurfaceFit
 from whiskercal.fit.truth import TruthComparison
 from whiskercal.model.calibrate import Calibration, CalibrationOptions
 
@@ -36,6 +37,8 @@ class FitResult:
         Input name -> SHA-256 (``raw_grid``).
     config : dict
         Provenance: the model's options, the raw grid's path, the numerical libraries' versions.
+    shaft_surface : ShaftSurfaceFit or None
+        The shaft localizer's own surface (``fit.shaft_surface``); None when it cannot be fitted.
     """
 
     calibration: Calibration
@@ -50,6 +53,7 @@ class FitResult:
     config: dict[str, Any] = field(default_factory=dict)
     field_table: dict[str, Any] | None = None
     """The (Y, Z) -> tip table's arrays (``fit.field_table``), None without ``--field-table``."""
+    shaft_surface: ShaftSurfaceFit | None = None
 
     def artifact_data(self):
         """The calibration artifact's content (a :class:`~whiskercal.artifacts.calibration.CalibrationData`)."""
@@ -66,7 +70,15 @@ class FitResult:
             metrics={**self.metrics, "warnings": list(self.warnings)},
             truth=None if self.truth is None else self.truth.arrays(),
             inputs=self.inputs, config=self.config)
-        return data if self.field_table is None else replace(data, field_table=self.field_table)
+        if self.field_table is not None:
+            data = replace(data, field_table=self.field_table)
+        if self.shaft_surface is not None:
+            from whiskercal.artifacts.shaft_surface import data_of
+
+            shaft = self.shaft_surface
+            data.shaft_surface = data_of(shaft.surface, shaft.rmse_uT, shaft.source,
+                                         shaft.mechanics_points)
+        return data
 
     def write(self, path: str | Path) -> Path:
         """Write the calibration artifact (HDF5, replaced whole) and return its path."""
