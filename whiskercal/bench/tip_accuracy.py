@@ -26,7 +26,9 @@ import numpy as np
 
 from whiskercal.bench.timing import machine_info, per_call_s
 from whiskercal.bench.twin_grid import default_grid_config, tip_error_mm
+from whiskercal.collect.config import SweepConfig, load_config
 from whiskercal.collect.plan import lattice_points, visiting_order
+from whiskercal.collect.sweep import sweep_points
 from whiskercal.errors import WhiskercalError
 from whiskercal.mechfit.fit import fit_mechanics
 from whiskercal.mechfit.forward import Suspension
@@ -119,6 +121,27 @@ def simulate_fields(sensor: SensorParams, seed: int = 0) -> FieldGrid3:
     fields = pose_fields(sensor, equilibria)
     noise = np.random.default_rng(seed).normal(0.0, 1.0, fields.shape) * np.array(NOISE_UT)
     return FieldGrid3(np.array(kept), fields, fields + noise)
+
+
+def tip_sweep_config() -> SweepConfig:
+    """The tip sweep of collect's default configuration, switched on."""
+    return replace(load_config().sweep, enabled=True)
+
+
+def simulate_sweep(sensor: SensorParams, seed: int = 0) -> FieldGrid3:
+    """The tip sweep (``collect.sweep``) from the build's trace length: each position reached
+    from the free whisker in -y, as the stage approaches it; contacts under the overload guard
+    kept (a position where the wire slips past the rod reads no contact and is left out)."""
+    points = sweep_points(tip_sweep_config(), sensor.whisker.reach_mm)
+    kept, equilibria = [], []
+    for center in points:
+        equilibrium = mechanics.solve_rod(sensor.whisker, center, ROD_RADIUS_MM)
+        if equilibrium.in_contact and abs(pose_fields(sensor, [equilibrium])[0, 0]) < OVERLOAD_UT:
+            kept.append(center), equilibria.append(equilibrium)
+    fields = pose_fields(sensor, equilibria).reshape(-1, 2)
+    # its own noise stream: the grid's draws stay the same with or without the sweep
+    noise = np.random.default_rng([seed, 1]).normal(0.0, 1.0, fields.shape) * np.array(NOISE_UT)
+    return FieldGrid3(np.array(kept).reshape(-1, 2), fields, fields + noise)
 
 
 def true_suspension(sensor: SensorParams) -> Suspension:

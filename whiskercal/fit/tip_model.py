@@ -57,9 +57,10 @@ def _mechanics(raw, length_mm: float, samples: int):
     """
     used = contact_mask(raw.z_uT, raw.z_sem_uT)
     noise = float(np.median(raw.z_sem_uT[used])) if used.any() else math.nan
+    sweep = np.asarray(getattr(raw, "sweep", np.zeros(len(used), bool)), bool)
     try:
         return calibrate_mechanics(raw.rod_center_mm[used], raw.z_uT[used], raw.rod_radius_mm,
-                                   length_mm, noise, samples), ""
+                                   length_mm, noise, samples, sweep=sweep[used]), ""
     except UsageError as error:
         return None, str(error).rstrip(".")
 

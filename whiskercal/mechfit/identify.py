@@ -43,6 +43,9 @@ MAX_CHI2_PER_DOF = 4.0
 MIN_COVERAGE = 0.9           # share of the lookup's knots a plausible fit must also answer
 PROFILE_EVALUATIONS = 60
 COMPARISON_KNOTS = 41
+# Step (in the fit's log and logit parameters) of the finite differences of the local estimate:
+# large against the solver's tolerance, small against the parameters' own uncertainty.
+LOCAL_STEP = 1e-3
 
 
 @dataclass
@@ -75,8 +78,11 @@ class MechanicsCalibration:
         Misfit of the best fit in the grid's standard errors (about 1 when the model and the
         noise explain the grid).
     estimated_tip_error_mm : float
-        The profile's estimate (mm); inf when the grid does not identify the suspension.
+        The larger of the profile's estimate and the local one (mm); inf when the grid does not
+        identify the suspension.
     profile : list of ProfilePoint
+    local_tip_error_mm : float
+        The linearized estimate alone (``local_estimate``), mm.
     """
 
     fit: MechanicsFit
@@ -85,6 +91,7 @@ class MechanicsCalibration:
     chi2_per_dof: float
     estimated_tip_error_mm: float
     profile: list[ProfilePoint] = field(default_factory=list)
+    local_tip_error_mm: float = math.nan
 
     @property
     def stiffness_ratio(self) -> float:
@@ -109,8 +116,11 @@ def _theta_of(fit: MechanicsFit) -> np.ndarray:
 class _Problem:
     """The grid and the weights every fit of one calibration shares."""
 
-    def __init__(self, rod_center_mm, z_uT, rod_radius_mm, trace_length_mm, noise_uT, z_range):
+    def __init__(self, rod_center_mm, z_uT, rod_radius_mm, trace_length_mm, noise_uT, z_range,
+                 sweep=None, degree=DEFAULT_DEGREE):
+        self.degree = degree
         self.centers = np.asarray(rod_center_mm, float)
+        self.sweep = np.zeros(len(self.centers), bool) if sweep is None else np.asarray(sweep, bool)
         self.fields = np.asarray(z_uT, float).reshape(-1, 1)
         self.radius, self.trace_mm = float(rod_radius_mm), float(trace_length_mm)
         self.noise = np.atleast_1d(float(noise_uT))
@@ -118,10 +128,10 @@ class _Problem:
 
     def objective(self) -> _Objective:
         return _Objective(self.trace_mm, self.centers, self.radius, self.fields, self.noise,
-                          DEFAULT_DEGREE)
+                          self.degree, self.sweep)
 
     def dof(self) -> int:
-        return max(len(self.centers) - 3 - len(exponents(DEFAULT_DEGREE)), 1)
+        return max(len(self.centers) - 3 - len(exponents(self.degree)), 1)
 
     def as_fit(self, objective: _Objective, theta: np.ndarray) -> tuple[MechanicsFit, float]:
         """The fit at ``theta`` and its χ² (standard errors; a lost contact counts heavily)."""
@@ -153,10 +163,10 @@ def _profile_point(problem: _Problem, best: np.ndarray, ratio: float) -> Profile
     return ProfilePoint(ratio, chi2, problem.lookup(fit))
 
 
-def _refine(problem: _Problem, theta: np.ndarray) -> tuple[MechanicsFit, float]:
+def _refine(problem: _Problem, theta: np.ndarray) -> tuple[MechanicsFit, float, np.ndarray]:
     objective = problem.objective()
     result = least_squares(objective, theta, diff_step=1e-4, xtol=1e-10, ftol=1e-10, max_nfev=200)
-    return problem.as_fit(objective, result.x)
+    return (*problem.as_fit(objective, result.x), result.x)
 
 
 def tip_change_mm(base: TipLookup, other: TipLookup | None) -> float:
@@ -172,6 +182,52 @@ def tip_change_mm(base: TipLookup, other: TipLookup | None) -> float:
     return float(np.sqrt(np.mean(np.sum(change ** 2, axis=1))))
 
 
+def _knot_tips(lookup: TipLookup, knots: np.ndarray) -> np.ndarray:
+    inside = (knots >= lookup.z_min_uT) & (knots <= lookup.z_max_uT)
+    tips = np.full((len(knots), 2), np.nan)
+    tips[inside] = lookup(knots[inside])
+    return tips
+
+
+def local_estimate(problem: _Problem, theta: np.ndarray, lookup: TipLookup, chi2: float,
+                   samples: int = DEFAULT_SAMPLES, kind: str = DEFAULT_KIND) -> float:
+    """The largest RMS tip change (mm) within two standard errors of the best fit, linearized.
+
+    The profile steps k_θ·L/EI by factors of three; a grid and sweep that pin the suspension
+    down far tighter than that leave every profile point implausible and say nothing. Here the
+    misfit's curvature (JᵀJ of the residual in standard errors, the pose map refitted at each
+    step) and the tip curve's slope D in all three parameters give the tip change at the edge
+    of plausibility (Δχ² = 4 in the best fit's residual variance) in the worst direction:
+    √(4 σ² λ_max(JᵀJ⁻¹ DᵀD) / K) over the K knots. Infinite when a step loses the tip curve.
+    """
+    objective = problem.objective()
+    base = objective(theta)
+    knots = np.linspace(lookup.z_min_uT, lookup.z_max_uT, COMPARISON_KNOTS)
+    tips = _knot_tips(lookup, knots)
+    jac, slopes = [], []
+    for k in range(len(theta)):
+        step = theta.copy()
+        step[k] += LOCAL_STEP
+        fit, _ = problem.as_fit(objective, step)
+        other = problem.lookup(fit, samples, kind)
+        if other is None:
+            return math.inf
+        jac.append((objective(step) - base) / LOCAL_STEP)
+        slopes.append(((_knot_tips(other, knots) - tips) / LOCAL_STEP))
+    known = np.all(np.isfinite(np.stack(slopes)), axis=(0, 2))
+    if known.mean() < MIN_COVERAGE:
+        return math.inf
+    d = np.stack([s[known].ravel() for s in slopes], axis=1)
+    curvature = np.stack(jac, axis=1)
+    curvature = curvature.T @ curvature
+    variance = max(chi2 / problem.dof(), 1.0)
+    try:
+        worst = np.max(np.real(np.linalg.eigvals(np.linalg.solve(curvature, d.T @ d))))
+    except np.linalg.LinAlgError:
+        return math.inf
+    return float(math.sqrt(max(worst, 0.0) * PLAUSIBLE_DELTA_CHI2 * variance / known.sum()))
+
+
 def profile_estimate(profile: list[ProfilePoint]) -> float:
     """The largest tip change scaled to the edge of plausibility (mm); see the module's text."""
     scaled = [0.0]
@@ -185,7 +241,8 @@ def profile_estimate(profile: list[ProfilePoint]) -> float:
 
 def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_mm: float,
                         noise_uT: float, samples: int = DEFAULT_SAMPLES,
-                        kind: str = DEFAULT_KIND) -> MechanicsCalibration:
+                        kind: str = DEFAULT_KIND, sweep=None,
+                        degree: int = DEFAULT_DEGREE) -> MechanicsCalibration:
     """Fit the mechanics to a rod grid's contacts, profile it, and build its z -> tip lookup.
 
     Parameters
@@ -197,6 +254,8 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
     rod_radius_mm, trace_length_mm : float
     noise_uT : float
         Typical standard error of a point's mean z, µT.
+    sweep : ndarray (n,) of bool, optional
+        Which contacts are the tip sweep's (the rod at the tip); none by default.
 
     Raises
     ------
@@ -204,18 +263,20 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
         Too few contacts for the pose map, or no tip curve over the grid's z range.
     """
     z = np.asarray(z_uT, float)
+    on_grid = z if sweep is None else z[~np.asarray(sweep, bool)]  # the range calibrated
     problem = _Problem(rod_center_mm, z, rod_radius_mm, trace_length_mm, noise_uT,
-                       (float(z.min()), float(z.max())))
+                       (float(on_grid.min()), float(on_grid.max())), sweep, degree)
     theta = _theta_of(fit_mechanics(problem.centers, z, problem.radius, problem.trace_mm,
-                                     problem.noise))
+                                     problem.noise, degree, sweep=problem.sweep))
     fit, chi2 = problem.as_fit(problem.objective(), theta)
     profile = [_profile_point(problem, theta, ratio) for ratio in PROFILE_RATIOS]
     best_profile = min(profile, key=lambda p: p.chi2)
     if best_profile.chi2 < chi2:
-        theta[0] = math.log(1.0 / best_profile.stiffness_ratio)
-        refined, refined_chi2 = _refine(problem, theta)
+        start = theta.copy()
+        start[0] = math.log(1.0 / best_profile.stiffness_ratio)
+        refined, refined_chi2, refined_theta = _refine(problem, start)
         if refined_chi2 < chi2:
-            fit, chi2 = refined, refined_chi2
+            fit, chi2, theta = refined, refined_chi2, refined_theta
     lookup = problem.lookup(fit, samples, kind)
     if lookup is None:
         raise UsageError("the fitted mechanics' tip curve does not reach the grid's z range.")
@@ -225,6 +286,8 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
         point.tip_change_mm = tip_change_mm(lookup, point.lookup)
     family_z = fit.pose_map(tip_family(fit.suspension).pose)[:, 0]
     chi2_per_dof = chi2 / problem.dof()
-    estimate = profile_estimate(profile) if chi2_per_dof <= MAX_CHI2_PER_DOF else math.inf
+    local = local_estimate(problem, theta, lookup, chi2, samples, kind)
+    estimate = max(profile_estimate(profile), local) if chi2_per_dof <= MAX_CHI2_PER_DOF \
+        else math.inf
     return MechanicsCalibration(fit, lookup, monotone_z_range(family_z), chi2_per_dof, estimate,
-                                profile)
+                                profile, local)
