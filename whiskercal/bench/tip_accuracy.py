@@ -128,11 +128,12 @@ def tip_sweep_config() -> SweepConfig:
     return replace(load_config().sweep, enabled=True)
 
 
-def simulate_sweep(sensor: SensorParams, seed: int = 0) -> FieldGrid3:
+def simulate_sweep(sensor: SensorParams, seed: int = 0,
+                   config: SweepConfig | None = None) -> FieldGrid3:
     """The tip sweep (``collect.sweep``) from the build's trace length: each position reached
     from the free whisker in -y, as the stage approaches it; contacts under the overload guard
     kept (a position where the wire slips past the rod reads no contact and is left out)."""
-    points = sweep_points(tip_sweep_config(), sensor.whisker.reach_mm)
+    points = sweep_points(config or tip_sweep_config(), sensor.whisker.reach_mm)
     kept, equilibria = [], []
     for center in points:
         equilibrium = mechanics.solve_rod(sensor.whisker, center, ROD_RADIUS_MM)

@@ -21,6 +21,7 @@ the fit is refined from there before anything is estimated.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 
@@ -46,6 +47,9 @@ COMPARISON_KNOTS = 41
 # Step (in the fit's log and logit parameters) of the finite differences of the local estimate:
 # large against the solver's tolerance, small against the parameters' own uncertainty.
 LOCAL_STEP = 1e-3
+# A χ² per degree of freedom this many of its standard deviations (√(2/dof)) above 1 tries a
+# pose map one degree richer (``_richer_map``).
+RICHER_MAP_SIGMAS = 2.0
 
 
 @dataclass
@@ -57,6 +61,7 @@ class ProfilePoint:
     lookup: TipLookup | None
     delta_chi2: float = math.nan
     tip_change_mm: float = math.nan
+    theta: np.ndarray | None = None
 
     def row(self) -> dict:
         return {"stiffness_ratio": self.stiffness_ratio, "delta_chi2": self.delta_chi2,
@@ -83,6 +88,8 @@ class MechanicsCalibration:
     profile : list of ProfilePoint
     local_tip_error_mm : float
         The linearized estimate alone (``local_estimate``), mm.
+    sweep_points : int
+        How many of the contacts fitted were the tip sweep's.
     """
 
     fit: MechanicsFit
@@ -92,6 +99,7 @@ class MechanicsCalibration:
     estimated_tip_error_mm: float
     profile: list[ProfilePoint] = field(default_factory=list)
     local_tip_error_mm: float = math.nan
+    sweep_points: int = 0
 
     @property
     def stiffness_ratio(self) -> float:
@@ -159,8 +167,30 @@ def _profile_point(problem: _Problem, best: np.ndarray, ratio: float) -> Profile
 
     start = np.array([best[1] + fixed - best[0], best[2]])
     result = least_squares(residual, start, diff_step=1e-4, max_nfev=PROFILE_EVALUATIONS)
-    fit, chi2 = problem.as_fit(objective, np.array([fixed, *result.x]))
-    return ProfilePoint(ratio, chi2, problem.lookup(fit))
+    theta = np.array([fixed, *result.x])
+    fit, chi2 = problem.as_fit(objective, theta)
+    return ProfilePoint(ratio, chi2, problem.lookup(fit), theta=theta)
+
+
+def _richer_map(problem: _Problem, fit: MechanicsFit, chi2: float, theta: np.ndarray):
+    """The pose map one degree higher, when the fit leaves more than the noise and the higher
+    degree explains enough more of it to pay for its terms (Akaike: Δχ² > 2 per term).
+
+    A degree-3 map misses the twin's field by up to about 1 µT over a grid and a tip sweep
+    (which takes the pose off the shaft contacts' path); that is a quarter of the noise's
+    variance, enough to bias the suspension, and degree 4 removes it (docs/calibration.md).
+    (problem, fit, χ², theta), changed or not.
+    """
+    dof = problem.dof()
+    if chi2 / dof <= 1.0 + RICHER_MAP_SIGMAS * math.sqrt(2.0 / dof):
+        return problem, fit, chi2, theta
+    richer = copy.copy(problem)
+    richer.degree = problem.degree + 1
+    new_fit, new_chi2, new_theta = _refine(richer, theta)
+    extra = len(exponents(richer.degree)) - len(exponents(problem.degree))
+    if new_chi2 + 2.0 * extra < chi2:
+        return richer, new_fit, new_chi2, new_theta
+    return problem, fit, chi2, theta
 
 
 def _refine(problem: _Problem, theta: np.ndarray) -> tuple[MechanicsFit, float, np.ndarray]:
@@ -269,6 +299,7 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
     theta = _theta_of(fit_mechanics(problem.centers, z, problem.radius, problem.trace_mm,
                                      problem.noise, degree, sweep=problem.sweep))
     fit, chi2 = problem.as_fit(problem.objective(), theta)
+    problem, fit, chi2, theta = _richer_map(problem, fit, chi2, theta)
     profile = [_profile_point(problem, theta, ratio) for ratio in PROFILE_RATIOS]
     best_profile = min(profile, key=lambda p: p.chi2)
     if best_profile.chi2 < chi2:
@@ -290,4 +321,4 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
     estimate = max(profile_estimate(profile), local) if chi2_per_dof <= MAX_CHI2_PER_DOF \
         else math.inf
     return MechanicsCalibration(fit, lookup, monotone_z_range(family_z), chi2_per_dof, estimate,
-                                profile, local)
+                                profile, local, int(problem.sweep.sum()))
