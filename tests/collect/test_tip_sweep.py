@@ -61,8 +61,12 @@ def test_the_sweep_is_off_by_default_and_the_plan_is_the_papers(tmp_path):
 def test_the_sweep_follows_another_trace_length(tmp_path):
     config = _config(tmp_path, "[rig]\ntrace_length_mm = 113.0\n" + ON)
     points = sweep_points(config.sweep, config.rig.trace_length_mm)
+    # the offsets scale as the reach band does: -6 mm for 78 mm is -8.69 mm for 113 mm
+    assert config.sweep.offsets_mm == (-8.69, -4.35, -2.17, 0.0)
     assert np.hypot(*points.T).max() == pytest.approx(113.0)
-    assert np.hypot(*points.T).min() == pytest.approx(110.0)
+    assert np.hypot(*points.T).min() == pytest.approx(113.0 - 8.69)
+    given = _config(tmp_path, "[rig]\ntrace_length_mm = 113.0\n" + ON + "offsets_mm = [-1.0]\n")
+    assert given.sweep.offsets_mm == (-1.0,)  # a key the file gives wins
 
 
 @pytest.mark.parametrize("text, words", [

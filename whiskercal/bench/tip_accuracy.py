@@ -26,7 +26,8 @@ import numpy as np
 
 from whiskercal.bench.timing import machine_info, per_call_s
 from whiskercal.bench.twin_grid import default_grid_config, tip_error_mm
-from whiskercal.collect.config import SweepConfig, load_config
+from whiskercal.collect.config import (DEFAULT_CONFIG_PATH, SweepConfig, config_from_dict,
+                                       follow_trace_length)
 from whiskercal.collect.plan import lattice_points, visiting_order
 from whiskercal.collect.sweep import sweep_points
 from whiskercal.errors import WhiskercalError
@@ -35,6 +36,7 @@ from whiskercal.mechfit.forward import Suspension
 from whiskercal.mechfit.tables import field_tip_table, monotone_z_range, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
 from whiskercal.model.calibrate import CalibrationOptions, calibrate
+from whiskercal.tomlconfig import read_toml
 from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR, SECOND_SENSOR, SensorParams
 from whiskercal.twin.physics import mechanics
@@ -123,9 +125,12 @@ def simulate_fields(sensor: SensorParams, seed: int = 0) -> FieldGrid3:
     return FieldGrid3(np.array(kept), fields, fields + noise)
 
 
-def tip_sweep_config() -> SweepConfig:
-    """The tip sweep of collect's default configuration, switched on."""
-    return replace(load_config().sweep, enabled=True)
+def tip_sweep_config(trace_length_mm: float = DEFAULT_TRACE_MM) -> SweepConfig:
+    """The tip sweep of collect's default configuration for a trace length (its offsets scaled
+    as ``collect.config.follow_trace_length`` scales them), switched on."""
+    given = {"rig": {"trace_length_mm": float(trace_length_mm)}}
+    values = follow_trace_length(read_toml(DEFAULT_CONFIG_PATH), given)
+    return replace(config_from_dict(values).sweep, enabled=True)
 
 
 def simulate_sweep(sensor: SensorParams, seed: int = 0,
@@ -133,7 +138,8 @@ def simulate_sweep(sensor: SensorParams, seed: int = 0,
     """The tip sweep (``collect.sweep``) from the build's trace length: each position reached
     from the free whisker in -y, as the stage approaches it; contacts under the overload guard
     kept (a position where the wire slips past the rod reads no contact and is left out)."""
-    points = sweep_points(config or tip_sweep_config(), sensor.whisker.reach_mm)
+    config = config or tip_sweep_config(sensor.whisker.reach_mm)
+    points = sweep_points(config, sensor.whisker.reach_mm)
     kept, equilibria = [], []
     for center in points:
         equilibrium = mechanics.solve_rod(sensor.whisker, center, ROD_RADIUS_MM)

@@ -280,8 +280,9 @@ REACH_PAST_TIP_MM = 2.0
 def follow_trace_length(defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
     """The defaults for a build whose ``[rig] trace_length_mm`` the user's file gives.
 
-    The reach band scales with the trace length (the default's 22.5..71.75 mm for 78 mm) and
-    the reach past which the rod is clear of the whisker follows the tip; the 3 mm lattice, the
+    The reach band and the tip sweep's offsets scale with the trace length (the default's
+    22.5..71.75 mm for 78 mm) and the reach past which the rod is clear of the whisker follows
+    the tip; the 3 mm lattice, the
     angle band and the overload guard stay (the point count follows the build, so the paper's
     180-point check is off). A key the file gives is kept as given (``merge_overrides``).
     """
@@ -294,7 +295,10 @@ def follow_trace_length(defaults: dict[str, Any], given: dict[str, Any]) -> dict
                 reach_min_mm=round(defaults["grid"]["reach_min_mm"] * factor, 2),
                 reach_max_mm=round(defaults["grid"]["reach_max_mm"] * factor, 2))
     rig = dict(defaults["rig"], whisker_reach_mm=float(length) + REACH_PAST_TIP_MM)
-    return {**defaults, "grid": grid, "rig": rig}
+    # the tip draws back toward the root in proportion to the wire's length as it deflects
+    sweep = dict(defaults["sweep"], offsets_mm=[round(offset * factor, 2)
+                                                for offset in defaults["sweep"]["offsets_mm"]])
+    return {**defaults, "grid": grid, "rig": rig, "sweep": sweep}
 
 
 def load_config(path: str | Path | None = None) -> CollectConfig:

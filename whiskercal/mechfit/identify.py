@@ -303,8 +303,7 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
     profile = [_profile_point(problem, theta, ratio) for ratio in PROFILE_RATIOS]
     best_profile = min(profile, key=lambda p: p.chi2)
     if best_profile.chi2 < chi2:
-        start = theta.copy()
-        start[0] = math.log(1.0 / best_profile.stiffness_ratio)
+        start = best_profile.theta.copy()  # its own stub and translational compliance too
         refined, refined_chi2, refined_theta = _refine(problem, start)
         if refined_chi2 < chi2:
             fit, chi2, theta = refined, refined_chi2, refined_theta
