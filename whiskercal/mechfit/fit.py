@@ -3,7 +3,9 @@
 Variable projection: for trial mechanics every rod contact of the grid is solved for its root
 pose (warm-started from the last trial), the pose map is then linear in its coefficients and
 comes from least squares, and what it leaves is the residual the outer least squares (over the
-three mechanical parameters, in logs) drives down. The start depends on the trace length only:
+three mechanical parameters, in logs) drives down. The tip sweep's points (the rod at the tip,
+``collect.sweep``) are solved from the free whisker along the rod's approach at every
+evaluation instead (see ``_Objective``). The start depends on the trace length only:
 a stub of 4 % of it, and a few rotational compliances spanning the family (k_θ·L/EI from about
 1 to 100), the best of which is kept.
 """

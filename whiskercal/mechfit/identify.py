@@ -13,7 +13,10 @@ translational compliance refitted) and turns the profile into an error estimate:
   linear-model relation between a parameter's offset, its misfit and the change it causes;
 - the estimate is the largest scaled change, and infinite when a plausible fit's tip curve does
   not even cover the range (the grid does not identify the suspension) or when the best fit
-  itself misses the grid by more than twice the noise (the model does not explain it).
+  itself misses the grid by more than twice the noise (the model does not explain it);
+- a local, linearized estimate (``local_estimate``) covers all three parameters at once and
+  the data that pin them down tighter than the profile's steps (a tip sweep does); the larger
+  of the two is reported.
 
 The profile doubles as a global search: when a profile point fits better than the local fit,
 the fit is refined from there before anything is estimated.
