@@ -14,11 +14,13 @@ from whiskercal.collect.run import collect
 from whiskercal.collect.sweep import sweep_points
 from whiskercal.fit.run import level_set_points
 
-from fast_collect import FAST
+from fast_collect import FAST_DWELL
 
 ON = "[sweep]\nenabled = true\n"
 # a few dozen grid points and a three-ray sweep: a run of seconds on the twin
-SMALL_WITH_SWEEP = FAST + """
+SMALL_WITH_SWEEP = FAST_DWELL + """
+[sensor]
+rate_hz = 100
 [grid]
 reach_min_mm = 45.5
 reach_max_mm = 56.5
@@ -50,12 +52,15 @@ def test_the_sweep_follows_the_grid_on_rays_at_the_trace_length(tmp_path):
     np.testing.assert_allclose(np.unique(radius.round(9)), sorted(sweep.offsets_mm), atol=1e-9)
     assert angle.max() == pytest.approx(-5.0) and angle.min() == pytest.approx(-40.0)
     # the grid's 180 points are unchanged, in front
-    np.testing.assert_array_equal(plan.rod_center_mm[:180], build_plan(load_config()).rod_center_mm)
+    off = build_plan(_config(tmp_path, "[sweep]\nenabled = false\n"))
+    np.testing.assert_array_equal(plan.rod_center_mm[:180], off.rod_center_mm)
 
 
-def test_the_sweep_is_off_by_default_and_the_plan_is_the_papers(tmp_path):
+def test_the_default_plan_is_the_papers_grid_then_the_sweep(tmp_path):
     plan = build_plan(load_config())
-    assert len(plan) == 180 and plan.sweep_count == 0 and plan.sweep_from == 180
+    assert plan.sweep_from == 180 and plan.sweep_count == 28 and len(plan) == 208
+    off = build_plan(_config(tmp_path, "[sweep]\nenabled = false\n"))
+    assert len(off) == off.sweep_from == 180
 
 
 def test_the_sweep_follows_another_trace_length(tmp_path):
