@@ -163,6 +163,10 @@ def _warnings(choice: TipModelChoice, mechanics, why_not: str) -> list[str]:
         return [f"the tip error cannot be estimated: the suspension model leaves "
                 f"{math.sqrt(mechanics.chi2_per_dof):.1f}x the noise unexplained (a suspension "
                 "outside the model, or a wrong trace length?); tips may be off by millimetres"]
+    if not math.isfinite(mechanics.local_tip_error_mm):
+        return ["the tip error cannot be estimated: the fitted tip curve does not hold its z "
+                "range under the fit's own uncertainty (z folds near its end); tips may be off "
+                "by millimetres"]
     low, high = mechanics.plausible_ratios()
     return [f"the tip error cannot be estimated: the grid does not pin the suspension down "
             f"(k_theta*L/EI from {low:.3g} to {high:.3g} fits it equally well); tips may be off "

@@ -50,6 +50,7 @@ COMPARISON_KNOTS = 41
 # Step (in the fit's log and logit parameters) of the finite differences of the local estimate:
 # large against the solver's tolerance, small against the parameters' own uncertainty.
 LOCAL_STEP = 1e-3
+LOCAL_MIN_COVERAGE = 0.5
 # A χ² per degree of freedom this many of its standard deviations (√(2/dof)) above 1 tries a
 # pose map one degree richer (``_richer_map``).
 RICHER_MAP_SIGMAS = 2.0
@@ -180,16 +181,19 @@ def _profile_point(problem: _Problem, best: np.ndarray, ratio: float) -> Profile
 
 
 def _richer_map(problem: _Problem, fit: MechanicsFit, chi2: float, theta: np.ndarray):
-    """The pose map a degree higher (up to :data:`MAX_MAP_DEGREE`), while the fit leaves more
-    than the noise and the higher degree explains enough more to pay for its terms (Akaike:
-    Δχ² > 2 per term).
+    """With a tip sweep, the pose map a degree higher (up to :data:`MAX_MAP_DEGREE`), while the
+    fit leaves more than the noise and the higher degree explains enough more to pay for its
+    terms (Akaike: Δχ² > 2 per term).
 
     A degree-3 map misses the twin's field by up to about 1 µT over a grid and a tip sweep
     (which takes the pose off the shaft contacts' path); that is a quarter of the noise's
     variance, enough to bias the suspension, and degree 4 removes it (docs/calibration.md).
     (problem, fit, χ², theta), changed or not.
     """
-    while problem.degree < MAX_MAP_DEGREE:
+    # only a tip sweep takes the pose off the shaft contacts' path, where the map falls short;
+    # on a grid alone a misfit comes from elsewhere (the stage's position error on recorded
+    # data), and a richer map absorbs it into the suspension (docs/calibration.md)
+    while problem.sweep.any() and problem.degree < MAX_MAP_DEGREE:
         dof = problem.dof()
         if chi2 / dof <= 1.0 + RICHER_MAP_SIGMAS * math.sqrt(2.0 / dof):
             break
@@ -254,8 +258,10 @@ def local_estimate(problem: _Problem, theta: np.ndarray, lookup: TipLookup, chi2
             return math.inf
         jac.append((objective(step) - base) / LOCAL_STEP)
         slopes.append(((_knot_tips(other, knots) - tips) / LOCAL_STEP))
+    # a step may move the end of the one-to-one range (a fold of z) past the last knots: the
+    # change is taken where both answer, unless that is less than half the range
     known = np.all(np.isfinite(np.stack(slopes)), axis=(0, 2))
-    if known.mean() < MIN_COVERAGE:
+    if known.mean() < LOCAL_MIN_COVERAGE:
         return math.inf
     d = np.stack([s[known].ravel() for s in slopes], axis=1)
     curvature = np.stack(jac, axis=1)
