@@ -36,3 +36,14 @@ def test_fixture_loads_whole_and_consistent(path):
         handle.visititems(lambda name, obj: missing.append(name)
                           if isinstance(obj, h5py.Dataset) and "units" not in obj.attrs else None)
         assert missing == []
+
+
+def test_a_file_before_the_tip_sweep_has_none_and_the_current_one_marks_its_own():
+    old = read_raw_grid(Path(__file__).parents[1] / "fixtures" / "raw_grid_v1.0.0.h5")
+    assert not old.sweep.any() and old.without_sweep() is old
+    new = read_raw_grid(Path(__file__).parents[1] / "fixtures" / "raw_grid_v1.1.0.h5")
+    first = new.config["plan"]["tip_sweep"]["first_index"]
+    assert new.sweep.sum() == new.config["plan"]["tip_sweep"]["points"] == 4
+    np.testing.assert_array_equal(new.sweep, new.plan_index >= first)
+    grid = new.without_sweep()
+    assert len(grid) == first and set(grid.truth["kind"]) == {"shaft"}

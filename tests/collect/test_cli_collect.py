@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from whiskercal.cli import cli
@@ -17,11 +19,15 @@ def test_dry_run_json_summarizes_the_default_plan():
     result = invoke("--dry-run", "--json")
     assert result.exit_code == 0, result.output
     summary = json.loads(result.output)
-    assert summary["points"] == 180 and summary["limits_ok"] and summary["problems"] == []
-    assert summary["columns"] == 17
-    assert summary["whisker_x_mm"] == [21.0, 69.0] and summary["whisker_y_mm"] == [-48.0, 0.0]
-    # 180 points at 0.4 s of dwell each plus moves of ~0.4 s: a few minutes, not seconds or hours
-    assert 120.0 < summary["estimated_stage_time_s"] < 600.0
+    assert summary["points"] == 208 and summary["limits_ok"] and summary["problems"] == []
+    assert summary["tip_sweep_points"] == 28  # after the paper's 180
+    assert summary["columns"] == 17 + 28  # every sweep point its own approach
+    assert summary["whisker_x_mm"][0] == 21.0 and summary["whisker_y_mm"][1] == 0.0
+    # a sweep point lies on a ray at most 40 deg below the axis, at most the trace length out
+    assert summary["whisker_x_mm"][1] == pytest.approx(78.0 * np.cos(np.radians(5.0)))
+    assert summary["whisker_y_mm"][0] == pytest.approx(-78.0 * np.sin(np.radians(40.0)))
+    # 208 points at 0.4 s of dwell each plus moves of ~0.4-6 s: minutes, not seconds or hours
+    assert 120.0 < summary["estimated_stage_time_s"] < 900.0
     assert summary["path_length_mm"] > 180 * 3.0
 
 
@@ -29,7 +35,8 @@ def test_dry_run_text_names_points_time_and_limits():
     result = invoke("--dry-run")
     assert result.exit_code == 0
     lines = result.output.splitlines()
-    assert lines[0] == "points           180 in 17 columns"
+    assert lines[0] == "points           208 in 45 columns"
+    assert lines[1] == "tip sweep        the last 28 of them"
     assert any(line.startswith("stage time") and line.endswith("s (estimated, without the homing cycle)")
                for line in lines)
     assert "limits           ok (travel 200 x 200 mm)" in lines

@@ -15,7 +15,7 @@ def _collect(tmp_path, text):
 
 def test_the_default_build_keeps_the_papers_180_points(tmp_path):
     config = _collect(tmp_path, "[rig]\ntrace_length_mm = 78.0\n")
-    assert len(build_plan(config)) == 180 and config.grid.reach_max_mm == 71.75
+    assert build_plan(config).sweep_from == 180 and config.grid.reach_max_mm == 71.75
 
 
 @pytest.mark.parametrize("length_mm", [48.0, 63.0, 123.0])

@@ -17,7 +17,9 @@ from whiskercal.errors import DeviceError, UsageError
 
 
 def small_plan(**sections):
-    """A plan of a dozen or so points (reach 30..35 mm) with short dwells: the loop, quickly."""
+    """A plan of a dozen or so points (reach 30..35 mm) with short dwells: the loop, quickly
+    (the tip sweep off unless asked for: test_tip_sweep.py runs it)."""
+    sections.setdefault("sweep", {"enabled": False})
     config = load_config().replace(
         grid={"reach_min_mm": 30.0, "reach_max_mm": 35.0, "expected_points": 0},
         acquisition={"samples_per_point": 6, "settle_s": 0.02, "baseline_samples": 30},

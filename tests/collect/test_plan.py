@@ -18,7 +18,7 @@ def plan():
 
 def test_default_plan_is_180_lattice_points_inside_both_bands(plan):
     grid = plan.config.grid
-    points = plan.rod_center_mm
+    points = plan.rod_center_mm[:plan.sweep_from]  # the tip sweep follows (test_tip_sweep.py)
     assert len(points) == 180 and len(np.unique(points, axis=0)) == 180
     np.testing.assert_allclose(points / 3.0, np.round(points / 3.0), atol=1e-12)
     reach = np.hypot(*points.T)
@@ -48,7 +48,7 @@ def test_angle_floor_tapers_from_near_to_far(plan):
 
 
 def test_points_go_column_by_column_each_descending(plan):
-    x, y = plan.rod_center_mm.T
+    x, y = plan.rod_center_mm[:plan.sweep_from].T
     assert np.all(np.diff(x) >= 0)
     same_column = np.diff(x) == 0
     assert np.all(np.diff(y)[same_column] < 0)
@@ -58,12 +58,16 @@ def test_path_approaches_every_point_in_minus_y_and_crosses_above_the_whisker(pl
     moves = plan.path()
     targets = {tuple(p) for p in plan.rod_center_mm}
     arrivals = [m for m in moves if tuple(m.end_mm) in targets]
-    assert len(arrivals) == 180
+    assert len(arrivals) == len(plan) == 208
     for move in arrivals:
         assert move.start_mm[0] == move.end_mm[0] and move.start_mm[1] > move.end_mm[1]
         assert move.purpose == "approach"
     safe_y = plan.config.approach.safe_y_mm
+    sweep = {tuple(p) for p in plan.rod_center_mm[plan.sweep_from:]}
+    clear_x = plan.config.rig.whisker_reach_mm + plan.config.rig.rod_radius_mm
     for move in moves:
+        if tuple(move.start_mm) in sweep and move.end_mm[0] == clear_x:
+            continue  # leaving a tip-sweep point outward past the tip, below it
         if move.start_mm[0] != move.end_mm[0]:  # crossing in x: rod above the whisker
             assert move.start_mm[1] == move.end_mm[1] >= safe_y
     # column changes all finish moving in +x (backlash taken up the same way)
@@ -89,11 +93,11 @@ def test_trapezoid_time_matches_the_profile():
 def test_summary_counts_dwell_and_moves(plan):
     summary = plan_summary(plan)
     acq = plan.config.acquisition
-    dwell = 180 * (acq.settle_s + acq.samples_per_point / 300) + 2 * (acq.settle_s + acq.baseline_samples / 300)
+    dwell = len(plan) * (acq.settle_s + acq.samples_per_point / 300) + 2 * (acq.settle_s + acq.baseline_samples / 300)
     assert summary["estimated_stage_time_s"] == pytest.approx(summary["estimated_move_time_s"] + dwell)
     assert summary["limits_ok"]
     half = plan_summary(plan, start_index=90)
-    assert half["points_to_take"] == 90 and half["estimated_stage_time_s"] < summary["estimated_stage_time_s"]
+    assert half["points_to_take"] == len(plan) - 90 and half["estimated_stage_time_s"] < summary["estimated_stage_time_s"]
 
 
 def test_limits_catch_a_small_travel(plan):

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -24,7 +24,8 @@ from whiskercal.artifacts.h5io import (check_schema, open_h5, read_array, read_j
 from whiskercal.errors import ArtifactError
 
 SCHEMA = "whiskercal.raw_grid"
-SCHEMA_VERSION = "1.0.0"
+# 1.1.0: config.plan.tip_sweep (where the tip sweep's points begin); 1.0.0 files have none
+SCHEMA_VERSION = "1.1.0"
 SUPPORTED_MAJOR = 1
 
 # name: (trailing shape, dtype, units); N rows grow along the first axis.
@@ -330,6 +331,25 @@ class RawGrid:
         return len(self.z_uT)
 
     @property
+    def sweep(self) -> np.ndarray:
+        """Mask (n,) of the tip sweep's points (``collect.sweep``): plan indices from the
+        recorded ``config.plan.tip_sweep.first_index`` on; none in a file without a sweep."""
+        first = tip_sweep_first_index(self.config)
+        if first is None:
+            return np.zeros(len(self.plan_index), bool)
+        return self.plan_index >= first
+
+    def without_sweep(self) -> "RawGrid":
+        """The grid's own points (the level set's input): the tip sweep's left out."""
+        keep = ~self.sweep
+        if keep.all():
+            return self
+        per_point = {name: getattr(self, name)[keep] for name in POINT_FIELDS}
+        truth = None if self.truth is None else {k: v[keep] for k, v in self.truth.items()}
+        return replace(self, z_uT=self.z_uT[keep], z_std_uT=self.z_std_uT[keep],
+                       t_mid_s=self.t_mid_s[keep], truth=truth, **per_point)
+
+    @property
     def encoders(self) -> str:
         """How the stage positions were known: measured by encoders, or "none" (open loop);
         "unknown" for files written before it was recorded."""
@@ -360,6 +380,15 @@ class RawGrid:
     def baseline_after_uT(self) -> np.ndarray | None:
         """The static reading after the grid, X Y Z µT (None until the run completes)."""
         return None if self.baseline_after is None else self.baseline_after.field_uT
+
+
+def tip_sweep_first_index(config: Mapping[str, Any]) -> int | None:
+    """The plan index where a dataset's tip sweep begins, from its recorded config, or None."""
+    plan = config.get("plan") if isinstance(config, Mapping) else None
+    sweep = plan.get("tip_sweep") if isinstance(plan, Mapping) else None
+    first = sweep.get("first_index") if isinstance(sweep, Mapping) else None
+    return int(first) if isinstance(first, (int, np.integer)) and not isinstance(first, bool) \
+        else None
 
 
 def baseline_y_at(t_s: np.ndarray, before: tuple[float, float],

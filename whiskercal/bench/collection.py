@@ -38,9 +38,11 @@ TIP_TOLERANCE_SHARE = 0.05
 
 
 def stage_time_s(samples_per_point: int, settle_s: float) -> float:
-    """Estimated total stage time (s) of the default plan with these acquisition settings."""
+    """Estimated total stage time (s) of the default grid with these acquisition settings (the
+    tip sweep off: the fit errors here are the grid's, docs/bench.md)."""
     config = load_config().replace(acquisition={"samples_per_point": int(samples_per_point),
-                                                "settle_s": float(settle_s)})
+                                                "settle_s": float(settle_s)},
+                                   sweep={"enabled": False})
     return float(plan_summary(build_plan(config))["estimated_stage_time_s"])
 
 

@@ -3,8 +3,9 @@ and whether every build that misses the goal is warned.
 
 For each build (length 45-120 mm, diameter 0.15-0.40 mm, k_θ·L/EI about 1 to 80) a rod grid is
 simulated through the twin's physics from its trace length only (``tip_accuracy.simulate_fields``:
-the default plan's bands scaled, the overload guard, averaged-reading noise), the level set and
-the tip-model choice of ``fit.tip_model`` run on it, and the chosen lookup is measured against
+the default plan's bands scaled, the overload guard, averaged-reading noise), with and without
+the tip sweep (``tip_accuracy.simulate_sweep``: collect's ``[sweep]`` positions from the same
+trace length), the level set and the tip-model choice of ``fit.tip_model`` run on it, and the chosen lookup is measured against
 the twin's truth: on the frictionless tip curve over the grid's z range, and on realistic
 contacts (planes tilted 0-40°, μ 0-0.4). A build is a *silent failure* when its true RMS exceeds
 0.25 mm and the fit neither warned nor refused.
@@ -14,7 +15,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Callable
 
 import numpy as np
@@ -39,26 +40,37 @@ FAMILY = accuracy.FAMILY + (
 QUICK_BUILDS = 1
 
 
-def calibrate_build(sensor, seed: int = 0):
-    """A build's simulated grid calibrated as ``fit`` does: (grid, calibration, choice, seconds)."""
+VARIANTS = ("grid", "grid+sweep")
+
+
+def calibrate_build(sensor, seed: int = 0, tip_sweep: bool = True):
+    """A build's simulated grid (and tip sweep) calibrated as ``fit`` does:
+    (grid, sweep contacts, calibration, choice, seconds)."""
     grid = accuracy.simulate_fields(sensor, seed)
+    sweep = accuracy.simulate_sweep(sensor, seed) if tip_sweep else None
+    centers, z = grid.rod_center_mm, grid.fields_uT[:, 0]
+    mask = np.zeros(len(z), bool)
+    if sweep is not None:
+        centers, z = np.vstack([centers, sweep.rod_center_mm]), np.concatenate(
+            [z, sweep.fields_uT[:, 0]])
+        mask = np.arange(len(z)) >= len(grid.rod_center_mm)
     started = time.perf_counter()
     length = sensor.whisker.reach_mm
     options = CalibrationOptions(trace_length_mm=length, allow_extrapolation=True)
-    raw = raw_like(grid.rod_center_mm, grid.fields_uT[:, 0], accuracy.NOISE_UT[0],
-                   accuracy.ROD_RADIUS_MM)
+    raw = raw_like(centers, z, accuracy.NOISE_UT[0], accuracy.ROD_RADIUS_MM, mask)
     level_set, untraceable = calibrate_grid(raw, options, None)
     calibration, choice = choose_tip_model(raw, level_set, "auto", length, 20, untraceable)
-    return grid, calibration, choice, time.perf_counter() - started
+    return grid, int(mask.sum()), calibration, choice, time.perf_counter() - started
 
 
-def measure(sensor, seed: int = 0) -> dict:
+def measure(sensor, seed: int = 0, tip_sweep: bool = True) -> dict:
     """One build's row: the choice, its estimate, the truth on the tip curve and on planes."""
-    row = {"build": sensor.sensor_id, "length_mm": sensor.whisker.length_mm,
+    variant = VARIANTS[int(tip_sweep)]
+    row = {"build": sensor.sensor_id, "variant": variant, "length_mm": sensor.whisker.length_mm,
            "diameter_mm": sensor.whisker.diameter_mm,
            "stiffness_ratio": accuracy.stiffness_ratio(sensor.whisker)}
     try:
-        grid, calibration, choice, fit_s = calibrate_build(sensor, seed)
+        grid, sweep_points, calibration, choice, fit_s = calibrate_build(sensor, seed, tip_sweep)
     except WhiskercalError as error:
         return {**row, "refused": f"{type(error).__name__}: {error}", "warned": True,
                 "silent_failure": False}
@@ -69,33 +81,41 @@ def measure(sensor, seed: int = 0) -> dict:
                                            accuracy.realistic_contacts(sensor), z_range)
     estimate = choice.estimated_tip_error_mm
     warned = bool(choice.warnings)
-    return {**row, "tip_model": choice.name, "fit_s": fit_s, "grid_points": len(grid.rod_center_mm),
+    mechanics = choice.metrics.get("mechanics", {})
+    return {**row, "tip_model": choice.name, "fit_s": fit_s,
+            "grid_points": len(grid.rod_center_mm), "sweep_points": sweep_points,
             "estimated_tip_error_mm": estimate, "tip_curve": curve,
+            "fitted_stiffness_ratio": mechanics.get("stiffness_ratio"),
             "realistic": realistic["y_only"], "warnings": choice.warnings, "warned": warned,
             "meets_goal": curve["rmse_mm"] <= WARN_TIP_ERROR_MM and curve["max_mm"] <= 0.5,
             "silent_failure": (not curve["rmse_mm"] <= WARN_TIP_ERROR_MM) and not warned,
-            "error_vs_truth_mm": curve["rmse_mm"], "label": sensor.sensor_id}
+            "error_vs_truth_mm": curve["rmse_mm"], "label": f"{sensor.sensor_id} ({variant})"}
 
 
-def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0) -> dict:
-    """Every build of the family (the default only when ``quick``), calibrated and measured."""
+def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0,
+        variants: tuple[str, ...] = VARIANTS) -> dict:
+    """Every build of the family (the default only when ``quick``), calibrated from its grid
+    alone and with the tip sweep (``variants``), and measured against the twin's truth."""
     say = progress or (lambda _row: None)
+    builds = FAMILY[:QUICK_BUILDS] if quick else FAMILY
     rows = []
-    for sensor in FAMILY[:QUICK_BUILDS] if quick else FAMILY:
-        rows.append(measure(sensor, seed))
-        say(rows[-1])
-    silent = [r["build"] for r in rows if r["silent_failure"]]
+    for sensor in builds:
+        for variant in variants:
+            rows.append(measure(sensor, seed, VARIANTS.index(variant) == 1))
+            say(rows[-1])
+    silent = [r["label"] if "label" in r else r["build"] for r in rows if r["silent_failure"]]
     return {
         "benchmark": "sensor-family", "quick": quick, "machine": machine_info(),
         "units": {"time": "s", "error": "mm"},
-        "setup": {"builds": [s.sensor_id for s in (FAMILY[:QUICK_BUILDS] if quick else FAMILY)],
+        "setup": {"builds": [s.sensor_id for s in builds], "variants": list(variants),
+                  "tip_sweep": asdict(accuracy.tip_sweep_config()),
                   "noise_uT": accuracy.NOISE_UT[0], "goal_rmse_mm": WARN_TIP_ERROR_MM,
                   "goal_max_mm": 0.5, "seed": seed},
         "rows": rows,
-        "pareto": {"x": "fit_s", "y": "error_vs_truth_mm", "series": ["tip_model"],
+        "pareto": {"x": "fit_s", "y": "error_vs_truth_mm", "series": ["variant"],
                    "label": "label", "x_label": "fit time (s)",
                    "y_label": "tip RMS error vs twin truth (mm)"},
         "supports": {"silent_failures": silent,
-                     "meeting_goal": [r["build"] for r in rows if r.get("meets_goal")],
+                     "meeting_goal": [r["label"] for r in rows if r.get("meets_goal")],
                      "rule": "every build whose true RMS exceeds 0.25 mm is warned or refused"},
     }

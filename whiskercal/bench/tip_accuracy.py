@@ -29,7 +29,10 @@ import numpy as np
 
 from whiskercal.bench.timing import machine_info, per_call_s
 from whiskercal.bench.twin_grid import default_grid_config, tip_error_mm
+from whiskercal.collect.config import (DEFAULT_CONFIG_PATH, SweepConfig, config_from_dict,
+                                       follow_trace_length)
 from whiskercal.collect.plan import lattice_points, visiting_order
+from whiskercal.collect.sweep import sweep_points
 from whiskercal.errors import WhiskercalError
 from whiskercal.mechfit.fit import fit_mechanics
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
@@ -37,6 +40,7 @@ from whiskercal.mechfit.forward import Suspension
 from whiskercal.mechfit.tables import field_tip_table, monotone_z_range, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
 from whiskercal.model.calibrate import CalibrationOptions, calibrate
+from whiskercal.tomlconfig import read_toml
 from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR, SECOND_SENSOR, SensorParams
 from whiskercal.twin.physics import mechanics
@@ -125,6 +129,32 @@ def simulate_fields(sensor: SensorParams, seed: int = 0) -> FieldGrid3:
     fields = pose_fields(sensor, equilibria)
     noise = np.random.default_rng(seed).normal(0.0, 1.0, fields.shape) * np.array(NOISE_UT)
     return FieldGrid3(np.array(kept), fields, fields + noise)
+
+
+def tip_sweep_config(trace_length_mm: float = DEFAULT_TRACE_MM) -> SweepConfig:
+    """The tip sweep of collect's default configuration for a trace length (its offsets scaled
+    as ``collect.config.follow_trace_length`` scales them), switched on."""
+    given = {"rig": {"trace_length_mm": float(trace_length_mm)}}
+    values = follow_trace_length(read_toml(DEFAULT_CONFIG_PATH), given)
+    return replace(config_from_dict(values).sweep, enabled=True)
+
+
+def simulate_sweep(sensor: SensorParams, seed: int = 0,
+                   config: SweepConfig | None = None) -> FieldGrid3:
+    """The tip sweep (``collect.sweep``) from the build's trace length: each position reached
+    from the free whisker in -y, as the stage approaches it; contacts under the overload guard
+    kept (a position where the wire slips past the rod reads no contact and is left out)."""
+    config = config or tip_sweep_config(sensor.whisker.reach_mm)
+    points = sweep_points(config, sensor.whisker.reach_mm)
+    kept, equilibria = [], []
+    for center in points:
+        equilibrium = mechanics.solve_rod(sensor.whisker, center, ROD_RADIUS_MM)
+        if equilibrium.in_contact and abs(pose_fields(sensor, [equilibrium])[0, 0]) < OVERLOAD_UT:
+            kept.append(center), equilibria.append(equilibrium)
+    fields = pose_fields(sensor, equilibria).reshape(-1, 2)
+    # its own noise stream: the grid's draws stay the same with or without the sweep
+    noise = np.random.default_rng([seed, 1]).normal(0.0, 1.0, fields.shape) * np.array(NOISE_UT)
+    return FieldGrid3(np.array(kept).reshape(-1, 2), fields, fields + noise)
 
 
 def true_suspension(sensor: SensorParams) -> Suspension:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, replace
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -73,12 +72,32 @@ def noisy_z(grid: SimulatedGrid, noise_uT: float = AVERAGED_NOISE_UT, seed: int 
     return grid.z_true_uT + np.random.default_rng(seed).normal(0.0, noise_uT, grid.z_true_uT.shape)
 
 
+@dataclass(frozen=True)
+class RawLike:
+    """The parts of a raw grid the fit reads (``fit.run.calibrate_grid``, ``fit.tip_model``):
+    rod centres (n, 2) mm, z (n,) µT, standard errors (n,) µT, the rod, the tip sweep's mask."""
+
+    rod_center_mm: np.ndarray
+    z_uT: np.ndarray
+    rod_radius_mm: float
+    z_sem_uT: np.ndarray
+    sweep: np.ndarray
+
+    def without_sweep(self) -> "RawLike":
+        """The grid's own points (what the level set is fitted to)."""
+        keep = ~self.sweep
+        return RawLike(self.rod_center_mm[keep], self.z_uT[keep], self.rod_radius_mm,
+                       self.z_sem_uT[keep], self.sweep[keep])
+
+
 def raw_like(rod_center_mm: np.ndarray, z_uT: np.ndarray, noise_uT: float,
-             rod_radius_mm: float) -> SimpleNamespace:
-    """The parts of a raw grid the fit's tip-model choice reads (``fit.tip_model``), for a
-    simulated grid whose points' mean z have a standard error of ``noise_uT``."""
-    return SimpleNamespace(rod_center_mm=rod_center_mm, z_uT=z_uT, rod_radius_mm=rod_radius_mm,
-                           z_sem_uT=np.full(len(z_uT), float(noise_uT)))
+             rod_radius_mm: float, sweep: np.ndarray | None = None) -> RawLike:
+    """A simulated grid (and tip sweep, ``sweep`` marking its points) as the fit reads a raw
+    grid, each point's mean z with a standard error of ``noise_uT``."""
+    z_uT = np.asarray(z_uT, float)
+    mask = np.zeros(len(z_uT), bool) if sweep is None else np.asarray(sweep, bool)
+    return RawLike(np.asarray(rod_center_mm, float), z_uT, float(rod_radius_mm),
+                   np.full(len(z_uT), float(noise_uT)), mask)
 
 
 def calibrate_grid(grid: SimulatedGrid, z_uT: np.ndarray | None = None, **options) -> Calibration:

@@ -2,6 +2,7 @@
 
 - ``config``: the run's settings (``default_grid.toml`` documents every key).
 - ``plan``: which rod positions, in what order, along which path; frames.
+- ``sweep``: the tip sweep's rod positions (the rod at the tip, after the grid).
 - ``estimate``: stage time and limit checks of a plan (``--dry-run``).
 - ``loop`` and ``recorder``: the acquisition loop over injected stage and sensor clients.
 - ``journal`` and ``checkpoint``: the crash-proof side journal and resuming from it; the raw

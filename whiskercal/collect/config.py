@@ -19,6 +19,7 @@ from whiskercal.tomlconfig import merge_overrides, read_toml
 
 DEFAULT_CONFIG_PATH = Path(__file__).with_name("default_grid.toml")
 ON_OVERLOAD = ("end-column", "stop")
+MAX_LIST = 16  # the longest list a key may hold (the sweep's offsets)
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,19 @@ class SafetyConfig:
 
 
 @dataclass(frozen=True)
+class SweepConfig:
+    """The tip sweep after the grid: rod centres at ``angles`` directions from the root, evenly
+    from ``angle_first_deg`` to ``angle_last_deg``, each at the trace length plus every one of
+    ``offsets_mm`` from the root (mm; negative: short of the tip). ``collect.sweep`` plans it."""
+
+    enabled: bool
+    angle_first_deg: float
+    angle_last_deg: float
+    angles: int
+    offsets_mm: tuple[float, ...]
+
+
+@dataclass(frozen=True)
 class CollectConfig:
     """Every setting of a collection run, one frozen dataclass per TOML table."""
 
@@ -120,6 +134,7 @@ class CollectConfig:
     acquisition: AcquisitionConfig
     sensor: SensorSettings
     safety: SafetyConfig
+    sweep: SweepConfig
 
     def to_dict(self) -> dict[str, Any]:
         """The configuration as JSON-able nested dicts (tuples become lists)."""
@@ -140,7 +155,7 @@ def _lists(value: Any) -> Any:
 
 _SECTION_TYPES = {"rig": RigConfig, "grid": GridConfig, "approach": ApproachConfig,
                   "motion": MotionConfig, "acquisition": AcquisitionConfig,
-                  "sensor": SensorSettings, "safety": SafetyConfig}
+                  "sensor": SensorSettings, "safety": SafetyConfig, "sweep": SweepConfig}
 
 
 def _section(cls: type, values: dict[str, Any], name: str) -> Any:
@@ -177,6 +192,11 @@ def _convert(value: Any, type_name: str) -> Any:
         if not (_is_real(value) and math.isfinite(value)):
             raise ValueError("a finite number")
         return float(value)
+    if type_name == "tuple[float, ...]":
+        if not (isinstance(value, (list, tuple)) and 0 < len(value) <= MAX_LIST
+                and all(_is_real(v) and math.isfinite(v) for v in value)):
+            raise ValueError(f"a list of 1 to {MAX_LIST} finite numbers")
+        return tuple(float(v) for v in value)
     if not (isinstance(value, (list, tuple)) and len(value) == 2
             and all(_is_real(v) and math.isfinite(v) for v in value)):
         raise ValueError("a pair of finite numbers")
@@ -230,8 +250,25 @@ def _validate(config: CollectConfig) -> None:
         problems.append("safety.max_frame_loss is a fraction of the frames, at most 1")
     if config.approach.safe_y_mm <= config.rig.rod_radius_mm:
         problems.append("approach.safe_y_mm must exceed the rod radius to clear the whisker")
+    problems += _sweep_problems(config.sweep, config.rig)
     if problems:
         raise UsageError("invalid collect config: " + "; ".join(problems))
+
+
+def _sweep_problems(sweep: SweepConfig, rig: RigConfig) -> list[str]:
+    """The tip sweep must touch the tip from the +y side, as every grid point does."""
+    problems = []
+    if not 1 <= sweep.angles <= 90:
+        problems.append("sweep.angles must be 1..90")
+    if not -90.0 <= min(sweep.angle_first_deg, sweep.angle_last_deg) \
+            <= max(sweep.angle_first_deg, sweep.angle_last_deg) <= 0.0:
+        problems.append("sweep angles must lie in -90..0 deg (the rod pushes the whisker to -y)")
+    shortest = -0.25 * rig.trace_length_mm
+    if not all(shortest <= offset < rig.rod_radius_mm for offset in sweep.offsets_mm):
+        problems.append(f"sweep.offsets_mm must lie in {shortest:g}..{rig.rod_radius_mm:g} mm "
+                        "(a quarter of the trace length short of the tip, to under one rod "
+                        "radius past it, where the rod still touches it)")
+    return problems
 
 
 # The default bands were chosen for this trace length (mm); other builds get them scaled.
@@ -243,8 +280,9 @@ REACH_PAST_TIP_MM = 2.0
 def follow_trace_length(defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
     """The defaults for a build whose ``[rig] trace_length_mm`` the user's file gives.
 
-    The reach band scales with the trace length (the default's 22.5..71.75 mm for 78 mm) and
-    the reach past which the rod is clear of the whisker follows the tip; the 3 mm lattice, the
+    The reach band and the tip sweep's offsets scale with the trace length (the default's
+    22.5..71.75 mm for 78 mm) and the reach past which the rod is clear of the whisker follows
+    the tip; the 3 mm lattice, the
     angle band and the overload guard stay (the point count follows the build, so the paper's
     180-point check is off). A key the file gives is kept as given (``merge_overrides``).
     """
@@ -257,7 +295,10 @@ def follow_trace_length(defaults: dict[str, Any], given: dict[str, Any]) -> dict
                 reach_min_mm=round(defaults["grid"]["reach_min_mm"] * factor, 2),
                 reach_max_mm=round(defaults["grid"]["reach_max_mm"] * factor, 2))
     rig = dict(defaults["rig"], whisker_reach_mm=float(length) + REACH_PAST_TIP_MM)
-    return {**defaults, "grid": grid, "rig": rig}
+    # the tip draws back toward the root in proportion to the wire's length as it deflects
+    sweep = dict(defaults["sweep"], offsets_mm=[round(offset * factor, 2)
+                                                for offset in defaults["sweep"]["offsets_mm"]])
+    return {**defaults, "grid": grid, "rig": rig, "sweep": sweep}
 
 
 def load_config(path: str | Path | None = None) -> CollectConfig:

@@ -56,7 +56,7 @@ def limit_problems(plan: GridPlan, travel_mm, margin_mm: float) -> list[str]:
 
 def band_problems(plan: GridPlan) -> list[str]:
     """Points outside the configured reach and angle bands (a plan built elsewhere)."""
-    outside = ~inside_bands(plan.config.grid, plan.rod_center_mm)
+    outside = ~inside_bands(plan.config.grid, plan.rod_center_mm[:plan.sweep_from])
     return [f"{int(outside.sum())} points lie outside the reach or angle band"] if outside.any() else []
 
 
@@ -81,6 +81,7 @@ def plan_summary(plan: GridPlan, travel_mm=None, accel_mm_s2: float | None = Non
     return {
         "points": len(plan),
         "points_to_take": len(plan) - start_index,
+        "tip_sweep_points": plan.sweep_count,
         "columns": int(len(np.unique(plan.rod_center_mm[:, 0]))),
         "whisker_x_mm": [float(plan.rod_center_mm[:, 0].min()), float(plan.rod_center_mm[:, 0].max())],
         "whisker_y_mm": [float(plan.rod_center_mm[:, 1].min()), float(plan.rod_center_mm[:, 1].max())],

@@ -104,7 +104,11 @@ class Collector:
     def _end_column(self, index: int) -> None:
         """Skip ``index`` and the deeper points of its column (the rod is already backed off)."""
         points = self.plan.rod_center_mm
-        same_column = np.isclose(points[:, 0], points[index, 0])
+        # a tip-sweep point stands alone: its neighbours lie on other rays
+        part = np.arange(len(points)) >= self.plan.sweep_from
+        same_column = np.isclose(points[:, 0], points[index, 0]) & (part == part[index])
+        if part[index]:
+            same_column &= np.arange(len(points)) == index
         deeper = np.flatnonzero(same_column & (points[:, 1] <= points[index, 1]))
         self.beyond_guard.update(int(i) for i in deeper if int(i) not in self.checkpoint.taken)
         self.checkpoint.add_stream(self.recorder.take_chunk())

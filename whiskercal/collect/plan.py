@@ -5,6 +5,8 @@ Points are lattice points of the whisker frame inside a reach band and an angle 
 approached moving in -y (the rod comes from +y, as the contact does), columns in ascending x
 with the same final +x approach, so the stage's backlash is always taken up the same way. A
 column is visited top to bottom; between columns the rod retracts to a safe y above the whisker.
+The tip sweep (``collect.sweep``), when enabled, follows the grid: its points come after the
+lattice's in the plan, each approached in -y the same way.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from whiskercal.collect.config import CollectConfig, GridConfig
+from whiskercal.collect.sweep import sweep_points
 from whiskercal.errors import UsageError
 from whiskercal.session.frame import RigFrame
 
@@ -82,14 +85,27 @@ class Move:
 
 @dataclass(frozen=True)
 class GridPlan:
-    """The planned rod positions in visiting order, in both frames, and the run's config."""
+    """The planned rod positions in visiting order, in both frames, and the run's config.
+
+    ``sweep_from``: the plan index where the tip sweep's points begin (the length: no sweep).
+    """
 
     rod_center_mm: np.ndarray
     stage_mm: np.ndarray
     config: CollectConfig
+    sweep_from: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.sweep_from is None:
+            object.__setattr__(self, "sweep_from", len(self.rod_center_mm))
 
     def __len__(self) -> int:
         return len(self.rod_center_mm)
+
+    @property
+    def sweep_count(self) -> int:
+        """How many of the plan's points are the tip sweep's."""
+        return len(self) - self.sweep_from
 
     @property
     def park_mm(self) -> np.ndarray:
@@ -145,9 +161,15 @@ class GridPlan:
         clear_x = rig.whisker_reach_mm + rig.rod_radius_mm
         angle_deg = np.degrees(np.arctan2(start_mm[1], start_mm[0]))
         lowest_deg = min(self.config.grid.angle_min_near_deg, self.config.grid.angle_min_far_deg)
-        under = (start_mm[0] < clear_x and start_mm[1] < -rig.rod_radius_mm
-                 and angle_deg < lowest_deg - 5.0)
+        below = start_mm[0] < clear_x and start_mm[1] < -rig.rod_radius_mm
+        under = below and (angle_deg < lowest_deg - 5.0 or self._at_sweep_point(start_mm))
         return [np.array([clear_x, start_mm[1]])] if under else []
+
+    def _at_sweep_point(self, point_mm: np.ndarray) -> bool:
+        """Is the rod at a tip-sweep point? There the wire may have slipped past the rod and
+        sprung back above it, so the rod leaves outward past the tip, never straight up."""
+        sweep = self.rod_center_mm[self.sweep_from:]
+        return bool(len(sweep)) and bool(np.min(np.hypot(*(sweep - point_mm).T)) < 1e-6)
 
     def path(self, start_index: int = 0) -> list[Move]:
         """Every move of a run from the park position over the points and back, whisker frame."""
@@ -171,6 +193,8 @@ def build_plan(config: CollectConfig) -> GridPlan:
     if expected and len(points) != expected:
         raise UsageError(f"the grid bands give {len(points)} points, not the expected {expected}; "
                          "adjust the bands or set grid.expected_points = 0")
-    ordered = points[visiting_order(points)]
+    ordered = np.vstack([points[visiting_order(points)],
+                         sweep_points(config.sweep, config.rig.trace_length_mm)])
     rig = config.rig
-    return GridPlan(ordered, whisker_to_stage(ordered, rig.origin_stage_mm, rig.angle_deg), config)
+    return GridPlan(ordered, whisker_to_stage(ordered, rig.origin_stage_mm, rig.angle_deg), config,
+                    len(points))

@@ -83,7 +83,8 @@ def make_header(plan: GridPlan, devices: Devices, sensor_id: str,
     """The dataset header: plan, full config (with a plan summary) and device identities."""
     config = plan.config.to_dict()
     config["plan"] = {"points": len(plan), "order": "columns in +x, each in -y",
-                      "frame": "rod centre, whisker frame, mm"}
+                      "frame": "rod centre, whisker frame, mm",
+                      "tip_sweep": {"first_index": plan.sweep_from, "points": plan.sweep_count}}
     config["devices"] = {"stage": devices.stage, "sensor": devices.sensor,
                          "stage_settings": {str(k): v for k, v in devices.stage_settings.items()},
                          "encoders": ENCODERS if devices.has_encoder else "none"}

@@ -54,9 +54,10 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
         progress("mechanics-informed tip model and the error estimate")
     calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
                                               options.samples, untraceable)
-    truth = compare_with_twin_truth(raw, calibration)
-    table = _field_table(raw, length_mm, options, progress)
-    shaft = shaft_surface_for(raw, length_mm, tip_model.mechanics)
+    grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
+    truth = compare_with_twin_truth(grid, calibration)
+    table = _field_table(grid, length_mm, options, progress)
+    shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
                **raw_metrics(raw), **tip_model.metrics,
                **(truth.metrics() if truth is not None else {}),
@@ -93,9 +94,17 @@ def z_sem_uT(raw: RawGrid) -> np.ndarray:
     return raw.z_sem_uT
 
 
+def level_set_points(raw):
+    """The points the level set is fitted to: the grid's, the tip sweep's left out (the level
+    set f = z is a surface over shaft contacts; the sweep is the mechanics' alone)."""
+    sweep = getattr(raw, "sweep", None)
+    return raw if sweep is None or not np.any(sweep) else raw.without_sweep()
+
+
 def calibrate_raw(raw: RawGrid, options: CalibrationOptions,
                   progress: Callable[[str], None] | None = None) -> Calibration:
     """``model.calibrate`` on a raw grid's points, with the standard errors of their means."""
+    raw = level_set_points(raw)
     return calibrate(raw.rod_center_mm, raw.z_uT, raw.rod_radius_mm, options, z_sem_uT(raw),
                      progress)
 
@@ -107,6 +116,7 @@ def calibrate_grid(raw: RawGrid, options: CalibrationOptions,
     When the level set cannot be traced at all, the surface alone and why: the tip model
     may still come from the mechanics (``fit.tip_model``), which decides whether to refuse.
     """
+    raw = level_set_points(raw)
     calibration = calibrate_surface(raw.rod_center_mm, raw.z_uT, raw.rod_radius_mm, options,
                                     z_sem_uT(raw), progress)
     surface_warnings = list(calibration.warnings)

@@ -46,6 +46,8 @@ TIP_EDGE_INSIDE_MM, TIP_FIT_INSIDE_MM = 4.0, 12.0
 # the mechanics is solved on rod columns every 1.5 mm from 15 % of the trace to 1 mm past it, each
 # pushed in (0.25 mm steps at first, then 1 mm) to 60 % of its x (31°) or the grid's largest |z|
 COLUMN_STEP_MM, PUSH_STEP_MM, ROOT_START_FRACTION = 1.5, 1.0, 0.15
+# a rod column closer to the centre of rotation than the fitted clamp cannot bend the wire
+CLAMP_CLEARANCE_MM = 0.5
 FIRST_PUSHES_MM = np.array([0.25, 0.5, 0.75, 1.0, 1.5])
 
 
@@ -67,6 +69,7 @@ def mechanics_contacts(fit, trace_length_mm: float, rod_radius_mm: float, z_limi
     ``z_limit_uT``."""
     xs = np.arange(ROOT_START_FRACTION * trace_length_mm, trace_length_mm + 1.0, COLUMN_STEP_MM)
     xs = xs[[any(lo - 2.0 <= x <= hi + 2.0 for lo, hi in bands_mm) for x in xs]]
+    xs = xs[xs > fit.suspension.stub_mm + CLAMP_CLEARANCE_MM]  # the stub is rigid: no contact
     # the first millimetre of each push in finer steps: z changes fastest there near the root
     pushes = np.concatenate([FIRST_PUSHES_MM, np.arange(2.0, 0.6 * xs.max() + rod_radius_mm,
                                                         PUSH_STEP_MM)]) if xs.size else []

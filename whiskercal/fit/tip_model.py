@@ -59,9 +59,10 @@ def _mechanics(raw, length_mm: float, samples: int):
     """
     used = contact_mask(raw.z_uT, raw.z_sem_uT)
     noise = float(np.median(raw.z_sem_uT[used])) if used.any() else math.nan
+    sweep = np.asarray(getattr(raw, "sweep", np.zeros(len(used), bool)), bool)
     try:
         return calibrate_mechanics(raw.rod_center_mm[used], raw.z_uT[used], raw.rod_radius_mm,
-                                   length_mm, noise, samples), ""
+                                   length_mm, noise, samples, sweep=sweep[used]), ""
     except UsageError as error:
         return None, str(error).rstrip(".")
 
@@ -74,6 +75,9 @@ def _mechanics_metrics(mechanics: MechanicsCalibration) -> dict:
             "chi2_per_dof": mechanics.chi2_per_dof,
             "plausible_stiffness_ratio": [low, high],
             "estimated_tip_error_mm": _finite_or_nan(mechanics.estimated_tip_error_mm),
+            "local_estimated_tip_error_mm": _finite_or_nan(mechanics.local_tip_error_mm),
+            "pose_map_degree": int(mechanics.fit.pose_map.exponents.sum(axis=1).max()),
+            "tip_sweep_points": int(mechanics.sweep_points),
             "profile": [p.row() for p in mechanics.profile]}
 
 
@@ -161,6 +165,10 @@ def _warnings(choice: TipModelChoice, mechanics, why_not: str) -> list[str]:
         return [f"the tip error cannot be estimated: the suspension model leaves "
                 f"{math.sqrt(mechanics.chi2_per_dof):.1f}x the noise unexplained (a suspension "
                 "outside the model, or a wrong trace length?); tips may be off by millimetres"]
+    if not math.isfinite(mechanics.local_tip_error_mm):
+        return ["the tip error cannot be estimated: the fitted tip curve does not hold its z "
+                "range under the fit's own uncertainty (z folds near its end); tips may be off "
+                "by millimetres"]
     low, high = mechanics.plausible_ratios()
     return [f"the tip error cannot be estimated: the grid does not pin the suspension down "
             f"(k_theta*L/EI from {low:.3g} to {high:.3g} fits it equally well); tips may be off "

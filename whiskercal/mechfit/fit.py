@@ -3,7 +3,9 @@
 Variable projection: for trial mechanics every rod contact of the grid is solved for its root
 pose (warm-started from the last trial), the pose map is then linear in its coefficients and
 comes from least squares, and what it leaves is the residual the outer least squares (over the
-three mechanical parameters, in logs) drives down. The start depends on the trace length only:
+three mechanical parameters, in logs) drives down. The tip sweep's points (the rod at the tip,
+``collect.sweep``) are solved from the free whisker along the rod's approach at every
+evaluation instead (see ``_Objective``). The start depends on the trace length only:
 a stub of 4 % of it, and a few rotational compliances spanning the family (k_θ·L/EI from about
 1 to 100), the best of which is kept.
 """
@@ -52,9 +54,13 @@ class MechanicsFit:
 class _Objective:
     """Residuals (in standard errors) of trial mechanics; keeps the last equilibria as warm starts."""
 
-    def __init__(self, trace_mm, rod_center_mm, rod_radius_mm, fields_uT, noise_uT, degree):
+    def __init__(self, trace_mm, rod_center_mm, rod_radius_mm, fields_uT, noise_uT, degree,
+                 fresh=None):
         self.trace_mm, self.centers, self.radius = trace_mm, rod_center_mm, rod_radius_mm
         self.fields, self.weights, self.degree = fields_uT, 1.0 / noise_uT, degree
+        # points solved along the rod's approach every time, never from a nearby suspension's
+        # solution: near the tip a warm start can land on another equilibrium than the rig's
+        self.fresh = np.zeros(len(rod_center_mm), bool) if fresh is None else np.asarray(fresh)
         self.warm = None
         self.evaluations = 0
 
@@ -67,7 +73,7 @@ class _Objective:
         equilibria = rod_equilibria(suspension, self.centers, self.radius, self.warm)
         in_contact = [e.in_contact for e in equilibria]
         if all(in_contact):
-            self.warm = equilibria
+            self.warm = [None if fresh else e for e, fresh in zip(equilibria, self.fresh)]
         poses = np.array([pose_of(e) for e in equilibria])
         self.evaluations += 1
         return suspension, poses, np.array(in_contact)
@@ -92,7 +98,7 @@ def _theta_start(trace_mm: float, rot_compliance: float) -> np.ndarray:
 
 def fit_mechanics(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
                   trace_length_mm: float, noise_uT, degree: int = DEFAULT_DEGREE,
-                  starts=ROT_COMPLIANCE_STARTS) -> MechanicsFit:
+                  starts=ROT_COMPLIANCE_STARTS, sweep=None) -> MechanicsFit:
     """Fit the suspension and the pose map to a rod grid.
 
     Parameters
@@ -105,6 +111,9 @@ def fit_mechanics(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_m
     rod_radius_mm, trace_length_mm : float
     noise_uT : float or ndarray (m,)
         Standard error of each axis' point means, µT (weights the axes against each other).
+    sweep : ndarray (n,) of bool, optional
+        The tip sweep's points (the rod at the tip, ``collect.sweep``): each is solved along the
+        rod's approach from the free whisker, as the rig reaches it, at every evaluation.
     """
     started = time.perf_counter()
     fields = np.atleast_2d(np.asarray(fields_uT, float).T).T
@@ -115,13 +124,13 @@ def fit_mechanics(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_m
     tried = []
     for rot in starts:  # a rigid (linear) pose map first: it leaves the mechanics less to hide
         objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields,
-                               noise, 1)
+                               noise, 1, sweep)
         result = least_squares(objective, _theta_start(trace_length_mm, rot), diff_step=1e-4,
                                max_nfev=SCOUT_EVALUATIONS)
         tried.append((float(result.cost), rot, result.x, objective.evaluations))
     _, _, theta, _ = min(tried, key=lambda t: t[0])
     objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise,
-                           degree)
+                           degree, sweep)
     result = least_squares(objective, theta, diff_step=1e-4, xtol=1e-10, ftol=1e-10,
                            max_nfev=200)
     suspension, poses, pose_map, residual, _ = objective.evaluate(result.x)

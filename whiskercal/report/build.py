@@ -62,8 +62,11 @@ def _residuals(data: CalibrationData, raw) -> Section:
         return Section("Grid and fit residuals", paragraph("No raw grid given (--raw): the grid "
                                                            "and its residuals are not shown."))
     from whiskercal.fit import calibrate_raw
+    from whiskercal.fit.run import level_set_points
 
     # refit with the artifact's own options: the points it used, moved onto the shaft as it did
+    # (the grid's own points: a tip sweep is the mechanics' alone)
+    raw = level_set_points(raw)
     refit = calibrate_raw(raw, _fit_options(data))
     residual = surface_of(data)(refit.contact_points_mm) - refit.z_uT
     unused = raw.rod_center_mm[~refit.used]

@@ -37,6 +37,8 @@ def _print_plan(summary: dict, as_json: bool) -> None:
         echo_json(summary)
         return
     click.echo(f"points           {summary['points']} in {summary['columns']} columns")
+    if summary.get("tip_sweep_points"):
+        click.echo(f"tip sweep        the last {summary['tip_sweep_points']} of them")
     click.echo(f"whisker frame    x {summary['whisker_x_mm'][0]:g}..{summary['whisker_x_mm'][1]:g} mm, "
                f"y {summary['whisker_y_mm'][0]:g}..{summary['whisker_y_mm'][1]:g} mm")
     click.echo(f"stage frame      x {summary['stage_x_mm'][0]:g}..{summary['stage_x_mm'][1]:g} mm, "
