@@ -68,7 +68,8 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def report_command(run_path, out_dir, as_json) -> None:
     """Measure a run against the object's true outline, in the world frame, without alignment."""
-    from whiskercal.contour import read_contour_run, write_report
+    from whiskercal.contour import read_contour_run
+    from whiskercal.report.contour import write_report
 
     _print(write_report(read_contour_run(run_path), out_dir), as_json)
 
