@@ -63,6 +63,7 @@ class Follower:
         self.contacted = False
         self.pressed = False
         self._backing, self._touching, self._lined_up = 0, False, False
+        self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
 
     def update(self, z_uT: float, robot: Robot) -> Step:
         """Feed one z sample (µT from rest); command the robot; return what was done."""
@@ -148,6 +149,7 @@ class Follower:
         if self.keys and np.linalg.norm(contact - self.keys[-1]) < self.config.key_spacing_mm:
             return
         self.keys.append(contact)
+        self._bend_mm = self._bend_radius_mm()
         if len(self.keys) >= 2:  # a chord until the spline has its key points
             self.tangent = self._turned_toward(self._surface_direction())
 
@@ -187,7 +189,7 @@ class Follower:
         tangential = math.sqrt(max(config.total_speed_mm_s ** 2 - normal ** 2, 0.0))
         # around a bend of radius R the heading must turn at v/R: no faster than the turn allows,
         # and slower while the heading lags, so that it catches up before the tip leaves a corner
-        tangential = min(tangential, config.turn_max_rad_s * self._bend_radius_mm())
+        tangential = min(tangential, config.turn_max_rad_s * self._bend_mm)
         tangential *= _catch_up_share(abs(error_heading), config) if moving else 0.0
         turn = float(np.clip(config.heading_gain_per_s * error_heading, -config.turn_max_rad_s,
                              config.turn_max_rad_s))

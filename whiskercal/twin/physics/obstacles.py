@@ -182,18 +182,22 @@ class Polygon:
         object.__setattr__(self, "vertices_mm", vertices)
         _check_side(self.side)
 
-    @property
+    @cached_property
     def outward_normals(self) -> np.ndarray:
-        """Unit outward normal of each edge i (from vertex i to i+1), shape (k, 2)."""
+        """Unit outward normal of each edge i (from vertex i to i+1), shape (k, 2); computed
+        once (the contact solver asks for it many times per pose)."""
         edges = np.roll(self.vertices_mm, -1, axis=0) - self.vertices_mm
         normals = np.column_stack([edges[:, 1], -edges[:, 0]])
         return normals / np.linalg.norm(normals, axis=1, keepdims=True)
 
+    @cached_property
+    def edge_offsets_mm(self) -> np.ndarray:
+        """n_i·v_i of each edge i: a point p lies outside edge i's line when n_i·p exceeds it."""
+        return np.einsum("ij,ij->i", self.outward_normals, self.vertices_mm)
+
     def depth_mm(self, points_mm: np.ndarray) -> np.ndarray:
         """How far each point lies inside the polygon (negative outside), shape (n,)."""
-        normals = self.outward_normals
-        offsets = np.einsum("ij,ij->i", normals, self.vertices_mm)
-        return np.min(offsets[None, :] - points_mm @ normals.T, axis=1)
+        return np.min(self.edge_offsets_mm[None, :] - points_mm @ self.outward_normals.T, axis=1)
 
     def moved(self, offset_mm: np.ndarray) -> "Polygon":
         """The same polygon moved by `offset_mm`."""
@@ -208,8 +212,7 @@ class Polygon:
         deeper than `tol_mm`? (Separating axes: the edge normals and each segment's normal.)"""
         points = np.asarray(points_mm, dtype=float)
         starts, ends = points[:-1], points[1:]
-        normals = self.outward_normals
-        offsets = np.einsum("ij,ij->i", normals, self.vertices_mm)
+        normals, offsets = self.outward_normals, self.edge_offsets_mm
         outside = np.minimum(starts @ normals.T, ends @ normals.T) - offsets >= -tol_mm
         separated = np.any(outside, axis=1)
         direction = ends - starts

@@ -8,6 +8,7 @@ edge) the other candidates are tried from the same starting state and the physic
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import replace
 
@@ -61,7 +62,8 @@ def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
             return False
     elif code == el.TIP_LINE:
         tip = np.array([tip_x, tip_y]) * whisker.length_mm
-        start, end = polygon.vertices_mm[index], np.roll(polygon.vertices_mm, -1, axis=0)[index]
+        vertices = polygon.vertices_mm
+        start, end = vertices[index], vertices[(index + 1) % len(vertices)]
         along = (tip - start) @ (end - start) / ((end - start) @ (end - start))
         if not (force @ normals[index] > 0.0 and 0.0 <= along <= 1.0):
             return False
@@ -77,7 +79,9 @@ def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
 def _solve_pose(whisker, polygon: Polygon, state):
     """From state (code, index, z): the physical state at this pose, or None."""
     code, index, z = state
-    order = [(code, index)] + [c for c in _candidates(polygon, index) if c != (code, index)]
+    # lazily: the contact the last pose had usually still holds, and listing every other
+    # candidate of a many-edged polygon would cost more than solving it
+    order = itertools.chain([(code, index)], (c for c in _candidates(polygon, index) if c != (code, index)))
     for cand_code, cand_index in order:
         p = _params(whisker, polygon, cand_code, cand_index)
         start = np.append(z[:3], z[3] if len(z) > 3 else 0.999) \
