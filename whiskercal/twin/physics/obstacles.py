@@ -174,9 +174,9 @@ class Polygon:
             raise UsageError("a polygon needs at least three (x, y) vertices in mm.")
         if not np.all(np.isfinite(vertices)):
             raise UsageError("polygon vertices must be finite numbers (mm).")
-        edges = np.roll(vertices, -1, axis=0) - vertices
-        turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] \
-            - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+        edges = _following(vertices) - vertices
+        after = _following(edges)
+        turns = edges[:, 0] * after[:, 1] - edges[:, 1] * after[:, 0]
         if np.any(turns <= 0):
             raise UsageError("polygon vertices must be convex and counter-clockwise.")
         object.__setattr__(self, "vertices_mm", vertices)
@@ -186,7 +186,7 @@ class Polygon:
     def outward_normals(self) -> np.ndarray:
         """Unit outward normal of each edge i (from vertex i to i+1), shape (k, 2); computed
         once (the contact solver asks for it many times per pose)."""
-        edges = np.roll(self.vertices_mm, -1, axis=0) - self.vertices_mm
+        edges = _following(self.vertices_mm) - self.vertices_mm
         normals = np.column_stack([edges[:, 1], -edges[:, 0]])
         return normals / np.linalg.norm(normals, axis=1, keepdims=True)
 
@@ -221,6 +221,12 @@ class Polygon:
         signed = across @ self.vertices_mm.T - np.einsum("ij,ij->i", across, starts)[:, None]
         separated |= np.all(signed >= -tol_mm, axis=1) | np.all(signed <= tol_mm, axis=1)
         return bool(not np.all(separated))
+
+
+def _following(rows: np.ndarray) -> np.ndarray:
+    """Row i + 1 at row i, the last row followed by the first (``np.roll(rows, -1, axis=0)``,
+    without its overhead: polygons are built at every pose of a moving scene)."""
+    return np.concatenate([rows[1:], rows[:1]])
 
 
 def regular_polygon(center_mm, circumradius_mm: float, n_sides: int,

@@ -8,6 +8,7 @@ edge) the other candidates are tried from the same starting state and the physic
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import replace
@@ -164,6 +165,14 @@ def _path(whisker, polygon: Polygon):
     return state
 
 
+@functools.lru_cache(maxsize=8)
+def _undeflected(whisker) -> np.ndarray:
+    """The straight whisker's segment from its clamp to its tip (mm), per build (read-only)."""
+    line = free(whisker).shape_mm(2)[1:]
+    line.setflags(write=False)
+    return line
+
+
 def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
                   ) -> Equilibrium:
     """Equilibrium against a frictionless convex polygon (see the module's docstring).
@@ -172,8 +181,7 @@ def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
     touches the undeflected whisker. Returns kind "shaft", "tip" or "free".
     """
     check_whisker(whisker)
-    undeflected = free(whisker).shape_mm(2)[1:]
-    if not polygon.crosses_polyline(undeflected, 0.0):
+    if not polygon.crosses_polyline(_undeflected(whisker), 0.0):
         return free(whisker)  # frictionless: with nothing in the way the wire springs back
     if previous is not None and previous.slipped_past:
         return previous
