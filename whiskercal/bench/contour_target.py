@@ -110,7 +110,12 @@ def draw(result: dict, path: Path) -> Path:
                label="optimal-depth's target")
     ax.axvline(abs(result["calibrated_range_end_uT"]) / 1000.0, color="grey", ls=":", lw=1,
                label="end of the calibrated range")
-    ax.set_yscale("log")
+    errors = np.array([r["mean_error_mm"] for r in rows], float)
+    errors = errors[np.isfinite(errors) & (errors > 0)]
+    if errors.size and errors.max() > 20 * errors.min():  # a run that lost the surface
+        ax.set_yscale("log")
+    else:
+        ax.set_ylim(bottom=0.0)
     ax.set_xlabel("|deflection target| (mT)")
     ax.set_ylabel("mean contour error, no alignment (mm)")
     ax.set_title("contour error against the deflection target (hollow: covered < 95 %)")
