@@ -107,3 +107,13 @@ def test_after_losing_contact_it_backs_off_then_comes_in_along_the_last_key_poin
     offset = tips[-1] - start
     assert abs(offset @ np.array([-along[1], along[0]])) < 0.6  # mm off the line
     assert offset @ along > 5.0
+
+
+def test_while_pressing_it_turns_toward_the_surface_but_does_not_move_along_it():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    lagging = follower._target_heading() - math.radians(30.0)
+    velocity, turn = follower._action(-3000.0, np.array([0.0, -80.0, lagging]), moving=False)
+    assert turn == config.turn_max_rad_s  # the heading follows the sliding tip
+    assert velocity @ follower.tangent == pytest.approx(0.0, abs=1e-12)
+    assert velocity @ np.array([0.0, 1.0]) > 0.0  # pressing toward the object (above the x axis)
