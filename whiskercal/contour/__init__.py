@@ -31,7 +31,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                    target_z_uT: float | None = None, config: FollowConfig = FollowConfig(),
                    speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
                    on_progress: Callable[[float], None] | None = None,
-                   stop_requested: Callable[[], bool] | None = None) -> ContourRunFile:
+                   stop_requested: Callable[[], bool] | None = None,
+                   mu_kinetic: float = 0.0) -> ContourRunFile:
     """Run the loop on the twin against ``shape`` with the calibration ``artifact``; the run,
     in memory.
 
@@ -62,7 +63,9 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     positive(duration_s, "--duration", unit="s")
     shape_outline = outline(shape)
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
-                      config, duration_s, seed, on_progress, stop_requested)
+                      config, duration_s, seed, on_progress, stop_requested,
+                      number(mu_kinetic, "--mu-kinetic", low=0.0, high=2.0))
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
                           float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
-                          run.columns, {"follow": run.config, "artifact": str(artifact)})
+                          run.columns, {"follow": run.config, "artifact": str(artifact),
+                                        "mu_kinetic": float(mu_kinetic)})

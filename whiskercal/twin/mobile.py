@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from whiskercal.errors import UsageError
 from whiskercal.twin.outlines import Outline
 from whiskercal.twin.physics.obstacles import Circle, Polygon
 from whiskercal.twin.physics.sensor import TwinPhysics
@@ -61,16 +62,20 @@ class MobileSensor:
     """
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
-                 limits: RobotLimits = RobotLimits()) -> None:
+                 limits: RobotLimits = RobotLimits(), mu_kinetic: float = 0.0) -> None:
         self.physics = TwinPhysics(sensor)
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
+        if mu_kinetic and isinstance(self._obstacle, Circle):
+            raise UsageError("friction is modelled on polygon edges only, not on the cylinder")
+        self.mu_kinetic = float(mu_kinetic)
+        self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
         self._pose = np.asarray(pose, float).copy()
         self._velocity, self._turn = np.zeros(2), 0.0
         self._noise_uT = float(sensor.magnetometer.noise_uT_rms[1])
         self._rest_y = float(self.physics.field_uT(self.physics.free())[1])
         self._rng = np.random.default_rng(seed)
-        self._previous = None
+        self._previous, self._dt_s = None, 0.0
         # edges farther than this from the base cannot meet the whisker (mm; see _near_part)
         self._keep_mm = float(sensor.whisker.reach_mm) + NEAR_MARGIN_MM
         self._near = None  # (base position, first edge, count) of the last near run
@@ -105,8 +110,19 @@ class MobileSensor:
         self._previous = equilibrium
         z = float(self.physics.field_uT(equilibrium)[1]) - self._rest_y
         z += float(self._rng.normal(0.0, self._noise_uT))
-        return MobileSample(z, equilibrium.kind, self.to_world(equilibrium.tip_mm),
-                            self.to_world(equilibrium.contact_mm))
+        tip = self.to_world(equilibrium.tip_mm)
+        self._tips = (self._tips[1], tip if equilibrium.kind == "tip" else None)
+        self._dt_s = dt_s
+        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm))
+
+    def _sliding_mm_s(self) -> tuple[float, float]:
+        """The object's surface velocity past the tip (sensor frame, mm/s), from the tip's motion
+        over the last step (the object stands still in the world); zero without two tips."""
+        before, last = self._tips
+        if before is None or last is None or not self._dt_s:
+            return (0.0, 0.0)
+        moving = rotation(-self._pose[2]) @ (before - last) / self._dt_s
+        return (float(moving[0]), float(moving[1]))
 
     def to_world(self, point_mm) -> np.ndarray:
         """A point of the sensor's base frame in the world frame."""
@@ -121,6 +137,9 @@ class MobileSensor:
         if isinstance(self._obstacle, Circle):
             return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin)), 0
         first, vertices = self._near_part(origin)
+        if self.mu_kinetic:
+            return Polygon((vertices - origin) @ turn.T, mu_kinetic=self.mu_kinetic,
+                           sliding_mm_s=self._sliding_mm_s()), first
         return Polygon((vertices - origin) @ turn.T), first
 
     def _near_part(self, origin: np.ndarray) -> tuple[int, np.ndarray]:

@@ -36,6 +36,7 @@ def _params(whisker, polygon: Polygon, code: int, index: int) -> np.ndarray:
         normal = polygon.outward_normals[index]
         p[el.P_NX], p[el.P_NY] = normal
         p[el.P_OFFSET] = normal @ vertices[index] / whisker.length_mm
+        p[el.P_MU] = polygon.friction_along(index)
     else:
         p[el.P_AX], p[el.P_AY] = vertices[index] / whisker.length_mm
     return p
@@ -135,7 +136,7 @@ def _edge_heights_at(vertices, x):
 
 
 def _shifted(polygon: Polygon, shift_mm: float) -> Polygon:
-    return Polygon(polygon.vertices_mm + np.array([0.0, polygon.side * shift_mm]), polygon.side)
+    return replace(polygon, vertices_mm=polygon.vertices_mm + np.array([0.0, polygon.side * shift_mm]))
 
 
 def _advance(whisker, polygon: Polygon, state, shift_from: float, shift_to: float,
