@@ -37,7 +37,7 @@ class NoContact:
 def _follower_that_lost_contact(config):
     """A follower that followed the x axis (object above it) and has just lost the surface."""
     follower = Follower(NoContact(), -5000.0, config, reach_mm=78.0)
-    follower.contacted, follower._touching = True, True
+    follower.contacted, follower._touching, follower.pressed = True, True, True
     follower.keys.extend(np.column_stack([np.arange(6) * 2.0, np.zeros(6)]))
     follower.tangent = np.array([1.0, 0.0])
     return follower
@@ -95,7 +95,9 @@ def test_after_losing_contact_it_backs_off_then_comes_in_along_the_last_key_poin
         robot.step(dt)
         pose = robot.pose()
         tips.append(pose[:2] + 78.0 * np.array([math.cos(pose[2]), math.sin(pose[2])]))
-    assert phases[0] == "back-off" and phases[-1] == "search"
+    held = int(round(config.lost_after_s * config.rate_hz))  # a short gap is not a loss
+    assert phases[:held] == ["follow"] * held and phases[held] == "back-off"
+    assert phases[-1] == "search"
     assert phases.count("back-off") == int(config.backoff_s * config.rate_hz)
     heading = robot.pose()[2]
     assert math.degrees(heading) == pytest.approx(70.0, abs=2.0)
@@ -117,3 +119,13 @@ def test_while_pressing_it_turns_toward_the_surface_but_does_not_move_along_it()
     assert turn == config.turn_max_rad_s  # the heading follows the sliding tip
     assert velocity @ follower.tangent == pytest.approx(0.0, abs=1e-12)
     assert velocity @ np.array([0.0, 1.0]) > 0.0  # pressing toward the object (above the x axis)
+
+
+def test_a_tip_missing_for_a_few_samples_holds_still_and_does_not_count_as_lost():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    robot = KinematicRobot([0.0, -80.0, follower._target_heading()])
+    steps = [follower.update(0.0, robot) for _ in range(int(round(config.lost_after_s * config.rate_hz)))]
+    assert all(step.phase == "follow" and not np.any(step.velocity_mm_s) for step in steps)
+    assert follower._backing == 0  # not backing off: the contact is not lost yet
+    assert follower.update(0.0, robot).phase == "back-off"

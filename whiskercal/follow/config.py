@@ -23,7 +23,9 @@ class FollowConfig:
     points; key_spacing_mm: their least spacing; key_points: how many the B-spline goes through.
     slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
     or the raw tip jumping more than slip_jump_mm between samples. press_share: after the first
-    contact the sensor only presses in, until |z| reaches this share of the target's. backoff_s:
+    contact the sensor only presses in, until |z| reaches this share of the target's.
+    lost_after_s: a contact counts as lost only after this long without a tip (the sensor holds
+    still meanwhile). backoff_s:
     after losing contact it backs off this long at the approach speed, then lines the whisker up
     with the last key point's inward normal (its tip ``search_standoff_mm`` short of it, turning at
     up to ``search_turn_rad_s``) and comes in again along it. key_noise_mm: the key points'
@@ -52,6 +54,7 @@ class FollowConfig:
     slip_jump_mm: float = 3.0
     press_share: float = 0.9
     backoff_s: float = 6.0
+    lost_after_s: float = 0.05
     search_standoff_mm: float = 10.0
     search_turn_rad_s: float = 0.3
     key_noise_mm: float = 0.1
@@ -75,7 +78,7 @@ class FollowConfig:
 
 
 _MAY_BE_ZERO = {"kp_mm_s_per_uT", "ki_mm_s2_per_uT", "kd_mm_per_uT", "tilt_deg", "key_noise_mm",
-                "search_standoff_mm"}
+                "search_standoff_mm", "lost_after_s"}
 
 
 def load_follow_config(path: str | Path | None = None) -> FollowConfig:

@@ -64,6 +64,7 @@ class Follower:
         self.pressed = False
         self._backing, self._touching, self._lined_up = 0, False, False
         self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
+        self._missing, self._grace = 0, int(round(config.lost_after_s * config.rate_hz))
 
     def update(self, z_uT: float, robot: Robot) -> Step:
         """Feed one z sample (µT from rest); command the robot; return what was done."""
@@ -74,8 +75,15 @@ class Follower:
         tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
         if z_uT * self.target_z_uT < 0 and state.contact:  # bent the other way: the object is on
             tip = None                                     # the whisker's far side, no tip to trust
+        if tip is None and self._touching and self._missing < self._grace:
+            # a sample or two without a tip (the collision detector's hysteresis near its
+            # threshold, the first touch) is not a lost contact: hold still for a moment
+            self._missing += 1
+            robot.command(np.zeros(2), 0.0)
+            return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, np.zeros(2), 0.0)
         if not self.contacted or tip is None:
             return self._find_contact(robot, pose, slip)
+        self._missing = 0
         contact = _rotation(pose[2]) @ tip + pose[:2]
         self._touching = True
         # first reach the target deflection, then move along; while pressing, the tip slides
