@@ -19,14 +19,14 @@ class FollowConfig:
     kp_mm_s_per_uT, ki_mm_s2_per_uT, kd_mm_per_uT: the PID from the deflection error (z minus the
     target, µT) to the normal speed (mm/s), which is limited to normal_speed_max_mm_s.
     heading_gain_per_s: turn rate per radian of heading error, at most turn_max_rad_s (the
-    sensor turns about the contact, so the tip stays put while it turns). key_every: samples between key
-    points; key_spacing_mm: their least spacing; key_points: how many the B-spline goes through.
+    sensor turns about the contact, so the tip stays put while it turns). key_every: samples
+    between key points; key_spacing_mm: their least spacing; key_points: how many the B-spline goes through.
     slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
     or the raw tip jumping more than slip_jump_mm between samples. press_share: after the first
     contact the sensor only presses in, until |z| reaches this share of the target's.
     lost_after_s: a contact counts as lost only after this long without a tip (the sensor holds
-    still meanwhile). backoff_s:
-    after losing contact it backs off this long at the approach speed, then lines the whisker up
+    still meanwhile). backoff_s: after losing contact it backs off this long at the approach
+    speed, then lines the whisker up
     with the last key point's inward normal (its tip ``search_standoff_mm`` short of it, turning at
     up to ``search_turn_rad_s``) and comes in again along it. key_noise_mm: the key points'
     scatter (rms) the B-spline smooths; key_turn_max_deg: the most the surface's direction may
