@@ -20,7 +20,8 @@ class FollowConfig:
     target, µT) to the normal speed (mm/s), which is limited to normal_speed_max_mm_s.
     heading_gain_per_s: turn rate per radian of heading error, at most turn_max_rad_s (the
     sensor turns about the contact, so the tip stays put while it turns). key_every: samples
-    between key points; key_spacing_mm: their least spacing; key_points: how many the B-spline goes through.
+    between key points; key_spacing_mm: their least spacing; key_points: how many the B-spline
+    goes through.
     slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
     or the raw tip jumping more than slip_jump_mm between samples. press_share: after the first
     contact the sensor only presses in, until |z| reaches this share of the target's.
