@@ -35,7 +35,8 @@ class Robot(Protocol):
 @dataclass(frozen=True)
 class Step:
     """What one sample did: the contact point estimated (world, mm; NaN without one), the phase
-    ("approach", "press", "follow", "back-off", "search"), whether a slip was seen, and the commands sent."""
+    ("approach", "press", "follow", "back-off", "search", "gave-up"), whether a slip was seen,
+    and the commands sent."""
 
     contact_mm: np.ndarray
     phase: str
@@ -62,6 +63,7 @@ class Follower:
         self._last_raw: np.ndarray | None = None
         self.contacted = False
         self.pressed = False
+        self.gave_up = False  # a search passed the last key point without finding the surface
         self._backing, self._touching, self._lined_up = 0, False, False
         self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
         self._missing, self._grace = 0, int(round(config.lost_after_s * config.rate_hz))
@@ -75,6 +77,9 @@ class Follower:
         tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
         if z_uT * self.target_z_uT < 0 and state.contact:  # bent the other way: the object is on
             tip = None                                     # the whisker's far side, no tip to trust
+        if self.gave_up:  # for good: a person must look at why the surface was not found
+            robot.command(np.zeros(2), 0.0)
+            return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
         if tip is None and self._touching and self._missing < self._grace:
             # a sample or two without a tip (the collision detector's hysteresis near its
             # threshold, the first touch) is not a lost contact: hold still for a moment
@@ -117,7 +122,7 @@ class Follower:
         if self.contacted and self.keys and self.tangent is not None:
             velocity, turn = self._search(pose)
             robot.command(velocity, turn)
-            return Step(np.full(2, np.nan), "search", slip, velocity, turn)
+            return Step(np.full(2, np.nan), "gave-up" if self.gave_up else "search", slip, velocity, turn)
         phase = "approach" if not self.contacted else "search"
         velocity = self.config.approach_speed_mm_s * _unit(pose[2] + math.radians(self.config.tilt_deg))
         robot.command(velocity, 0.0)
@@ -128,7 +133,9 @@ class Follower:
         bring the free tip to ``search_standoff_mm`` short of the last key point along the line
         the whisker should lie on there (turning about the tip), then move along that line.
         Returning straight toward the key point can leave the tip past a corner, or the object
-        on the whisker's far side."""
+        on the whisker's far side. When the free tip passes the key point by ``search_standoff_mm``
+        without a contact, the surface is not where it was felt (or the whisker went past it):
+        the sensor stops there for good (``gave_up``) rather than push on into the unknown."""
         config = self.config
         heading = self._target_heading()
         along = _unit(heading)
@@ -139,6 +146,9 @@ class Follower:
             self._lined_up = (np.linalg.norm(start - free_tip) < 0.5
                               and abs(error_heading) < math.radians(2.0))
         if self._lined_up:
+            if (free_tip - self.keys[-1]) @ along > config.search_standoff_mm:
+                self.gave_up = True  # the surface is not where it was felt: stop, do not push on
+                return np.zeros(2), 0.0
             return config.approach_speed_mm_s * along, 0.0
         offset = start - free_tip
         distance = float(np.linalg.norm(offset))
