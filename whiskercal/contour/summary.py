@@ -45,6 +45,7 @@ def summarize(run: ContourRunFile) -> dict:
     return {"shape": run.shape, "sensor_id": run.sensor_id, "target_z_uT": run.target_z_uT,
             **metrics, "slips": int(np.sum(columns["slip"])),
             "contacts_lost": int(np.sum((columns["phase"][1:] == "back-off") & (columns["phase"][:-1] == "follow"))),
+            "gave_up": bool(np.any(columns["phase"] == "gave-up")),
             "time_to_go_round_s": time_to_go_round_s(run), "duration_s": duration,
             "follow_share": float(np.mean(mask)) if len(mask) else 0.0,
             "z_mean_follow_uT": float(np.mean(columns["z_uT"][mask])) if mask.any() else float("nan"),
