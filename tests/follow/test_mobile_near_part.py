@@ -13,7 +13,8 @@ from whiskercal.twin.params import DEFAULT_SENSOR
 
 def _pressed_and_slid(robot, heading_rad):
     """Press 10 mm into the object along the whisker's lean, then slide along it (mm/s, s)."""
-    inward = np.array([math.cos(heading_rad + math.radians(20.0)), math.sin(heading_rad + math.radians(20.0))])
+    lean = heading_rad + math.radians(20.0)
+    inward = np.array([math.cos(lean), math.sin(lean)])
     along = np.array([inward[1], -inward[0]])
     zs, kinds = [], []
     for velocity, seconds in ((5.0 * inward, 3.0), (6.0 * along, 1.5)):
