@@ -146,3 +146,20 @@ def test_a_search_that_passes_the_last_key_point_without_a_contact_stops_for_goo
     assert (tip - np.array([10.0, 0.0])) @ along == pytest.approx(config.search_standoff_mm, abs=0.1)
     assert not np.any(robot.velocity) and robot.turn == 0.0  # stopped
     assert follower.update(-5000.0, robot).phase == "gave-up"  # and stays stopped
+
+
+class Touching:
+    """A tracker that always feels a tip 70 mm along the whisker, 30 mm to its right."""
+
+    def update(self, z_uT):
+        return TrackerState(True, np.array([70.0, -30.0]), np.array([70.0, -30.0]))
+
+
+def test_backing_off_goes_on_for_its_whole_time_even_if_the_wire_still_touches():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    follower._backing, follower._touching = 30, False  # backing off, 30 samples left
+    follower.tracker = Touching()
+    robot = KinematicRobot([0.0, -80.0, follower._target_heading()])
+    phases = [follower.update(-5000.0, robot).phase for _ in range(31)]
+    assert phases[:30] == ["back-off"] * 30 and phases[30] != "back-off"

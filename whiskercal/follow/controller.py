@@ -80,6 +80,8 @@ class Follower:
         if self.gave_up:  # for good: a person must look at why the surface was not found
             robot.command(np.zeros(2), 0.0)
             return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
+        if self._backing > 0:  # backing off is finished even if the wire still touches: it
+            return self._find_contact(robot, pose, slip)  # is leaving the object
         if tip is None and self._touching and self._missing < self._grace:
             # a sample or two without a tip (the collision detector's hysteresis near its
             # threshold, the first touch) is not a lost contact: hold still for a moment
