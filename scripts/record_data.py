@@ -32,7 +32,9 @@ HERE = Path(__file__).resolve().parent
 # name, twin sensor, world seeds (grid, study), config files in the dataset directory (or None).
 DATASETS = (
     {"name": "twin-paper-75mm", "sensor": "twin-paper-75mm", "seeds": (101, 102),
-     "collect_config": None, "study_config": None},
+     "collect_config": None, "study_config": None,
+     # a shaft study (docs/shaft.md): seed, config file in the dataset directory
+     "shaft": (103, "shaft_study.toml")},
     {"name": "twin-short-60mm", "sensor": "twin-short-60mm", "seeds": (201, 202),
      "collect_config": "collect.toml", "study_config": "study.toml"},
     # a build described only in a file, calibrated from its trace length (collect.toml)
@@ -63,7 +65,15 @@ def dataset_commands(spec: dict, directory: Path, raw: Path, study: Path) -> lis
            "--sensor", f"sim://{world}_study/sensor", "--out", str(study), "--json"]
     if spec["study_config"]:
         run += ["--config", str(directory / spec["study_config"])]
-    return [collect, run]
+    commands = [collect, run]
+    if spec.get("shaft"):
+        seed, config = spec["shaft"]
+        commands.append(["whiskercal", "shaft-study", "run", "--stage",
+                         f"sim://{world}_shaft/stage?sensor={spec['sensor']}&seed={seed}",
+                         "--sensor", f"sim://{world}_shaft/sensor",
+                         "--config", str(directory / config),
+                         "--out", str(study.with_name("shaft_study.h5")), "--json"])
+    return commands
 
 
 def record(spec: dict, out: Path) -> None:
@@ -77,9 +87,10 @@ def record(spec: dict, out: Path) -> None:
         for command in commands:
             print("$", shlex.join(command), flush=True)
             outputs.append(_run([sys.executable, "-m", *command]))
-        compact_copy(raw, directory / "raw_grid.h5")
-        compact_copy(study, directory / "plane_study.h5")
-        sizes = {p.name: (p.stat().st_size, (directory / p.name).stat().st_size) for p in (raw, study)}
+        recorded = [raw, study] + ([study.with_name("shaft_study.h5")] if spec.get("shaft") else [])
+        for path in recorded:
+            compact_copy(path, directory / path.name)
+        sizes = {p.name: (p.stat().st_size, (directory / p.name).stat().st_size) for p in recorded}
     shown = [shlex.join(_relative(c, directory, out)) for c in commands]
     (directory / "README.md").write_text(_readme(spec, shown, outputs, sizes), encoding="utf-8")
 
@@ -90,7 +101,7 @@ def _relative(command: list[str], directory: Path, out: Path) -> list[str]:
     shown = []
     for arg in command:
         path = Path(arg)
-        if path.name in ("raw_grid.h5", "plane_study.h5"):
+        if path.name in ("raw_grid.h5", "plane_study.h5", "shaft_study.h5"):
             arg = f"RECORDED/{path.name}"
         elif path.is_absolute() and path.resolve().is_relative_to(root):
             arg = str(path.resolve().relative_to(root))
@@ -101,7 +112,7 @@ def _relative(command: list[str], directory: Path, out: Path) -> list[str]:
 def _readme(spec: dict, commands: list[str], outputs: list, sizes: dict) -> str:
     sensor = resolve_sensor(HERE.parent / spec["sensor"] if spec["sensor"].endswith(".toml")
                             else spec["sensor"])
-    (grid, grid_wall), (study, study_wall) = outputs
+    (grid, grid_wall), (study, study_wall) = outputs[:2]
     grid_seed, study_seed = spec["seeds"]
     lines = [
         f"# {spec['name']}",
@@ -133,6 +144,8 @@ def _readme(spec: dict, commands: list[str], outputs: list, sizes: dict) -> str:
         f"- study: depths {', '.join(f'{d:g}' for d in study['trials_done'])} mm, "
         f"{study['stage_time_s']:.0f} s of rig time in {study_wall:.0f} s wall time, "
         f"{study['dropped']} frames dropped, {study['corrupt']} corrupt",
+        *([f"- shaft study (seed {spec['shaft'][0]}, `{spec['shaft'][1]}`): trials "
+           f"{', '.join(outputs[2][0]['trials_done'])}"] if spec.get("shaft") else []),
         "",
         "## Storage",
         "",

@@ -5,6 +5,7 @@
 >>> calibration.tip(-3000.0)                           # (x, y) mm     # doctest: +SKIP
 >>> tracker = calibration.tracker()                    # doctest: +SKIP
 >>> state = tracker.update(z_uT)   # per sample: contact, raw and filtered tip   # doctest: +SKIP
+>>> state = tracker.update(z_uT, axial_uT)   # with the chip's Z axis too   # doctest: +SKIP
 
 Loading validates the schema (an unknown major version is refused with a clear message) and
 never executes code. A calibration written with ``whiskercal fit --allow-extrapolation`` marks
@@ -18,6 +19,14 @@ Every expected failure raises a :class:`~whiskercal.errors.WhiskercalError` subc
 function below: a z that is not a real number (a string, None, a complex or ragged array) is a
 :class:`~whiskercal.errors.UsageError`; NaN and ±inf are numbers, handled by the out-of-range
 policy (and ignored by contact detection).
+
+Two axes: an artifact written with ``whiskercal fit --field-table`` carries a (Y, Z) -> tip
+table (docs/calibration.md). Given the Z axis too (``axial_uT``, µT from its static reading),
+the tracker reads the tip there (bilinear, a few microseconds), which tells a tip pushed with
+friction or by a slanted surface from one pushed square at the same Y; where the table has no
+tip (outside what tip loads reach) it falls back to the z lookup, whose out-of-range policy
+then applies (a z the table answers is never out of range). Without the table, or without
+``axial_uT``, the tracker is the z lookup alone, as for every older artifact.
 
 Out-of-range z in contact (``out_of_range``, per tracker):
 
@@ -44,6 +53,7 @@ from whiskercal.artifacts.calibration import (CalibrationData, collision_params_
                                               kalman_params_of, lookup_of, problem_of,
                                               read_calibration)
 from whiskercal.errors import UsageError
+from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.collision import CollisionDetector
 from whiskercal.model.errors import ExtrapolationLimitError
 from whiskercal.model.kalman import ConstantStateKalman
@@ -81,8 +91,9 @@ class Tracker:
         self._detector = CollisionDetector(calibration.collision_params)
         self._kalman = ConstantStateKalman(calibration.kalman_params)
 
-    def update(self, z_uT: float) -> TrackerState:
-        """Feed one deflection sample (µT, relative to static).
+    def update(self, z_uT: float, axial_uT: float | None = None) -> TrackerState:
+        """Feed one deflection sample (µT, relative to static), and optionally the chip's Z axis
+        (µT, relative to its static reading) for the artifact's (Y, Z) table.
 
         Raises
         ------
@@ -101,9 +112,15 @@ class Tracker:
             if was_in_contact:
                 self._kalman.reset()
             return TrackerState(False, None, None)
-        lookup = self._calibration.lookup
-        x, y = lookup.tip_scalar(z_uT, self._out_of_range)
-        side = -1 if z_uT < lookup.z_min_uT else 1 if z_uT > lookup.z_max_uT else 0
+        lookup, table = self._calibration.lookup, self._calibration.field_table
+        x = y = float("nan")
+        if table is not None and axial_uT is not None:
+            x, y = table.tip_scalar(z_uT, float(axial_uT))
+        if x == x:  # the table answered: z lies inside its range
+            side = 0
+        else:
+            x, y = lookup.tip_scalar(z_uT, self._out_of_range)
+            side = -1 if z_uT < lookup.z_min_uT else 1 if z_uT > lookup.z_max_uT else 0
         if x != x:  # NaN: a non-finite z, or out of range under the "nan" policy
             filtered = self._kalman.state_mm
             return TrackerState(True, None, None if filtered is None else filtered.copy(),
@@ -127,6 +144,8 @@ class Calibration:
         The part whose tips lie within the extrapolation limit (None: no part).
     target_z_uT : float or None
         The optimal deflection target once the optimal-depth study has written one.
+    field_table : FieldTipTable or None
+        The (Y, Z) -> tip table when the artifact carries one (``fit --field-table``).
 
     Raises
     ------
@@ -146,6 +165,7 @@ class Calibration:
         self.z_range_uT = (self.lookup.z_min_uT, self.lookup.z_max_uT)
         self.target_z_uT = data.target_z_uT
         self.sensor_id = data.sensor_id
+        self.field_table = _field_table(data)
         self._problem = None
 
     def tip(self, z_uT, out_of_range: str = "raise") -> np.ndarray:
@@ -212,6 +232,14 @@ class Calibration:
         if self._problem is None:
             self._problem = problem_of(self.data)
         return trace(self._problem, z_uT).tip_mm
+
+
+def _field_table(data: CalibrationData) -> FieldTipTable | None:
+    """The artifact's (Y, Z) -> tip table, or None (older artifacts, Y-only fits)."""
+    table = data.field_table
+    if table is None:
+        return None
+    return FieldTipTable(table["y_uT"], table["axial_uT"], table["tip_mm"])
 
 
 def _lookup(data: CalibrationData, allow_extrapolated: bool) -> TipLookup:

@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from whiskercal.artifacts import shaft_surface as shaft_surface_group
 from whiskercal.artifacts.calibration import surface_of
 from whiskercal.model.shaft import (REASON_AMBIGUOUS, REASON_WIDE, LocalizerState, ShaftLocalizer,
                                     ShaftParams)
@@ -45,6 +46,11 @@ SAMPLE_NOISE_UT = 5.6
 holds only the grid's averaged noise. Override with ``noise_uT=`` for another sensor."""
 MIN_FIT_UT = 0.0
 """|z| below which a sample adds nothing to the fit (µT): there the surface is extrapolated."""
+SHAFT_SURFACE_MISFIT_LENGTH_MM = 30.0
+"""Travel (mm) per independent sample of the shaft surface's misfit: what is left of it after the
+degree-5 ripple (period a few mm, ``ShaftParams.misfit_length_mm`` 3 mm) varies slowly along
+the whisker. Measured on the default sensor's study (docs/shaft.md): with 3 mm the reported sd was
+half the error, with 30 mm about equal to it."""
 MISFIT_RMS = 3.0
 """RMS residual (in noise units) above which the shaft model does not explain z."""
 
@@ -113,11 +119,24 @@ class ShaftTracker:
         return KIND_UNKNOWN
 
 
+def shaft_surface_of(calibration):
+    """The surface the localizer uses, its misfit on the grid (µT) and the misfit's length (mm):
+    the artifact's own shaft surface (``/shaft_surface``, since 1.4), else the tip model's
+    surface and its fit RMSE."""
+    data = calibration.data
+    if data.shaft_surface is not None:
+        return (shaft_surface_group.surface_of(data.shaft_surface), data.shaft_surface.rmse_uT,
+                SHAFT_SURFACE_MISFIT_LENGTH_MM)
+    return surface_of(data), float(data.metrics.get("rmse_uT") or 0.0), \
+        ShaftParams.misfit_length_mm
+
+
 def shaft_params_of(calibration, **overrides) -> ShaftParams:
     """Localizer settings for a loaded calibration: a sample's noise and the surface's misfit
-    (its fit RMSE) in quadrature, its trace length."""
-    misfit = float(calibration.data.metrics.get("rmse_uT") or 0.0)
+    (the RMSE of the surface it uses) in quadrature, its trace length."""
+    _, misfit, misfit_length_mm = shaft_surface_of(calibration)
     params = ShaftParams(noise_uT=float(np.hypot(SAMPLE_NOISE_UT, misfit)), systematic_uT=misfit,
+                         misfit_length_mm=misfit_length_mm,
                          min_fit_uT=MIN_FIT_UT,
                          search_x_mm=(5.0, float(calibration.data.trace_length_mm)))
     return replace(params, **overrides)
@@ -128,5 +147,6 @@ def shaft_tracker(calibration, **overrides) -> ShaftTracker:
 
     ``overrides``: any :class:`~whiskercal.model.shaft.ShaftParams` field.
     """
-    return ShaftTracker(surface_of(calibration.data), shaft_params_of(calibration, **overrides),
+    surface = shaft_surface_of(calibration)[0]
+    return ShaftTracker(surface, shaft_params_of(calibration, **overrides),
                         calibration.data.trace_length_mm)

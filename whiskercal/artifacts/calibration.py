@@ -15,6 +15,13 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
 - ``/filter``, ``/collision``: settings as attributes.
 - ``/metrics``: fit and lookup evidence, and ``warnings`` (JSON list of sentences, 1.2);
   ``/metrics/truth`` when the raw grid came from the twin.
+- ``/field_table`` (optional, 1.4; ``fit --field-table``): the (Y, Z) -> tip table of the
+  mechanics with the magnet's map (docs/calibration.md): ``y_uT`` (ny,) and ``axial_uT`` (nz,),
+  evenly spaced axes of the deflection (Y) and the chip-normal (Z) axis from their static
+  readings, and ``tip_mm`` (ny, nz, 2), NaN outside what tip loads reach. A runtime given both
+  axes reads the tip there and falls back to ``/lookup`` where the table has none.
+- ``/shaft_surface`` (optional, 1.4): the shaft localizer's own surface, radial patches
+  (``whiskercal.artifacts.shaft_surface``); without it the localizer uses ``/surface``.
 - ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``,
   ``depth_mm`` and why (:class:`Target`). It is never written into an artifact in place:
   :func:`write_with_target` makes the next version as a new file.
@@ -36,14 +43,19 @@ from typing import Any
 import h5py
 import numpy as np
 
+from whiskercal.artifacts import shaft_surface as shaft_surface_group
 from whiskercal.artifacts.h5io import (as_text, check_schema, now_iso, open_h5, read_array,
                                        read_json_attr, sha256_file, write_array, write_provenance)
 from whiskercal.atomic import atomic_path, refuse_input_as_output
+from whiskercal.artifacts.shaft_surface import ShaftSurfaceData
 from whiskercal.errors import ArtifactError
 from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
-SCHEMA_VERSION = "1.2.0"  # 1.1: /target (the study); 1.2: extrapolation marks
+# 1.1: /target (the study); 1.2: extrapolation marks; 1.3 is a 1.2 with a target; 1.4: the
+# shaft localizer's own surface, /shaft_surface (whiskercal.artifacts.shaft_surface), and the
+# (Y, Z) -> tip table, /field_table: both optional, found by their presence
+SCHEMA_VERSION = "1.4.0"
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
 TARGET_GROUP = "target"
@@ -101,6 +113,10 @@ class CalibrationData:
     lookup_extension_mm: np.ndarray | None = None
     extrapolated: bool = False
     trusted_z_uT: tuple[float, float] | None = None  # with extrapolated: None means no part
+    # 1.4: the (Y, Z) -> tip table: {"y_uT", "axial_uT", "tip_mm"} arrays (None: Y only)
+    field_table: dict[str, np.ndarray] | None = None
+    # 1.4: the shaft localizer's own surface (None in older artifacts)
+    shaft_surface: ShaftSurfaceData | None = None
 
     @property
     def target_z_uT(self) -> float | None:
@@ -124,7 +140,7 @@ def _nan_to_none(value):
 
 
 def write_calibration(path: str | Path, data: CalibrationData) -> Path:
-    """Write a calibration artifact (version 1.2.0); the file is replaced atomically.
+    """Write a calibration artifact (version 1.4.0); the file is replaced atomically.
 
     Raises
     ------
@@ -143,6 +159,10 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
             _write_lookup(handle.create_group("lookup"), data)
             _write_settings(handle, data)
             _write_metrics(handle.create_group("metrics"), data)
+            if data.field_table is not None:
+                _write_field_table(handle.create_group("field_table"), data.field_table)
+            if data.shaft_surface is not None:
+                shaft_surface_group.write(handle, data.shaft_surface)
     except OSError as error:
         raise ArtifactError(f"{path}: cannot write the calibration artifact ({error})") from None
     return path
@@ -181,6 +201,19 @@ def _write_lookup(group: h5py.Group, data: CalibrationData) -> None:
     group.attrs["extrapolated"] = bool(data.extrapolated)
     trusted = data.trusted_z_uT if data.trusted_z_uT is not None else (math.nan, math.nan)
     group.attrs["trusted_z_uT"] = np.asarray(trusted, float)
+
+
+def _write_field_table(group: h5py.Group, table: dict[str, np.ndarray]) -> None:
+    write_array(group, "y_uT", np.asarray(table["y_uT"], float), "µT")
+    write_array(group, "axial_uT", np.asarray(table["axial_uT"], float), "µT")
+    write_array(group, "tip_mm", np.asarray(table["tip_mm"], float), "mm")
+
+
+def _read_field_table(handle: h5py.File, path: Path) -> dict[str, np.ndarray] | None:
+    if "field_table" not in handle:
+        return None
+    group = handle["field_table"]
+    return {name: read_array(group, name, path) for name in ("y_uT", "axial_uT", "tip_mm")}
 
 
 def _write_settings(handle: h5py.File, data: CalibrationData) -> None:
@@ -264,9 +297,11 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         inputs=read_json_attr(handle, "inputs_sha256", {}),
         config=read_json_attr(handle, "config", {}),
         target=_read_target(handle),
+        shaft_surface=shaft_surface_group.read(handle, path),
         created=as_text(handle.attrs.get("created", "")),
         whiskercal_version=as_text(handle.attrs.get("whiskercal_version", "")),
         **_read_extrapolation(trace, lookup),
+        field_table=_read_field_table(handle, path),
     )
 
 
@@ -343,10 +378,21 @@ def validate(data: CalibrationData, path: str | Path = "") -> None:
         (data.trusted_z_uT is None or bool(data.lookup_z_uT[0] <= data.trusted_z_uT[0]
                                            <= data.trusted_z_uT[1] <= data.lookup_z_uT[-1]),
          "a trusted z range inside the lookup's"),
+        (_field_table_ok(data.field_table), "a field table of shape (ny, nz, 2) on increasing, "
+         "evenly spaced axes"),
     ]
     for ok, expectation in checks:
         if not ok:
             raise ArtifactError(f"{where}corrupt calibration artifact: expected {expectation}")
+
+
+def _field_table_ok(table: dict[str, np.ndarray] | None) -> bool:
+    if table is None:
+        return True
+    y, z, tips = (np.asarray(table[k], float) for k in ("y_uT", "axial_uT", "tip_mm"))
+    even = all(a.ndim == 1 and len(a) >= 2 and np.all(np.diff(a) > 0)
+               and np.allclose(np.diff(a), a[1] - a[0], rtol=1e-6) for a in (y, z))
+    return bool(even and tips.shape == (len(y), len(z), 2))
 
 
 # --- the target: a new version of an existing artifact ------------------------------------------

@@ -103,7 +103,8 @@ def _model_speed(quick: bool, progress: Callable | None) -> dict:
 COMPARISONS = {c.name: c for c in (
     Comparison("tip-extraction", "paper trace vs adaptive trace vs lookup",
                _module_run("whiskercal.bench.tip_extraction")),
-    Comparison("tip-accuracy", "level set vs mechanics-informed fit (Y; Y and Z) across builds",
+    Comparison("tip-accuracy", "level set vs mechanics-informed fit (Y; Y and Z; magnet map on "
+               "Y and Z) across builds, on the tip curve and on plane contacts with friction",
                _module_run("whiskercal.bench.tip_accuracy")),
     Comparison("sensor-family", "every build of the family calibrated as fit does: accuracy, "
                "its estimate, silent failures", _module_run("whiskercal.bench.sensor_family")),
@@ -156,7 +157,8 @@ def _charts(name: str, result: dict, out_dir: Path) -> list[str]:
         from whiskercal.bench.contour_target import draw
 
         charts.append(draw(result, out_dir / "contour-target.png").name)
-    for key, suffix in (("pareto", ""), ("pareto_truth", "-truth")):
+    for key, suffix in (("pareto", ""), ("pareto_truth", "-truth"),
+                        ("pareto_realistic", "-realistic"), ("pareto_lookup", "-lookup")):
         spec = result.get(key)
         if spec and result.get("rows"):
             add_time_ratios(result["rows"], spec["x"])

@@ -7,8 +7,11 @@ candidate is fitted to that grid only and then measured against the twin's truth
 
 - ``level-set``: ``model.calibrate`` as ``whiskercal fit`` runs it today;
 - ``mechanics-y``: ``mechfit`` fitted to Y, its z -> tip lookup (20 samples, cubic);
-- ``mechanics-yz``: ``mechfit`` fitted to Y and Z together; its z -> tip lookup, and its
-  (Y, Z) -> tip table for realistic contacts.
+- ``mechanics-yz``: ``mechfit`` fitted to Y and Z together (polynomial pose map); its z -> tip
+  lookup, and its (Y, Z) -> tip table for realistic contacts;
+- ``magnet-yz``: the mechanics with the multipole magnet map fitted to Y and Z
+  (``mechfit.magnetfit``, what ``fit --field-table`` ships); its z -> tip lookup, and its
+  (Y, Z) -> tip table over tip loads of every direction (``mechfit.tables``).
 
 Errors: on the frictionless tip curve (``twin.truth``) over the grid's z range, and on
 realistic contacts (planes tilted 0-40° against the tip, friction 0-0.4 sliding either way,
@@ -29,6 +32,7 @@ from whiskercal.bench.twin_grid import default_grid_config, tip_error_mm
 from whiskercal.collect.plan import lattice_points, visiting_order
 from whiskercal.errors import WhiskercalError
 from whiskercal.mechfit.fit import fit_mechanics
+from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.forward import Suspension
 from whiskercal.mechfit.tables import field_tip_table, monotone_z_range, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
@@ -41,6 +45,8 @@ from whiskercal.twin.physics.whisker import WhiskerParams
 
 ROD_RADIUS_MM = 1.5
 NOISE_UT = (1.0, 1.6)    # averaged Y and Z readings (5.6 and 9.0 µT over 30 samples)
+SAMPLE_NOISE_UT = (5.6, 9.0)
+REALISTIC_GOAL_MM = 0.3  # RMS on plane contacts with friction (issue 13)  # one sample of Y and Z, as the runtime sees a contact
 OVERLOAD_UT = 15000.0    # collect's default overload guard on |Y|
 DEFAULT_TRACE_MM = 78.0  # the trace length the default plan's bands were chosen for
 TILTS_DEG = (0, 10, 20, 30, 40)
@@ -146,8 +152,8 @@ def pose_fields_of_poses(sensor: SensorParams, poses: np.ndarray) -> np.ndarray:
     return (field_uT(sensor.magnet, poses[:, 0], poses[:, 1:]) - static_fields(sensor))[:, 1:]
 
 
-def realistic_contacts(sensor: SensorParams) -> dict:
-    """Tip contacts against tilted planes with friction: (Y, Z) µT, true tips mm, conditions."""
+def _plane_contacts(sensor: SensorParams):
+    """(tilt, mu, sign, depth fraction, equilibrium) of every reachable plane tip contact."""
     whisker, rows = sensor.whisker, []
     for tilt in TILTS_DEG:
         for mu in MUS:
@@ -162,11 +168,31 @@ def realistic_contacts(sensor: SensorParams) -> dict:
                         eq = mechanics.solve_plane(whisker, plane)
                     except WhiskercalError:
                         continue
-                    if eq.kind == "tip":
+                    if eq.kind == "tip" and _reachable(sensor, eq):
                         rows.append((tilt, mu, sign, fraction, eq))
+    return rows
+
+
+def realistic_contacts(sensor: SensorParams) -> dict:
+    """Tip contacts against tilted planes with friction: (Y, Z) µT, true tips mm, conditions."""
+    rows = _plane_contacts(sensor)
     fields = pose_fields(sensor, [r[4] for r in rows])
     return {"fields_uT": fields, "tip_mm": np.array([r[4].tip_mm for r in rows]),
             "conditions": np.array([r[:4] for r in rows], float)}
+
+
+def realistic_pose_contacts(sensor: SensorParams, y_range_uT) -> np.ndarray:
+    """True root poses (n, 3) of the realistic contacts whose Y lies in ``y_range_uT``."""
+    rows = _plane_contacts(sensor)
+    poses = np.array([[r[4].root_rotation_rad, *r[4].root_shift_mm] for r in rows])
+    y = pose_fields_of_poses(sensor, poses)[:, 0]
+    return poses[(y >= y_range_uT[0]) & (y <= y_range_uT[1])]
+
+
+def _reachable(sensor: SensorParams, equilibrium) -> bool:
+    """False for the twin's far branches whose root shifts by more than the magnet's gap to the
+    chip (the magnet would strike it; a real sensor cannot take that pose)."""
+    return bool(np.linalg.norm(equilibrium.root_shift_mm) < sensor.magnet.gap_mm)
 
 
 def _timed(call):
@@ -195,6 +221,17 @@ def _mechanics(sensor, grid, axes):
     return out
 
 
+def _magnet(sensor, grid):
+    fit, fit_s = _timed(lambda: fit_mechanics_magnet(grid.rod_center_mm, grid.fields_uT,
+                                                     ROD_RADIUS_MM, sensor.whisker.reach_mm,
+                                                     NOISE_UT))
+    y_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
+    lookup, lookup_s = _timed(lambda: z_lookup(fit, y_range))
+    table, table_s = _timed(lambda: field_tip_table(fit, y_range))
+    return {"lookup": lookup, "fit_s": fit_s + lookup_s + table_s, "fit": fit, "table": table,
+            "table_s": table_s}
+
+
 def lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
     inside = (z_true >= z_range[0]) & (z_true <= z_range[1])
     z, tips = z_true[inside], tips_true[inside]
@@ -206,17 +243,33 @@ def lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
     return errors
 
 
-def realistic_errors(candidate, contacts, z_range) -> dict:
+def realistic_errors(candidate, contacts, z_range, seed: int = 0) -> dict:
+    """Errors (mm) on the realistic contacts whose Y lies in the grid's range: Y only (the
+    lookup), and with a (Y, Z) table as the runtime reads it (the lookup where the table has no
+    tip), noise-free and with one sample's noise (``SAMPLE_NOISE_UT``)."""
     y, z = contacts["fields_uT"][:, 0], contacts["fields_uT"][:, 1]
     inside = (y >= z_range[0]) & (y <= z_range[1])
     lookup, tips = candidate["lookup"], contacts["tip_mm"][inside]
-    covered = (y[inside] >= lookup.z_min_uT) & (y[inside] <= lookup.z_max_uT)
-    estimate = np.full_like(tips, np.nan)
-    estimate[covered] = lookup(y[inside][covered])
-    out = {"y_only": tip_error_mm(estimate, tips), "n": int(inside.sum())}
+    out = {"y_only": tip_error_mm(_lookup_tips(lookup, y[inside]), tips), "n": int(inside.sum())}
     if "table" in candidate:
-        out["y_and_z"] = tip_error_mm(candidate["table"](y[inside], z[inside]), tips)
+        noise = np.random.default_rng(seed).normal(0.0, 1.0, (int(inside.sum()), 2)) \
+            * np.array(SAMPLE_NOISE_UT)
+        for name, (yy, zz) in (("y_and_z", (y[inside], z[inside])),
+                               ("y_and_z_sample_noise", (y[inside] + noise[:, 0],
+                                                         z[inside] + noise[:, 1]))):
+            from_table = candidate["table"](yy, zz)
+            answered = np.isfinite(from_table[:, 0])
+            from_table[~answered] = _lookup_tips(lookup, yy[~answered])
+            out[name] = {**tip_error_mm(from_table, tips),
+                         "table_answered": float(answered.mean()) if len(yy) else float("nan")}
     return out
+
+
+def _lookup_tips(lookup, y: np.ndarray) -> np.ndarray:
+    covered = (y >= lookup.z_min_uT) & (y <= lookup.z_max_uT)
+    estimate = np.full((len(y), 2), np.nan)
+    estimate[covered] = lookup(y[covered])
+    return estimate
 
 
 def _speeds(candidate) -> dict:
@@ -234,6 +287,7 @@ CANDIDATES = {
     "level-set": _level_set,
     "mechanics-y": lambda sensor, grid: _mechanics(sensor, grid, 1),
     "mechanics-yz": lambda sensor, grid: _mechanics(sensor, grid, 2),
+    "magnet-yz": _magnet,
 }
 
 
@@ -262,37 +316,55 @@ def measure_build(sensor: SensorParams, candidates=tuple(CANDIDATES), seed: int 
             row["fitted"] = {"stub_mm": fit.suspension.stub_mm,
                              "stiffness_ratio": 1.0 / fit.suspension.rot_compliance,
                              "trans_compliance": fit.suspension.trans_compliance,
-                             "residual_rms_uT": fit.rms_uT.tolist(), "evaluations": fit.evaluations}
+                             "residual_rms_uT": fit.rms_uT.tolist(), "evaluations": fit.evaluations,
+                             "ratio_profile": (fit.starts[-1].get("ratio_profile")
+                                               if fit.starts else None)}
         rows.append(row), say(row)
     return rows
 
 
+def _chart_keys(row: dict) -> None:
+    """The charts' keys: tip-curve and realistic RMS (mm), the runtime's time per sample (s).
+
+    A candidate with a (Y, Z) table is charted as the runtime reads it (the table, the z lookup
+    where the table has no tip), with one sample's noise on both axes."""
+    row["error_vs_truth_mm"] = row["tip_curve"]["rmse_mm"]
+    row["label"] = row["build"]
+    realistic = row["realistic"]
+    best = realistic.get("y_and_z_sample_noise", realistic["y_only"])
+    row["realistic_rmse_mm"] = best["rmse_mm"]
+    row["runtime_s"] = row.get("table_s", row.get("lookup_s"))
+
+
 def _summary(rows: list[dict]) -> dict:
-    """Per method: builds meeting the goals (0.25 mm RMS, 0.5 mm max; realistic 0.3 mm RMS)."""
+    """Per method: builds meeting the goals (0.25 mm RMS, 0.5 mm max on the tip curve; 0.3 mm
+    RMS on realistic contacts)."""
     out = {}
     for method in CANDIDATES:
         mine = [r for r in rows if r["method"] == method]
         ok = [r for r in mine if "tip_curve" in r and r["tip_curve"]["coverage"] >= 0.95
               and r["tip_curve"]["rmse_mm"] <= 0.25 and r["tip_curve"]["max_mm"] <= 0.5]
-        out[method] = {"builds": len(mine), "meeting_tip_goal": [r["build"] for r in ok]}
+        realistic = [r for r in mine if r.get("realistic_rmse_mm", np.inf) <= REALISTIC_GOAL_MM]
+        out[method] = {"builds": len(mine), "meeting_tip_goal": [r["build"] for r in ok],
+                       "meeting_realistic_goal": [r["build"] for r in realistic]}
     return out
 
 
 def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0) -> dict:
     """Tip errors, fit and lookup times of every candidate on every build (mm, s).
 
-    ``quick``: the default sensor only, without the (Y, Z) candidate (about a minute).
+    ``quick``: the default sensor only, without the polynomial (Y, Z) candidate (a few
+    minutes).
     """
     say = progress or (lambda _row: None)
     builds = FAMILY[:QUICK_BUILDS] if quick else FAMILY
-    candidates = ("level-set", "mechanics-y") if quick else tuple(CANDIDATES)
+    candidates = ("level-set", "mechanics-y", "magnet-yz") if quick else tuple(CANDIDATES)
     rows = []
     for sensor in builds:
         rows += measure_build(sensor, candidates, seed, say)
     for row in rows:
         if "tip_curve" in row:
-            row["error_vs_truth_mm"] = row["tip_curve"]["rmse_mm"]
-            row["label"] = row["build"]
+            _chart_keys(row)
     return {
         "benchmark": "tip-accuracy", "quick": quick, "machine": machine_info(),
         "units": {"time": "s", "error": "mm", "field": "µT"},
@@ -303,5 +375,11 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
         "rows": rows,
         "pareto": {"x": "fit_s", "y": "error_vs_truth_mm", "series": ["method"], "label": "label",
                    "x_label": "fit time (s)", "y_label": "tip RMS error vs twin truth (mm)"},
+        "pareto_realistic": {"x": "fit_s", "y": "realistic_rmse_mm", "series": ["method"],
+                             "label": "label", "x_label": "fit time (s)",
+                             "y_label": "tip RMS on plane contacts with friction (mm)"},
+        "pareto_lookup": {"x": "runtime_s", "y": "realistic_rmse_mm", "series": ["method"],
+                          "label": "label", "x_label": "lookup time per sample (s)",
+                          "y_label": "tip RMS on plane contacts with friction (mm)"},
         "supports": _summary(rows),
     }

@@ -49,6 +49,7 @@ VALUED: dict[str, tuple[str, Callable[[str], object]]] = {
 FLAGS: dict[str, tuple[str, bool]] = {
     "--allow-extrapolation": ("allow_extrapolation", True),
     "--no-rod-correction": ("rod_correction", False),
+    "--field-table": ("field_table", True),
 }
 
 

@@ -54,6 +54,9 @@ class FitOptions:
         The lookup shipped: "level-set" (the paper's), "mechanics" (the mechanics-informed
         model) or "auto" (the mechanics where the grid identifies it, else the level set). The
         mechanics is fitted in every case for the error estimate (``fit.tip_model``).
+    field_table : bool
+        Also fit the mechanics with the magnet's map to Y and Z and store the (Y, Z) -> tip
+        table (``fit.field_table``) for tip contacts with friction or at a slant.
     """
 
     degree: int | str = 5
@@ -68,6 +71,7 @@ class FitOptions:
     rod_correction: bool = True
     threshold_uT: float = CollisionParams.threshold_uT
     tip_model: str = "level-set"
+    field_table: bool = False
 
     def __post_init__(self) -> None:
         # the degree's range is the model's to check (FitError), as it is for every caller

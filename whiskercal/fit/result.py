@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from whiskercal.fit.options import FitOptions
+from whiskercal.fit.shaft_surface import ShaftSurfaceFit
 from whiskercal.fit.truth import TruthComparison
 from whiskercal.model.calibrate import Calibration, CalibrationOptions
 
@@ -36,6 +37,8 @@ class FitResult:
         Input name -> SHA-256 (``raw_grid``).
     config : dict
         Provenance: the model's options, the raw grid's path, the numerical libraries' versions.
+    shaft_surface : ShaftSurfaceFit or None
+        The shaft localizer's own surface (``fit.shaft_surface``); None when it cannot be fitted.
     """
 
     calibration: Calibration
@@ -48,20 +51,34 @@ class FitResult:
     rod_radius_mm: float
     inputs: dict[str, str] = field(default_factory=dict)
     config: dict[str, Any] = field(default_factory=dict)
+    field_table: dict[str, Any] | None = None
+    """The (Y, Z) -> tip table's arrays (``fit.field_table``), None without ``--field-table``."""
+    shaft_surface: ShaftSurfaceFit | None = None
 
     def artifact_data(self):
         """The calibration artifact's content (a :class:`~whiskercal.artifacts.calibration.CalibrationData`)."""
+        from dataclasses import replace
+
         from whiskercal.artifacts.calibration import data_from_calibration
         from whiskercal.model.collision import CollisionParams
         from whiskercal.model.kalman import KalmanParams
 
-        return data_from_calibration(
+        data = data_from_calibration(
             self.calibration, sensor_id=self.sensor_id, rod_radius_mm=self.rod_radius_mm,
             tracer=self.calibration_options.tracer, kalman=KalmanParams(),
             collision=CollisionParams(threshold_uT=self.options.threshold_uT),
             metrics={**self.metrics, "warnings": list(self.warnings)},
             truth=None if self.truth is None else self.truth.arrays(),
             inputs=self.inputs, config=self.config)
+        if self.field_table is not None:
+            data = replace(data, field_table=self.field_table)
+        if self.shaft_surface is not None:
+            from whiskercal.artifacts.shaft_surface import data_of
+
+            shaft = self.shaft_surface
+            data.shaft_surface = data_of(shaft.surface, shaft.rmse_uT, shaft.source,
+                                         shaft.mechanics_points)
+        return data
 
     def write(self, path: str | Path) -> Path:
         """Write the calibration artifact (HDF5, replaced whole) and return its path."""

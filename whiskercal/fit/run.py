@@ -12,6 +12,7 @@ from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
                                     surface_and_lookup_metrics)
 from whiskercal.fit.options import FitOptions
 from whiskercal.fit.result import FitResult
+from whiskercal.fit.shaft_surface import shaft_surface_for
 from whiskercal.fit.tip_model import choose_tip_model
 from whiskercal.fit.trace_length import resolve_trace_length
 from whiskercal.fit.truth import compare_with_twin_truth
@@ -54,14 +55,37 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
                                               options.samples, untraceable)
     truth = compare_with_twin_truth(raw, calibration)
+    table = _field_table(raw, length_mm, options, progress)
+    shaft = shaft_surface_for(raw, length_mm, tip_model.mechanics)
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
                **raw_metrics(raw), **tip_model.metrics,
-               **(truth.metrics() if truth is not None else {})}
+               **(truth.metrics() if truth is not None else {}),
+               **(table.metrics if table is not None else {}), **_shaft_metrics(shaft)}
     return FitResult(calibration, options, model_options, metrics,
-                     length_warnings + calibration.warnings + tip_model.warnings, truth,
+                     length_warnings + calibration.warnings + tip_model.warnings
+                     + (table.warnings if table is not None else []), truth,
                      raw.sensor_id,
                      raw.rod_radius_mm, inputs={"raw_grid": raw.sha256},
-                     config=_provenance(model_options, raw.path))
+                     config=_provenance(model_options, raw.path),
+                     field_table=None if table is None else table.table, shaft_surface=shaft)
+
+
+def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress):
+    """The (Y, Z) -> tip table when asked for (``fit.field_table``), else None."""
+    if not options.field_table:
+        return None
+    from whiskercal.fit.field_table import fit_field_table
+
+    if progress is not None:
+        progress("mechanics with the magnet's map on Y and Z, and the (Y, Z) -> tip table")
+    return fit_field_table(raw, length_mm)
+
+
+def _shaft_metrics(shaft) -> dict:
+    """The shaft localizer's surface as the artifact's metrics record it (µT)."""
+    if shaft is None:
+        return {"shaft_surface_source": "none"}
+    return {"shaft_surface_rmse_uT": shaft.rmse_uT, "shaft_surface_source": shaft.source}
 
 
 def z_sem_uT(raw: RawGrid) -> np.ndarray:

@@ -47,6 +47,8 @@ class TipModelChoice:
     estimated_tip_error_mm: float
     metrics: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    # the mechanics fitted to the grid, whichever model ships (the shaft surface uses it)
+    mechanics: MechanicsCalibration | None = None
 
 
 def _mechanics(raw, length_mm: float, samples: int):
@@ -138,7 +140,7 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
         metrics["mechanics"] = _mechanics_metrics(mechanics)
         metrics["one_to_one_z_uT"] = list(mechanics.one_to_one_z_uT)
         calibration = _use_mechanics(calibration, mechanics) if name == "mechanics" else calibration
-    choice = TipModelChoice(name, estimate, metrics)
+    choice = TipModelChoice(name, estimate, metrics, mechanics=mechanics)
     choice.warnings = _warnings(choice, mechanics, why_not)
     if untraceable is not None:
         choice.warnings.insert(0, f"the level set cannot be traced ({untraceable}): the "

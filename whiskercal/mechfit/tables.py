@@ -9,14 +9,15 @@ tip's normal, and is read by bilinear interpolation.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import LinearNDInterpolator
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fit import MechanicsFit
+from whiskercal.mechfit.loadgrid import load_grid, past_axis_loads
 from whiskercal.mechfit.tipcurve import TipFamily, tip_family
+from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.lookup import TipLookup
 from whiskercal.twin.truth import first_branch
 
@@ -25,6 +26,10 @@ DEFAULT_KIND = "cubic"
 # Load tilts of the 2-D family, from the tip's normal toward the root (+) and away (-): friction
 # up to mu 0.4 tilts the load by 22°, a plane tilted 40° from the tip's normal by 40°.
 DEFAULT_BETAS_DEG = tuple(range(-40, 71, 10))
+DEFAULT_SHAPE = (121, 121)
+# space-fixed loads are kept where the root's pose stays within this multiple of the grid's
+# largest (the pose map is trusted near what the grid showed it)
+POSE_ENVELOPE = 1.5
 
 
 def monotone_z_range(z_uT: np.ndarray) -> tuple[float, float]:
@@ -82,54 +87,8 @@ def _refine(fit: MechanicsFit, family: TipFamily, knots: np.ndarray, tips: np.nd
     return np.array(out)
 
 
-class FieldTipTable:
-    """(Y, Z) µT -> tip (mm) on a regular grid, bilinear; NaN outside the tip-load family.
-
-    Parameters
-    ----------
-    y_uT, z_uT : ndarray (ny,), (nz,)
-        Increasing, evenly spaced axes.
-    tips_mm : ndarray (ny, nz, 2)
-    """
-
-    def __init__(self, y_uT: np.ndarray, z_uT: np.ndarray, tips_mm: np.ndarray) -> None:
-        self.y_uT, self.z_uT = np.asarray(y_uT, float), np.asarray(z_uT, float)
-        self.tips_mm = np.asarray(tips_mm, float)
-        self._y0, self._z0 = float(self.y_uT[0]), float(self.z_uT[0])
-        self._dy = float(self.y_uT[1] - self.y_uT[0])
-        self._dz = float(self.z_uT[1] - self.z_uT[0])
-        self._ny, self._nz = len(self.y_uT), len(self.z_uT)
-        self._rows = self.tips_mm.tolist()
-
-    def tip_scalar(self, y_uT: float, z_uT: float) -> tuple[float, float]:
-        """One tip (x, y) mm in plain floats; NaN outside the table."""
-        fy, fz = (y_uT - self._y0) / self._dy, (z_uT - self._z0) / self._dz
-        i, j = int(math.floor(fy)), int(math.floor(fz))
-        if not (0 <= i < self._ny - 1 and 0 <= j < self._nz - 1):
-            return math.nan, math.nan
-        ty, tz = fy - i, fz - j
-        a, b, c, d = self._rows[i][j], self._rows[i + 1][j], self._rows[i][j + 1], self._rows[i + 1][j + 1]
-        w00, w10, w01, w11 = (1 - ty) * (1 - tz), ty * (1 - tz), (1 - ty) * tz, ty * tz
-        return (w00 * a[0] + w10 * b[0] + w01 * c[0] + w11 * d[0],
-                w00 * a[1] + w10 * b[1] + w01 * c[1] + w11 * d[1])
-
-    def __call__(self, y_uT, z_uT) -> np.ndarray:
-        """Tips (..., 2) mm for arrays of Y and Z (µT)."""
-        y, z = np.broadcast_arrays(np.asarray(y_uT, float), np.asarray(z_uT, float))
-        out = np.array([self.tip_scalar(a, b) for a, b in zip(y.ravel(), z.ravel())])
-        return out.reshape(y.shape + (2,))
-
-
-def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
-                    betas_deg=DEFAULT_BETAS_DEG, shape: tuple[int, int] = (121, 121)
-                    ) -> FieldTipTable:
-    """The (Y, Z) -> tip table from the model's tip loads tilted by each of ``betas_deg``.
-
-    The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans what
-    the families reach there.
-    """
-    if fit.pose_map.coefficients.shape[1] < 2:
-        raise UsageError("a (Y, Z) table needs a fit of both axes.")
+def _family_points(fit: MechanicsFit, betas_deg):
+    """(Y, Z) µT and tips mm of the tip-load families tilted from the tip's normal."""
     fields, tips = [], []
     for beta in betas_deg:
         try:
@@ -138,7 +97,35 @@ def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
             continue
         fields.append(fit.pose_map(family.pose)[:, :2])
         tips.append(family.tip_mm)
-    fields, tips = np.concatenate(fields), np.concatenate(tips)
+    return np.concatenate(fields), np.concatenate(tips)
+
+
+def _load_grid_points(fit: MechanicsFit):
+    """(Y, Z) µT and tips mm of space-fixed tip loads, kept within the grid's pose envelope."""
+    grids = (load_grid(fit.suspension), past_axis_loads(fit.suspension))
+    pose = np.concatenate([g.pose for g in grids if len(g.pose)])
+    tips = np.concatenate([g.tip_mm for g in grids if len(g.pose)])
+    limit = POSE_ENVELOPE * np.max(np.abs(fit.poses), axis=0)
+    inside = np.all(np.abs(pose) <= limit, axis=1)
+    return fit.pose_map(pose[inside])[:, :2], tips[inside]
+
+
+def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
+                    betas_deg=DEFAULT_BETAS_DEG, shape: tuple[int, int] = DEFAULT_SHAPE,
+                    space_fixed: bool = True) -> FieldTipTable:
+    """The (Y, Z) -> tip table from the model's tip loads.
+
+    Loads tilted by each of ``betas_deg`` from the tip's normal and, with ``space_fixed``, the
+    space-fixed loads of ``loadgrid.py`` (pushes along and past the wire's axis included) within
+    1.5 times the grid's largest pose. The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans
+    what the loads reach there.
+    """
+    if fit.pose_map.coefficients.shape[1] < 2:
+        raise UsageError("a (Y, Z) table needs a fit of both axes.")
+    fields, tips = _family_points(fit, betas_deg)
+    if space_fixed:
+        more = _load_grid_points(fit)
+        fields, tips = np.concatenate([fields, more[0]]), np.concatenate([tips, more[1]])
     inside = (fields[:, 0] >= y_range_uT[0] - 0.05 * np.ptp(y_range_uT)) & (fields[:, 0] <= 0.0)
     fields, tips = fields[inside], tips[inside]
     scale = np.ptp(fields, axis=0)

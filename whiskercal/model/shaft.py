@@ -67,6 +67,7 @@ class ShaftParams:
     max_sd_mm: float = 0.5
     ambiguity_chi2: float = 9.0
     ambiguity_mm: float = 2.0
+    rival_iterations: int = 3
 
 
 @dataclass(frozen=True)
@@ -197,13 +198,19 @@ class ShaftLocalizer:
         cost = self._cost(self._search, stride=3)
         best = int(np.argmin(cost))
         far = np.abs(self._search[:, 0] - self._search[best, 0]) > self.params.ambiguity_mm
-        rival = float(np.min(cost[far])) if np.any(far) else np.inf
         # a rival basin only counts when it is a local minimum of its own, not the best's slope
-        self._rival = rival
-        self._rival_ok = _has_distinct_minimum(cost, best, far)
+        rival = _best_distinct_minimum(cost, far)
+        self._rival, self._rival_ok = np.inf, False
+        if rival is not None:
+            p_rival, rival_cost = self._refined(self._search[rival].copy())
+            # a rival that slides into the best's basin is the best's slope after all
+            if abs(p_rival[0] - self._search[best, 0]) > self.params.ambiguity_mm:
+                self._rival, self._rival_ok = rival_cost, True
         return self._search[best].copy()
 
-    def _gauss_newton_step(self, p0: np.ndarray):
+    def _gauss_newton(self, p0: np.ndarray):
+        """One Gauss-Newton step from p0 on the batch: (new p0, information, jacobian, prior's
+        row, RMS residual in noise units), or None when the information is singular."""
         batch, params = self._batch, self.params
         points = p0 + batch.d[: batch.n]
         residual = (batch.z[: batch.n] - self.surface(points)) / params.noise_uT
@@ -215,15 +222,32 @@ class ShaftLocalizer:
         try:
             step = np.linalg.solve(information, gradient)
         except np.linalg.LinAlgError:
-            self._cov_noise = None
-            return p0, None, np.nan
+            return None
         step_norm = float(np.hypot(*step))
         if step_norm > 5.0:  # a trust region: the surface is only locally quadratic
             step *= 5.0 / step_norm
         rms = float(np.sqrt(np.mean(residual * residual)))
+        return p0 + step, information, jacobian, prior_j, rms
+
+    def _gauss_newton_step(self, p0: np.ndarray):
+        solved = self._gauss_newton(p0)
+        if solved is None:
+            self._cov_noise = None
+            return p0, None, np.nan
+        p_next, information, jacobian, prior_j, rms = solved
         covariance = np.linalg.inv(information) * max(1.0, rms * rms)
         self._cov_noise = covariance
-        return p0 + step, covariance + self._systematic_covariance(jacobian, prior_j), rms
+        return p_next, covariance + self._systematic_covariance(jacobian, prior_j), rms
+
+    def _refined(self, p0: np.ndarray) -> tuple[np.ndarray, float]:
+        """The best p0 near a candidate and its chi²: the candidate after the solver's own steps
+        (a rival on the search line is judged at its best start across the whisker, not at y0)."""
+        for _ in range(self.params.rival_iterations):
+            solved = self._gauss_newton(p0)
+            if solved is None:
+                break
+            p0 = solved[0]
+        return p0, float(self._cost(p0[None, :])[0])
 
     def _systematic_covariance(self, jacobian: np.ndarray, prior_j: np.ndarray) -> np.ndarray:
         """The covariance the surface's own misfit leaves: it repeats from sample to sample
@@ -273,11 +297,12 @@ class ShaftLocalizer:
                               self._motion.travel_mm, self._rms)
 
 
-def _has_distinct_minimum(cost: np.ndarray, best: int, far: np.ndarray) -> bool:
-    """True when some point of the search line away from the best is a local minimum."""
+def _best_distinct_minimum(cost: np.ndarray, far: np.ndarray) -> int | None:
+    """The index of the lowest local minimum of the search line away from the best (None when
+    there is none)."""
     inner = np.flatnonzero(far[1:-1]) + 1
     if inner.size == 0:
-        return False
-    local = (cost[inner] <= cost[inner - 1]) & (cost[inner] <= cost[inner + 1])
-    return bool(np.any(local))
+        return None
+    local = inner[(cost[inner] <= cost[inner - 1]) & (cost[inner] <= cost[inner + 1])]
+    return int(local[np.argmin(cost[local])]) if local.size else None
 

@@ -22,6 +22,7 @@ from whiskercal.regress.tolerances import CLASSES, tolerance_for
 
 RAW_GRID_FILE = "raw_grid.h5"
 STUDY_FILE = "plane_study.h5"
+SHAFT_STUDY_FILE = "shaft_study.h5"  # optional: a shaft study (docs/shaft.md)
 GOLDEN_FILE = "golden.json"
 GOLDEN_SCHEMA = "whiskercal.golden"
 GOLDEN_VERSION = "1.0.0"
@@ -50,6 +51,12 @@ class Dataset:
     def study(self) -> Path:
         """The flat-plane study."""
         return self.path / STUDY_FILE
+
+    @property
+    def shaft_study(self) -> Path | None:
+        """The shaft study, when the dataset has one (None otherwise)."""
+        path = self.path / SHAFT_STUDY_FILE
+        return path if path.exists() else None
 
     @property
     def golden_path(self) -> Path:
@@ -114,8 +121,12 @@ def check_inputs(dataset: Dataset) -> dict[str, str]:
     """
     from whiskercal.artifacts.plane_study import read_study
     from whiskercal.artifacts.raw_grid import read_raw_grid
+    from whiskercal.artifacts.shaft_study import read_shaft_study
 
-    for path, reader in ((dataset.raw_grid, read_raw_grid), (dataset.study, read_study)):
+    files = [(dataset.raw_grid, read_raw_grid), (dataset.study, read_study)]
+    if dataset.shaft_study is not None:
+        files.append((dataset.shaft_study, read_shaft_study))
+    for path, reader in files:
         if not path.is_file():
             raise ArtifactError(f"{dataset.name}: missing {path.name} in {dataset.path}")
         try:
@@ -124,7 +135,7 @@ def check_inputs(dataset: Dataset) -> dict[str, str]:
             raise ArtifactError(f"{dataset.name}: {path.name} is unreadable: {error}") from None
         except (OSError, KeyError, ValueError) as error:
             raise ArtifactError(f"{dataset.name}: {path.name} is corrupt ({error})") from None
-    return {p.name: sha256_file(p) for p in (dataset.raw_grid, dataset.study)}
+    return {p.name: sha256_file(p) for p, _ in files}
 
 
 def read_golden(dataset: Dataset, required: bool = True) -> Golden | None:

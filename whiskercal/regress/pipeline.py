@@ -37,6 +37,10 @@ TRIAL_COLUMNS = ("n_samples", "contact_fraction", "median_z_uT", "raw_mean_mm", 
                  "unlocalized_fraction", "slid_mm", "kink_depth_mm", "tangential",
                  "true_raw_mean_mm", "true_filtered_mean_mm", "true_tangential_fraction",
                  "failing", "reasons", "unmapped_samples")
+# Per-trial columns of the shaft study report kept as golden quantities (not its timing).
+SHAFT_COLUMNS = ("samples_in_contact", "median_error_mm", "final_error_mm", "travel_to_1mm",
+                 "localized_share_after_5mm", "gross_error_share", "kind_accuracy", "kind_accuracy_all",
+                 "kind_decided_share")
 
 
 def recompute(dataset: Dataset, pipeline: dict[str, Any], workdir: Path,
@@ -67,6 +71,9 @@ def recompute(dataset: Dataset, pipeline: dict[str, Any], workdir: Path,
     quantities.update(study_quantities(report.as_dict()))
     if report.choice is not None:
         quantities.update(_runtime_quantities(artifact, workdir, report))
+    if dataset.shaft_study is not None:
+        say(f"{dataset.name}: shaft study report")
+        quantities.update(shaft_quantities(dataset, artifact))
     return quantities, data.sensor_id
 
 
@@ -140,6 +147,24 @@ def study_quantities(report: dict) -> dict[str, Any]:
     found["study.target.score_mm"] = float(choice["score_mm"])
     for depth, score in sorted(choice.get("scores_mm", {}).items(), key=lambda kv: float(kv[0])):
         found[f"study.target.scores_mm[{float(depth):g}mm]"] = float(score)
+    return found
+
+
+def shaft_quantities(dataset: Dataset, artifact: Path) -> dict[str, Any]:
+    """The shaft study report's per-trial table (`whiskercal shaft-study report`'s numbers, its
+    timing apart) through the artifact's shaft localizer."""
+    from whiskercal import runtime
+    from whiskercal.shaftstudy.report import build_report as build_shaft_report
+
+    try:
+        report = build_shaft_report(dataset.shaft_study, runtime.load(artifact))
+    except WhiskercalError as error:
+        raise StageFailedError(f"{dataset.name}: the shaft study report failed: "
+                               f"{error}") from None
+    found: dict[str, Any] = {}
+    for row in report.as_dict()["trials"]:
+        for column in SHAFT_COLUMNS:
+            found[f"shaft.trial[{row['name']}].{column}"] = _plain(row[column])
     return found
 
 

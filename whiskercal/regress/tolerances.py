@@ -87,8 +87,27 @@ LOOKUP_RANGE = ToleranceClass(
     "trace succeeds; rounding moves them only by the spacing's last digits, and a moved end means "
     "the traceable range itself changed.")
 
+SHAFT_ERROR = ToleranceClass(
+    "shaft_error", 1e-4, 0.0,
+    "Shaft contact errors (mm) through the localizer's Gauss-Newton solves on a surface whose root "
+    "and tip patches come from the mechanics' iterative least squares: measured, a 1e-13 relative "
+    "change of the grid's z or the stream's z, or OpenBLAS's Nehalem kernels with one thread and "
+    "numpy without AVX2/FMA, moved them by at most 8e-7 mm; 1e-4 mm keeps a hundredfold margin "
+    "against errors of 0.03 mm and more, which a change of surface or solver moves by 0.01 mm.")
+SHAFT_TRAVEL = ToleranceClass(
+    "shaft_travel", 0.04, 0.0,
+    "Travel (mm) at which a trial's error stays under 1 mm: the travel of the sample where a "
+    "continuous error crosses a threshold; equal in every measured perturbation, it may move by "
+    "one sample when an error sits on the threshold: 0.033 mm at the study's 10 mm/s and 300 Hz.")
+SHAFT_SHARE = ToleranceClass(
+    "shaft_share", 5e-3, 0.0,
+    "Shares of a trial's samples (localized, grossly wrong, kind right or decided): counts of "
+    "threshold decisions on continuous estimates; equal in every measured perturbation, a sample "
+    "on a threshold may flip: 5e-3 is two samples of the shortest trial (about 450 in contact).")
+
 CLASSES = {c.name: c for c in (EXACT, MEASURED, LEAST_SQUARES, R_SQUARED, CONDITION, TRACE,
-                               ESTIMATE, SCORE, LOOKUP_RANGE)}
+                               ESTIMATE, SCORE, LOOKUP_RANGE, SHAFT_ERROR, SHAFT_TRAVEL,
+                               SHAFT_SHARE)}
 
 # Quantity name patterns (fnmatch) -> class; the first match wins, so specific names go first.
 RULES: tuple[tuple[str, ToleranceClass], ...] = (
@@ -116,6 +135,11 @@ RULES: tuple[tuple[str, ToleranceClass], ...] = (
     ("study.*.true_tangential_fraction", MEASURED),
     ("study.*.slid_mm", MEASURED),
     ("study.*.kink_depth_mm", MEASURED),
+    ("shaft.*.median_error_mm", SHAFT_ERROR),
+    ("shaft.*.final_error_mm", SHAFT_ERROR),
+    ("shaft.*.travel_to_1mm", SHAFT_TRAVEL),
+    ("shaft.*_share*", SHAFT_SHARE),
+    ("shaft.*.kind_accuracy*", SHAFT_SHARE),
 )
 
 

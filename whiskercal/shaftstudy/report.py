@@ -21,6 +21,8 @@ from whiskercal.runtime_shaft import KIND_UNKNOWN, ONSET_UT, shaft_tracker
 SETTLED_TRAVEL_MM = 5.0
 """Travel since contact (mm) after which ``median_error_mm`` is taken."""
 GOOD_MM = 1.0
+GROSS_MM = 2.0
+"""An estimate this far (mm) from the true contact is a wrong one, not an inaccurate one."""
 
 
 @dataclass
@@ -51,6 +53,7 @@ class TrialRow:
     final_error_mm: float
     travel_to_1mm: float
     localized_share_after_5mm: float
+    gross_error_share: float
     kind_accuracy: float
     kind_accuracy_all: float
     kind_decided_share: float
@@ -112,6 +115,8 @@ def trial_row(series: TrialSeries, approach_deg: float) -> TrialRow:
         final_error_mm=float(final[-1]) if final.size else np.nan,
         travel_to_1mm=_travel_to_good(series, contact),
         localized_share_after_5mm=float(localized[settled].mean()) if settled.any() else np.nan,
+        gross_error_share=float(np.mean(series.error_mm[contact & localized] > GROSS_MM))
+        if final.size else np.nan,
         kind_accuracy=_kind_accuracy(series, detectable=True),
         kind_accuracy_all=_kind_accuracy(series, detectable=False),
         kind_decided_share=float(np.mean(series.kind[contact] != KIND_UNKNOWN)) if contact.any() else np.nan,

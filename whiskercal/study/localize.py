@@ -3,7 +3,9 @@
 The study judges the calibration exactly as a robot would use it: one ``whiskercal.runtime``
 tracker per trial, fed one sample at a time (collision detection, the lookup z -> tip, the
 constant-state Kalman filter). Samples whose z the calibration cannot map (outside its
-calibrated range) get no estimate and are counted.
+calibrated range) get no estimate and are counted. The chip's Z axis goes along when the
+calibration carries a (Y, Z) table (``fit --field-table``); otherwise Y alone, as the lookup
+takes it.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ class Estimates:
     """Samples in contact whose z the calibration refused (out of its range)."""
 
 
-def track(calibration, z_uT: np.ndarray) -> Estimates:
+def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None) -> Estimates:
     """Run a fresh tracker of ``calibration`` over a stream of z (µT, relative to static).
 
     Parameters
@@ -34,6 +36,9 @@ def track(calibration, z_uT: np.ndarray) -> Estimates:
         ``update(z_uT)`` returns a state with ``contact``, ``raw_tip_mm`` and ``filtered_tip_mm``.
     z_uT
         The deflection per sample (µT).
+    axial_uT
+        The chip's Z axis per sample (µT from its static reading), used when the calibration
+        has a ``field_table``.
     """
     # "nan": a z outside the calibrated range gives no raw tip, and the tracker goes on
     tracker = calibration.tracker(out_of_range="nan")
@@ -41,8 +46,12 @@ def track(calibration, z_uT: np.ndarray) -> Estimates:
     contact = np.zeros(n, bool)
     raw = np.full((n, 2), np.nan)
     filtered = np.full((n, 2), np.nan)
+    axial = None
+    if axial_uT is not None and getattr(calibration, "field_table", None) is not None:
+        axial = np.asarray(axial_uT, float)
     for i, z in enumerate(np.asarray(z_uT, float)):
-        state = tracker.update(float(z))
+        state = tracker.update(float(z)) if axial is None else \
+            tracker.update(float(z), float(axial[i]))
         contact[i] = bool(state.contact)
         if state.raw_tip_mm is not None:
             raw[i] = state.raw_tip_mm

@@ -19,6 +19,8 @@ from whiskercal.study.analysis import Criteria, TrialMetrics, TrialSeries, analy
 from whiskercal.study.config import PlaneGeometry
 from whiskercal.study.localize import track
 from whiskercal.rig.overload import SENSOR_AXIS_Y
+
+SENSOR_AXIS_Z = 2
 from whiskercal.study.recorder import measured_positions_mm, stage_position_per_sample
 from whiskercal.study.target import NoTargetError, TargetChoice, choose_target
 
@@ -89,15 +91,17 @@ def trial_series(study: Study, trial: TrialRecord, calibration, threshold_uT: fl
     """
     phase = trial.stream["phase"]
     slide = phase == PHASE_SLIDE
-    static_y = float(np.asarray(trial.attrs.get("static_field_uT",
-                                                 study.header["baseline_field_uT"]))[SENSOR_AXIS_Y])
-    z_all = trial.stream["field_uT"][:, SENSOR_AXIS_Y] - static_y
+    static = np.asarray(trial.attrs.get("static_field_uT", study.header["baseline_field_uT"]),
+                        float)
+    z_all = trial.stream["field_uT"][:, SENSOR_AXIS_Y] - static[SENSOR_AXIS_Y]
+    # the chip's Z axis, for an artifact that carries a (Y, Z) table (runtime.Tracker.update)
+    axial_all = trial.stream["field_uT"][:, SENSOR_AXIS_Z] - static[SENSOR_AXIS_Z]
     stage_mm = stage_position_per_sample(trial.stage, phase.size)
     geometry = PlaneGeometry.from_config(study.config)
     approach = phase == PHASE_APPROACH
     approach_depth = geometry.depth_of_stage_mm(stage_mm[approach],
                                                 study.header["first_contact_stage_mm"])
-    estimates = track(calibration, z_all[slide])
+    estimates = track(calibration, z_all[slide], axial_all[slide])
     along = np.linalg.norm(stage_mm[slide] - stage_mm[slide][:1], axis=1) if slide.any() else np.zeros(0)
     truth = trial.truth
     series = TrialSeries(

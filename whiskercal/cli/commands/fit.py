@@ -79,13 +79,17 @@ def _summary(data, elapsed_s: float) -> dict:
               "informed fit (suspension + elastica solved for a frictionless tip contact), or "
               "auto: the mechanics where the grid pins the suspension down. The mechanics is "
               "fitted either way for the error estimate (docs/calibration.md).")
+@click.option("--field-table", is_flag=True,
+              help="Also fit the suspension and the magnet's field to the Y and Z axes and store "
+              "a (Y, Z) -> tip table: the runtime then places tips pushed with friction or by "
+              "slanted surfaces (docs/calibration.md). Adds a few tens of seconds.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit summary as JSON.")
 @pass_app
 def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, samples: int,
             tracer: str, interpolant: str, trace_length_mm: float | None,
             entry_radius_mm: float | None, max_extension_mm: float | None,
             allow_extrapolation: bool, no_rod_correction: bool, threshold_uT: float,
-            tip_model: str, as_json: bool) -> None:
+            tip_model: str, field_table: bool, as_json: bool) -> None:
     """Fit a raw calibration grid (RAW.h5) and write the calibration artifact.
 
     Fits the surface z = f(x, y), traces the level set f = z from the root for the whisker's
@@ -113,7 +117,8 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
         interpolant=interpolant, trace_length_mm=trace_length_mm,
         entry_radius_mm=entry_radius_mm, allow_extrapolation=allow_extrapolation,
         max_extension_mm=max_extension_mm,
-        rod_correction=not no_rod_correction, threshold_uT=threshold_uT, tip_model=tip_model)
+        rod_correction=not no_rod_correction, threshold_uT=threshold_uT, tip_model=tip_model,
+        field_table=field_table)
     say = (lambda message: click.echo(f"  {message} ...", err=True)) if app.interactive else None
     result = fit(grid, options, say)
     data = result.artifact_data()

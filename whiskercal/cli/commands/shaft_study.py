@@ -94,3 +94,60 @@ def format_table(report) -> str:
 
 def _mm(value: float) -> str:
     return "-" if value is None or math.isnan(value) else f"{value:.3f}"
+
+
+@command.command("plane")
+@click.argument("study_path", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--artifact", "artifact_path", required=True,
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="The calibration artifact (CAL.h5) whose surface localizes the contact.")
+@click.option("--json", "as_json", is_flag=True, help="Print the rows as JSON.")
+@pass_app
+def plane_command(app: App, study_path: Path, artifact_path: Path, as_json: bool) -> None:
+    """Run the shaft localizer over a flat-plane study's shaft (tangential) contacts (twin only)."""
+    from whiskercal import runtime
+    from whiskercal.shaftstudy.plane_phases import plane_phases
+
+    rows = plane_phases(study_path, runtime.load(artifact_path))
+    if as_json:
+        echo_json({"study": str(study_path), "trials": [row.as_dict() for row in rows]})
+        return
+    if not rows:
+        click.echo(f"{study_path}: no trial has contacts on the shaft")
+    for row in rows:
+        click.echo(f"depth {row.depth_mm:g} mm: {row.samples_on_shaft} samples on the shaft, "
+                   f"called shaft {row.called_shaft:.1%}, tip {row.called_tip:.1%}, localized "
+                   f"{row.localized_share:.1%}, median error {_mm(row.median_error_mm)} mm, "
+                   f"rough point {_mm(row.rough_median_error_mm)} mm")
+
+
+@command.command("static")
+@click.argument("study_path", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--grid", "grid_path", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="The raw grid (RAW.h5) the calibration was fitted to: both field axes.")
+@click.option("--artifact", "artifact_path", required=True,
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="The calibration artifact (CAL.h5) of the motion-based localizer.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Directory for shaft_static_yz.png [default: no figure].")
+@click.option("--json", "as_json", is_flag=True, help="Print the rows as JSON.")
+@pass_app
+def static_command(app: App, study_path: Path, grid_path: Path, artifact_path: Path,
+                   out_dir: Path | None, as_json: bool) -> None:
+    """Localize each sample on its own from Y and Z (no motion), against the motion-based one."""
+    from whiskercal import runtime
+    from whiskercal.shaftstudy.static_yz import static_figure, static_study
+
+    rows = static_study(grid_path, study_path, runtime.load(artifact_path))
+    figure = None
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        figure = str(static_figure(rows, out_dir / "shaft_static_yz.png"))
+    if as_json:
+        echo_json({"study": str(study_path), "trials": [row.as_dict() for row in rows],
+                   "figure": figure})
+        return
+    for row in rows:
+        click.echo(f"{row.name:<18} {row.samples:5d} samples: static median "
+                   f"{_mm(row.static_median_mm)} mm (p90 {_mm(row.static_p90_mm)}), motion "
+                   f"{_mm(row.motion_median_mm)} mm")

@@ -1,0 +1,41 @@
+"""Space-fixed tip loads of the forward model against the twin's plane contacts.
+
+A plane tilted 20° with friction 0.4, sliding toward the tip, pushes the tip 1.8° past the wire's
+axis; the twin holds the wire bent toward -y there (the contact the (Y, Z) table must answer).
+"""
+
+import math
+
+import numpy as np
+
+from whiskercal.bench.tip_accuracy import true_suspension
+from whiskercal.mechfit.loadgrid import load_grid, past_axis_loads
+from whiskercal.twin.params import DEFAULT_SENSOR
+from whiskercal.twin.physics import mechanics
+
+
+def _twin_contact(depth_fraction):
+    whisker = DEFAULT_SENSOR.whisker
+    plane = mechanics.plane_for_depth(whisker, depth_fraction * whisker.length_mm, 0.0,
+                                      math.radians(20.0), mu_static=0.4, mu_kinetic=0.4,
+                                      motion_sign=-1)
+    return mechanics.solve_plane(whisker, plane)
+
+
+def test_past_the_axis_the_twins_plane_contact_is_found():
+    eq = _twin_contact(0.07)
+    force = eq.force_n
+    whisker = DEFAULT_SENSOR.whisker
+    alpha = math.degrees(math.atan2(-force[0], -force[1]))
+    size = np.linalg.norm(force) * whisker.length_mm ** 2 / whisker.bending_stiffness_n_mm2
+    assert alpha > 90.0  # past the axis
+    loads = past_axis_loads(true_suspension(DEFAULT_SENSOR), (alpha,), (size,))
+    distance = np.linalg.norm(loads.tip_mm - eq.tip_mm, axis=1)
+    assert distance.min() < 1e-3  # mm
+    assert np.all(loads.pose[:, 0] < 0)  # every solution bent toward -y
+
+
+def test_the_load_grid_starts_at_rest_and_turns_both_ways():
+    grid = load_grid(true_suspension(DEFAULT_SENSOR), magnitudes=(0.1, 0.2), alphas_deg=(0, 45, 90))
+    assert set(np.round(np.degrees(grid.alpha_rad))) == {0.0, 45.0, 90.0}
+    assert np.all(grid.tip_mm[:, 0] < 78.0) and np.all(grid.pose[:, 0] < 0)

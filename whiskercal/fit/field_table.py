@@ -1,0 +1,95 @@
+"""``fit --field-table``: the (Y, Z) -> tip table for realistic tip contacts.
+
+One scalar cannot tell a tip pushed square from one pushed with friction or by a slanted surface
+at the same Y; the chip's Z axis can (docs/calibration.md). The mechanics and a multipole magnet
+map are fitted to the grid's Y and Z together (``mechfit.magnetfit``), solved for tip loads of
+every direction (``mechfit.tables.field_tip_table``), and the tips resampled on a regular
+(Y, Z) grid that the artifact carries in ``/field_table`` and the runtime reads bilinearly.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from whiskercal.artifacts.raw_grid import baseline_y_at
+from whiskercal.errors import UsageError
+from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
+from whiskercal.mechfit.tables import field_tip_table
+from whiskercal.model.calibrate import contact_mask
+
+SENSOR_AXIS_Z = 2
+# the joint fit should explain both axes to about their noise; more says the model does not
+MAX_RESIDUAL_RATIO = 2.0
+# a stiffness ratio four times off that fits within this Δχ² is not excluded by the grid
+MIN_DELTA_CHI2 = 9.0
+
+
+@dataclass
+class FieldTableFit:
+    """The table's arrays for the artifact, its evidence for /metrics, and warnings."""
+
+    table: dict[str, np.ndarray]
+    metrics: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def axial_deflection_uT(raw) -> np.ndarray:
+    """The chip-normal (Z) axis of each grid point's mean, less its static reading (µT), drift
+    interpolated between the baselines as the Y axis' is."""
+    after = raw.baseline_after
+    static = baseline_y_at(raw.t_mid_s, (raw.baseline_before.t_s,
+                                         raw.baseline_before.field_uT[SENSOR_AXIS_Z]),
+                           None if after is None else (after.t_s, after.field_uT[SENSOR_AXIS_Z]))
+    return raw.field_mean_uT[:, SENSOR_AXIS_Z] - static
+
+
+def _noise(raw, used) -> np.ndarray:
+    n = np.sqrt(np.maximum(raw.n_samples[used], 1))
+    return np.array([np.median(raw.z_sem_uT[used]),
+                     np.median(raw.field_std_uT[used, SENSOR_AXIS_Z] / n)])
+
+
+def _identification_warnings(profile: list[dict]) -> list[str]:
+    """A warning when a k_θ·L/EI four times off fits the grid about as well (Δχ² below 9)."""
+    loose = [p["stiffness_ratio"] for p in profile if p["delta_chi2"] < MIN_DELTA_CHI2]
+    if not loose:
+        return []
+    shown = ", ".join(f"{r:.3g}" for r in loose)
+    return [f"the grid's Y and Z do not pin the suspension down (k_theta*L/EI {shown} fits "
+            "about as well as the best); the (Y, Z) table may be off by millimetres"]
+
+
+def fit_field_table(raw, length_mm: float) -> FieldTableFit:
+    """Fit the mechanics and the magnet map to the grid's contacts, and tabulate the tips.
+
+    Raises UsageError when the grid has too few contacts for the fit.
+    """
+    started = time.perf_counter()
+    used = contact_mask(raw.z_uT, raw.z_sem_uT)
+    if used.sum() < 20:
+        raise UsageError(f"a (Y, Z) table needs at least 20 contacts, the grid has {used.sum()}.")
+    fields = np.column_stack([raw.z_uT[used], axial_deflection_uT(raw)[used]])
+    noise = _noise(raw, used)
+    fit = fit_mechanics_magnet(raw.rod_center_mm[used], fields, raw.rod_radius_mm, length_mm,
+                               noise)
+    y_range = (float(fields[:, 0].min()), float(fields[:, 0].max()))
+    table = field_tip_table(fit, y_range)
+    answered = float(np.mean(np.isfinite(table.tips_mm[..., 0])))
+    ratio = fit.rms_uT / noise
+    metrics = {"stiffness_ratio": 1.0 / fit.suspension.rot_compliance,
+               "stub_mm": fit.suspension.stub_mm,
+               "trans_compliance": fit.suspension.trans_compliance,
+               "residual_rms_uT": fit.rms_uT.tolist(), "noise_uT": noise.tolist(),
+               "magnet_map": fit.pose_map.as_dict(), "table_shape": list(table.tips_mm.shape[:2]),
+               "table_answered_fraction": answered, "fit_s": time.perf_counter() - started}
+    profile = fit.starts[-1].get("ratio_profile", [])
+    metrics["ratio_profile"] = profile
+    warnings = _identification_warnings(profile)
+    if not np.all(ratio <= MAX_RESIDUAL_RATIO):
+        warnings.append(f"the (Y, Z) model leaves {np.max(ratio):.1f}x the noise unexplained "
+                        "(a magnet or suspension it cannot describe); its table may be off")
+    return FieldTableFit({"y_uT": table.y_uT, "axial_uT": table.z_uT, "tip_mm": table.tips_mm},
+                         {"field_table": metrics}, warnings)

@@ -1,0 +1,153 @@
+"""The mechanics and the magnet's pose map fitted jointly to the grid's Y and Z.
+
+The polynomial fit (``fit.py``) identifies the suspension from Y; its pose map cannot be trusted
+off the shaft-contact manifold. Here the suspension starts from that fit, the magnet map
+(``magnetmap.py``) is fitted to both axes on its poses, and then both are refined together: the
+outer least squares runs over the three mechanical parameters and the map's seven geometric ones,
+the map's strengths follow by linear least squares at every evaluation (variable projection),
+from two starts (the Y fit, and the Y fit with the usual translational compliance), the better
+kept; when neither explains the grid to twice its noise, from the Y fit's generic starts too.
+The rod contacts are solved only when the mechanics change (a finite-difference step in a
+geometric parameter reuses the last poses), so a refinement costs a few grid solves an iteration.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from whiskercal.errors import UsageError
+from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, ROT_COMPLIANCE_STARTS,
+                                    TRANS_SHARE_START, MechanicsFit, _Objective, _theta_start,
+                                    fit_mechanics)
+from whiskercal.mechfit.magnetmap import (DEFAULT_ORDERS, MagnetPoseMap, _linear_strengths,
+                                          fit_magnet_map, relative_basis)
+
+JOINT_EVALUATIONS = 300
+# residual RMS (in standard errors) above which the fit tries the generic starts too
+UNEXPLAINED_RATIO = 2.0
+# the identification test: k_θ·L/EI held at these multiples of the best fit's
+PROFILE_FACTORS = (0.25, 4.0)
+PROFILE_EVALUATIONS = 120
+
+
+class _JointObjective:
+    """Residuals (standard errors) of (mechanics theta (3), geometry (7)); poses cached per theta."""
+
+    def __init__(self, mechanics: _Objective, fields, weights, orders):
+        self.mechanics, self.fields, self.weights, self.orders = mechanics, fields, weights, orders
+        self._theta, self._solved = None, None
+
+    def poses(self, theta: np.ndarray):
+        if self._theta is None or not np.array_equal(theta, self._theta):
+            self._solved = self.mechanics.solve(theta)
+            self._theta = theta.copy()
+        return self._solved
+
+    def evaluate(self, params: np.ndarray):
+        suspension, poses, in_contact = self.poses(params[:3])
+        basis = relative_basis(params[3:], poses, self.orders)
+        if not np.all(np.isfinite(basis)):
+            return suspension, poses, None, np.full(self.fields.size, 1e6)
+        strengths, scaled = _linear_strengths(basis, self.fields, self.weights)
+        scaled = scaled.reshape(self.fields.shape)
+        scaled[~in_contact] = 1e3
+        return suspension, poses, strengths, scaled.ravel()
+
+    def __call__(self, params: np.ndarray) -> np.ndarray:
+        return self.evaluate(params)[3]
+
+
+def _theta_of(fit: MechanicsFit) -> np.ndarray:
+    """The outer parameters (logs, logistic stub share) of a fitted suspension."""
+    s = fit.suspension
+    share = min(max(s.stub_mm / (s.trace_length_mm * MAX_STUB_FRACTION), 1e-3), 1.0 - 1e-3)
+    return np.array([np.log(s.rot_compliance), np.log(s.trans_compliance),
+                     np.log(share / (1.0 - share))])
+
+
+def _joint_starts(start: MechanicsFit) -> list[np.ndarray]:
+    """The Y fit as it is, and with its translational compliance reset to the usual start: Y
+    alone often cannot tell a shift from a turn (it may leave no shift at all), Z can."""
+    theta = _theta_of(start)
+    reset = theta.copy()
+    reset[1] = theta[0] + np.log(TRANS_SHARE_START)
+    return [theta, reset]
+
+
+def _unexplained(result, n: int) -> bool:
+    """More than twice the noise left on average (the residuals are in standard errors)."""
+    return 2.0 * result.cost / n > UNEXPLAINED_RATIO ** 2
+
+
+def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders):
+    """One joint refinement from mechanics ``theta``: (least-squares result, objective)."""
+    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1)
+    joint = _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
+    first_map, _ = fit_magnet_map(joint.poses(theta)[1], fields, 1.0 / noise, orders)
+    result = least_squares(joint, np.concatenate([theta, first_map.geometry]), diff_step=1e-5,
+                           x_scale=0.1, xtol=1e-10, ftol=1e-10, max_nfev=JOINT_EVALUATIONS)
+    return result, joint
+
+
+def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
+                         trace_length_mm: float, noise_uT, orders=DEFAULT_ORDERS,
+                         start: MechanicsFit | None = None,
+                         profile_factors=PROFILE_FACTORS) -> MechanicsFit:
+    """Fit the suspension and a magnet pose map to a rod grid's Y and Z (n, 2) µT from rest.
+
+    ``start``: a polynomial fit on Y to start from (made here when not given).
+    ``profile_factors``: k_θ·L/EI multiples at which :func:`ratio_profile` tests the fit's
+    identification (in ``starts[-1]["ratio_profile"]``; none when empty). Same arguments
+    otherwise as :func:`whiskercal.mechfit.fit.fit_mechanics`.
+    """
+    started = time.perf_counter()
+    fields = np.asarray(fields_uT, float)
+    if fields.ndim != 2 or fields.shape[1] != 2:
+        raise UsageError("the magnet fit needs the Y and Z axes, (n, 2) µT.")
+    noise = np.broadcast_to(np.asarray(noise_uT, float), (2,))
+    centers = np.asarray(rod_center_mm, float)
+    if start is None:
+        start = fit_mechanics(centers, fields[:, 0], rod_radius_mm, trace_length_mm, noise[0])
+    fits = [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders)
+            for theta in _joint_starts(start)]
+    if _unexplained(min(fits, key=lambda f: f[0].cost)[0], fields.size):
+        # the Y fit led astray (Y alone did not pin the suspension down): the generic starts
+        fits += [_joint_fit(_theta_start(trace_length_mm, rot), centers, fields, noise,
+                            rod_radius_mm, trace_length_mm, orders)
+                 for rot in ROT_COMPLIANCE_STARTS]
+    result, joint = min(fits, key=lambda f: f[0].cost)
+    evaluations = start.evaluations + sum(f[1].mechanics.evaluations for f in fits)
+    suspension, poses, strengths, scaled = joint.evaluate(result.x)
+    pose_map = MagnetPoseMap(result.x[3:].copy(), strengths, tuple(orders), 2)
+    residual = scaled.reshape(fields.shape) / (1.0 / noise)
+    profile = ratio_profile(result, joint) if profile_factors else []
+    return MechanicsFit(suspension, pose_map, poses, residual,
+                        np.sqrt(np.mean(residual ** 2, axis=0)), (0, 1),
+                        time.perf_counter() - started + start.fit_time_s,
+                        evaluations,
+                        start.starts + [{"joint_magnet_cost": float(result.cost),
+                                         "ratio_profile": profile}])
+
+
+def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> list[dict]:
+    """How much worse the grid is fitted with k_θ·L/EI held at ``factors`` times the best's.
+
+    Each point refits everything else (stub, translational compliance, the map's geometry);
+    ``delta_chi2`` is twice the cost increase (residuals in standard errors): below about 9 the
+    grid cannot tell that ratio from the best one.
+    """
+    out = []
+    for factor in factors:
+        fixed = result.x[0] - np.log(factor)  # log rotational compliance = -log ratio
+
+        def residual(rest, fixed=fixed):
+            return joint(np.insert(rest, 0, fixed))
+
+        held = least_squares(residual, np.delete(result.x, 0), diff_step=1e-5, x_scale=0.1,
+                             xtol=1e-8, ftol=1e-8, max_nfev=PROFILE_EVALUATIONS)
+        out.append({"stiffness_ratio": float(np.exp(-fixed)),
+                    "delta_chi2": float(2.0 * (held.cost - result.cost))})
+    return out
