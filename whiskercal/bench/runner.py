@@ -122,6 +122,8 @@ COMPARISONS = {c.name: c for c in (
                _module_run("whiskercal.bench.stability")),
     Comparison("shaft-localizer", "contact anywhere on the shaft: batch Gauss-Newton vs particles",
                _module_run("whiskercal.bench.shaft_localizer")),
+    Comparison("contour-target", "contour error against the deflection target; the follower's "
+               "cost per sample", _module_run("whiskercal.bench.contour_target")),
 )}
 
 
@@ -151,6 +153,10 @@ def _charts(name: str, result: dict, out_dir: Path) -> list[str]:
         from whiskercal.bench.stability_chart import draw_stability
 
         charts.append(draw_stability(result, out_dir / "stability.png").name)
+    if name == "contour-target":
+        from whiskercal.bench.contour_target import draw
+
+        charts.append(draw(result, out_dir / "contour-target.png").name)
     for key, suffix in (("pareto", ""), ("pareto_truth", "-truth"),
                         ("pareto_realistic", "-realistic"), ("pareto_lookup", "-lookup")):
         spec = result.get(key)

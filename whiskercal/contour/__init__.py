@@ -7,22 +7,34 @@ from pathlib import Path
 from typing import Callable
 
 from whiskercal.artifacts.contour_run import ContourRunFile, read_contour_run, write_contour_run
-from whiskercal.contour.report import summarize, write_report
 from whiskercal.contour.run import ContourRun, run_contour
+from whiskercal.contour.summary import summarize
+from whiskercal.contour.target_sweep import target_sweep
 from whiskercal.errors import UsageError
 from whiskercal.follow import FollowConfig
 
-__all__ = ["ContourRun", "contour_to_file", "read_contour_run", "run_contour", "summarize",
-           "write_report"]
+__all__ = ["ContourRun", "contour_record", "contour_to_file", "read_contour_run", "run_contour",
+           "summarize", "target_sweep"]
 
 
-def contour_to_file(shape: str, artifact: str | Path, out: str | Path, *, sensor=None,
-                    target_z_uT: float | None = None, config: FollowConfig = FollowConfig(),
-                    speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
-                    on_progress: Callable[[float], None] | None = None,
-                    stop_requested: Callable[[], bool] | None = None) -> ContourRunFile:
-    """Run the loop on the twin against ``shape`` with the calibration ``artifact`` and write the
-    run to ``out`` (also when stopped early: then ``complete`` is False).
+def contour_to_file(shape: str, artifact: str | Path, out: str | Path, **options) -> ContourRunFile:
+    """Run the loop on the twin against ``shape`` with the calibration ``artifact`` (see
+    :func:`contour_record` for the options) and write the run to ``out``, also when stopped
+    early (then ``complete`` is False)."""
+    record = contour_record(shape, artifact, **options)
+    write_contour_run(out, record)
+    record.path = str(out)
+    return record
+
+
+def contour_record(shape: str, artifact: str | Path, *, sensor=None,
+                   target_z_uT: float | None = None, config: FollowConfig = FollowConfig(),
+                   speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
+                   on_progress: Callable[[float], None] | None = None,
+                   stop_requested: Callable[[], bool] | None = None,
+                   mu_kinetic: float = 0.0) -> ContourRunFile:
+    """Run the loop on the twin against ``shape`` with the calibration ``artifact``; the run,
+    in memory.
 
     ``sensor`` is the twin's build (default: the default sensor); the artifact must be calibrated
     on the same build. ``target_z_uT`` overrides the artifact's deflection target (which
@@ -51,10 +63,9 @@ def contour_to_file(shape: str, artifact: str | Path, out: str | Path, *, sensor
     positive(duration_s, "--duration", unit="s")
     shape_outline = outline(shape)
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
-                      config, duration_s, seed, on_progress, stop_requested)
-    record = ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
-                            float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
-                            run.columns, {"follow": run.config, "artifact": str(artifact)})
-    write_contour_run(out, record)
-    record.path = str(out)
-    return record
+                      config, duration_s, seed, on_progress, stop_requested,
+                      number(mu_kinetic, "--mu-kinetic", low=0.0, high=2.0))
+    return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
+                          float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
+                          run.columns, {"follow": run.config, "artifact": str(artifact),
+                                        "mu_kinetic": float(mu_kinetic)})

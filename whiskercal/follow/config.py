@@ -19,12 +19,22 @@ class FollowConfig:
     kp_mm_s_per_uT, ki_mm_s2_per_uT, kd_mm_per_uT: the PID from the deflection error (z minus the
     target, µT) to the normal speed (mm/s), which is limited to normal_speed_max_mm_s.
     heading_gain_per_s: turn rate per radian of heading error, at most turn_max_rad_s (the
-    sensor turns about the contact, so the tip stays put while it turns). key_every: samples between key
-    points; key_spacing_mm: their least spacing; key_points: how many the B-spline goes through.
+    sensor turns about the contact, so the tip stays put while it turns). key_every: samples
+    between key points; key_spacing_mm: their least spacing; key_points: how many the B-spline
+    goes through.
     slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
     or the raw tip jumping more than slip_jump_mm between samples. press_share: after the first
-    contact the sensor only presses in, until |z| reaches this share of the target's. backoff_s:
-    after losing contact it backs off this long at the approach speed before coming in again.
+    contact the sensor only presses in, until |z| reaches this share of the target's.
+    lost_after_s: a contact counts as lost only after this long without a tip (the sensor holds
+    still meanwhile). backoff_s: after losing contact it backs off this long at the approach
+    speed, then lines the whisker up
+    with the last key point's inward normal (its tip ``search_standoff_mm`` short of it, turning at
+    up to ``search_turn_rad_s``) and comes in again along it. key_noise_mm: the key points'
+    scatter (rms) the B-spline smooths; key_turn_max_deg: the most the surface's direction may
+    turn from one key point to the next (a noisy prediction is believed only that far).
+    slow_heading_deg, stop_heading_deg: when the whisker's heading lags the one the surface asks
+    for by more than the first, the tangential speed falls, reaching zero at the second (it then
+    only turns, about the contact), so that the lag cannot grow in a bend.
     """
 
     rate_hz: float = 300.0
@@ -45,11 +55,21 @@ class FollowConfig:
     slip_jump_mm: float = 3.0
     press_share: float = 0.9
     backoff_s: float = 6.0
+    lost_after_s: float = 0.05
+    search_standoff_mm: float = 10.0
+    search_turn_rad_s: float = 0.3
+    key_noise_mm: float = 0.1
+    key_turn_max_deg: float = 10.0
+    slow_heading_deg: float = 20.0
+    stop_heading_deg: float = 45.0
 
     def __post_init__(self) -> None:
         for item in fields(self):
             low = 0.0 if item.name in _MAY_BE_ZERO else 1e-9
             number(getattr(self, item.name), f"follow config {item.name}", low=low)
+        if self.stop_heading_deg <= self.slow_heading_deg:
+            number(self.stop_heading_deg, "follow config stop_heading_deg (above slow_heading_deg)",
+                   low=self.slow_heading_deg + 1e-9)
         if self.key_points < 4:
             number(self.key_points, "follow config key_points (a cubic B-spline needs 4)", low=4)
 
@@ -58,7 +78,8 @@ class FollowConfig:
         return asdict(self)
 
 
-_MAY_BE_ZERO = {"kp_mm_s_per_uT", "ki_mm_s2_per_uT", "kd_mm_per_uT", "tilt_deg"}
+_MAY_BE_ZERO = {"kp_mm_s_per_uT", "ki_mm_s2_per_uT", "kd_mm_per_uT", "tilt_deg", "key_noise_mm",
+                "search_standoff_mm", "lost_after_s"}
 
 
 def load_follow_config(path: str | Path | None = None) -> FollowConfig:

@@ -19,7 +19,7 @@ from typing import Protocol
 import numpy as np
 
 from whiskercal.follow.config import FollowConfig
-from whiskercal.follow.predictor import predict_next
+from whiskercal.follow.predictor import surface_step
 
 
 class Robot(Protocol):
@@ -35,16 +35,14 @@ class Robot(Protocol):
 @dataclass(frozen=True)
 class Step:
     """What one sample did: the contact point estimated (world, mm; NaN without one), the phase
-    ("approach", "press", "follow", "back-off", "search"), whether a slip was seen, and the commands sent."""
+    ("approach", "press", "follow", "back-off", "search", "gave-up"), whether a slip was seen,
+    and the commands sent."""
 
     contact_mm: np.ndarray
     phase: str
     slip: bool
     velocity_mm_s: np.ndarray
     turn_rad_s: float
-
-
-MAX_TURN_RAD = math.radians(30.0)  # the most the surface's direction may turn between key points
 
 
 def _unit(angle: float) -> np.ndarray:
@@ -65,7 +63,10 @@ class Follower:
         self._last_raw: np.ndarray | None = None
         self.contacted = False
         self.pressed = False
-        self._backing, self._touching = 0, False
+        self.gave_up = False  # a search passed the last key point without finding the surface
+        self._backing, self._touching, self._lined_up = 0, False, False
+        self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
+        self._missing, self._grace = 0, int(round(config.lost_after_s * config.rate_hz))
 
     def update(self, z_uT: float, robot: Robot) -> Step:
         """Feed one z sample (µT from rest); command the robot; return what was done."""
@@ -76,44 +77,88 @@ class Follower:
         tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
         if z_uT * self.target_z_uT < 0 and state.contact:  # bent the other way: the object is on
             tip = None                                     # the whisker's far side, no tip to trust
+        if self.gave_up:  # for good: a person must look at why the surface was not found
+            robot.command(np.zeros(2), 0.0)
+            return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
+        if self._backing > 0:  # backing off is finished even if the wire still touches: it
+            return self._find_contact(robot, pose, slip)  # is leaving the object
+        if tip is None and self._touching and self._missing < self._grace:
+            # a sample or two without a tip (the collision detector's hysteresis near its
+            # threshold, the first touch) is not a lost contact: hold still for a moment
+            self._missing += 1
+            robot.command(np.zeros(2), 0.0)
+            return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, np.zeros(2), 0.0)
         if not self.contacted or tip is None:
             return self._find_contact(robot, pose, slip)
+        self._missing = 0
         contact = _rotation(pose[2]) @ tip + pose[:2]
         self._touching = True
-        if not self.pressed:  # first reach the target deflection, then move along
-            self.pressed = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
-            velocity = self._pid(z_uT) * _unit(pose[2] + math.radians(self.config.tilt_deg))
-            robot.command(velocity, 0.0)
-            return Step(contact, "press", slip, velocity, 0.0)
+        # first reach the target deflection, then move along; while pressing, the tip slides
+        # along the (frictionless) surface, round a bend too, and the heading follows it
+        phase = "follow" if self.pressed else "press"
+        self.pressed |= abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
         self._key_point(contact, pose)
-        velocity, turn = self._action(z_uT, pose)
+        velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
         arm = pose[:2] - contact
         velocity = velocity + turn * np.array([-arm[1], arm[0]])
         robot.command(velocity, turn)
-        return Step(contact, "follow", slip, velocity, turn)
+        return Step(contact, phase, slip, velocity, turn)
 
     # -- pieces ---------------------------------------------------------------------------------
     def _find_contact(self, robot: Robot, pose: np.ndarray, slip: bool) -> Step:
         """No tip: before the first contact move toward the object; after losing one (the tip
         slipped off an edge or past a corner) first back off, so that the wire clears the object,
-        then come in again and press to the target before moving along."""
+        then line up with the last key point and come in again (``_search``), and press to the
+        target before moving along."""
         if self._touching:  # contact just lost (while pressing or following)
             self.pressed, self._backing = False, int(self.config.backoff_s * self.config.rate_hz)
+            self._lined_up = False
         self._touching = False
-        phase = "approach" if not self.contacted else "search"
-        direction = _unit(pose[2] + math.radians(self.config.tilt_deg))
-        if self.contacted and self.keys:  # back toward where the surface was last felt
-            free_tip = pose[:2] + self.reach_mm * _unit(pose[2])
-            toward = self.keys[-1] - free_tip
-            direction = toward / max(float(np.linalg.norm(toward)), 1e-9)
+        self._integral = 0.0
         if self._backing > 0:  # straight back along the whisker: the wire leaves the object
             self._backing -= 1
-            phase, direction = "back-off", -_unit(pose[2])
-        velocity = self.config.approach_speed_mm_s * direction
+            velocity = -self.config.approach_speed_mm_s * _unit(pose[2])
+            robot.command(velocity, 0.0)
+            return Step(np.full(2, np.nan), "back-off", slip, velocity, 0.0)
+        if self.contacted and self.keys and self.tangent is not None:
+            velocity, turn = self._search(pose)
+            robot.command(velocity, turn)
+            return Step(np.full(2, np.nan), "gave-up" if self.gave_up else "search", slip, velocity, turn)
+        phase = "approach" if not self.contacted else "search"
+        velocity = self.config.approach_speed_mm_s * _unit(pose[2] + math.radians(self.config.tilt_deg))
         robot.command(velocity, 0.0)
-        self._integral = 0.0
         return Step(np.full(2, np.nan), phase, slip, velocity, 0.0)
+
+    def _search(self, pose: np.ndarray) -> tuple[np.ndarray, float]:
+        """Come back to the surface where it was last felt, as the first approach did: first
+        bring the free tip to ``search_standoff_mm`` short of the last key point along the line
+        the whisker should lie on there (turning about the tip), then move along that line.
+        Returning straight toward the key point can leave the tip past a corner, or the object
+        on the whisker's far side. When the free tip passes the key point by ``search_standoff_mm``
+        without a contact, the surface is not where it was felt (or the whisker went past it):
+        the sensor stops there for good (``gave_up``) rather than push on into the unknown."""
+        config = self.config
+        heading = self._target_heading()
+        along = _unit(heading)
+        free_tip = pose[:2] + self.reach_mm * _unit(pose[2])
+        start = self.keys[-1] - config.search_standoff_mm * along
+        error_heading = _wrap(heading - pose[2])
+        if not self._lined_up:
+            self._lined_up = (np.linalg.norm(start - free_tip) < 0.5
+                              and abs(error_heading) < math.radians(2.0))
+        if self._lined_up:
+            if (free_tip - self.keys[-1]) @ along > config.search_standoff_mm:
+                self.gave_up = True  # the surface is not where it was felt: stop, do not push on
+                return np.zeros(2), 0.0
+            return config.approach_speed_mm_s * along, 0.0
+        offset = start - free_tip
+        distance = float(np.linalg.norm(offset))
+        tip_velocity = offset * min(config.approach_speed_mm_s / max(distance, 1e-9), config.rate_hz)
+        turn = float(np.clip(3.0 * config.heading_gain_per_s * error_heading,
+                             -config.search_turn_rad_s, config.search_turn_rad_s))
+        arm = pose[:2] - free_tip  # turn about the free tip
+        return tip_velocity + turn * np.array([-arm[1], arm[0]]), turn
 
     def _key_point(self, contact: np.ndarray, pose: np.ndarray) -> None:
         self._samples += 1
@@ -124,24 +169,48 @@ class Follower:
         if self.keys and np.linalg.norm(contact - self.keys[-1]) < self.config.key_spacing_mm:
             return
         self.keys.append(contact)
+        self._bend_mm = self._bend_radius_mm()
         if len(self.keys) >= 2:  # a chord until the spline has its key points
-            keys = np.array(self.keys)
-            step = predict_next(keys) - contact if len(keys) == self.keys.maxlen else keys[-1] - keys[0]
-            length = float(np.linalg.norm(step))
-            # the surface turns smoothly between key points: a prediction that turns back (noise
-            # in a few close key points) would send the sensor away from the object
-            if length > 1e-9 and step @ self.tangent > length * math.cos(MAX_TURN_RAD):
-                self.tangent = step / length
+            self.tangent = self._turned_toward(self._surface_direction())
 
-    def _action(self, z_uT: float, pose: np.ndarray) -> tuple[np.ndarray, float]:
+    def _surface_direction(self) -> np.ndarray:
+        """The step the surface takes next: from the spline's end to its extrapolation (the
+        chord from the first key point to the last until the spline has all its points)."""
+        keys = np.array(self.keys)
+        if len(keys) < self.keys.maxlen:
+            return keys[-1] - keys[0]
+        end, following = surface_step(keys, self.config.key_noise_mm)
+        return following - end
+
+    def _turned_toward(self, step: np.ndarray) -> np.ndarray:
+        """The surface's direction turned toward ``step``, by at most ``key_turn_max_deg``: the
+        surface turns smoothly between key points, and a prediction that turns back (noise in a
+        few close key points) would send the sensor away from the object. Limiting the turn,
+        rather than ignoring such a prediction, cannot leave the direction stuck behind a bend."""
+        if float(np.linalg.norm(step)) < 1e-9:
+            return self.tangent
+        now = math.atan2(self.tangent[1], self.tangent[0])
+        change = _wrap(math.atan2(step[1], step[0]) - now)
+        limit = math.radians(self.config.key_turn_max_deg)
+        return _unit(now + float(np.clip(change, -limit, limit)))
+
+    def _target_heading(self) -> float:
+        """The heading (rad) that leans the whisker ``tilt_deg`` back from the inward normal of
+        the surface's direction (the object on the left)."""
+        inward = np.array([-self.tangent[1], self.tangent[0]])
+        return math.atan2(inward[1], inward[0]) - math.radians(self.config.tilt_deg)
+
+    def _action(self, z_uT: float, pose: np.ndarray, moving: bool = True) -> tuple[np.ndarray, float]:
+        """Velocity (world, mm/s) and turn (rad/s); only toward the object unless ``moving``."""
         config = self.config
         inward = np.array([-self.tangent[1], self.tangent[0]])  # the object lies on the left
-        target_heading = math.atan2(inward[1], inward[0]) - math.radians(config.tilt_deg)
-        error_heading = (target_heading - pose[2] + math.pi) % (2 * math.pi) - math.pi
+        error_heading = _wrap(self._target_heading() - pose[2])
         normal = self._pid(z_uT)
         tangential = math.sqrt(max(config.total_speed_mm_s ** 2 - normal ** 2, 0.0))
-        # around a bend of radius R the heading must turn at v/R: no faster than the turn allows
-        tangential = min(tangential, config.turn_max_rad_s * self._bend_radius_mm())
+        # around a bend of radius R the heading must turn at v/R: no faster than the turn allows,
+        # and slower while the heading lags, so that it catches up before the tip leaves a corner
+        tangential = min(tangential, config.turn_max_rad_s * self._bend_mm)
+        tangential *= _catch_up_share(abs(error_heading), config) if moving else 0.0
         turn = float(np.clip(config.heading_gain_per_s * error_heading, -config.turn_max_rad_s,
                              config.turn_max_rad_s))
         return tangential * self.tangent + normal * inward, turn
@@ -182,6 +251,18 @@ class Follower:
         if dropped:
             self._recent_z.clear()
         return bool(dropped or jumped)
+
+
+def _wrap(angle: float) -> float:
+    """``angle`` (rad) in [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def _catch_up_share(lag_rad: float, config: FollowConfig) -> float:
+    """The share of the tangential speed kept while the heading lags by ``lag_rad``: all of it
+    up to ``slow_heading_deg``, none from ``stop_heading_deg``, linear between."""
+    slow, stop = math.radians(config.slow_heading_deg), math.radians(config.stop_heading_deg)
+    return float(np.clip((stop - lag_rad) / (stop - slow), 0.0, 1.0))
 
 
 def _rotation(angle: float) -> np.ndarray:

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from whiskercal.errors import UsageError
 from whiskercal.twin.outlines import Outline
 from whiskercal.twin.physics.obstacles import Circle, Polygon
 from whiskercal.twin.physics.sensor import TwinPhysics
@@ -61,16 +62,27 @@ class MobileSensor:
     """
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
-                 limits: RobotLimits = RobotLimits()) -> None:
+                 limits: RobotLimits = RobotLimits(), mu_kinetic: float = 0.0) -> None:
         self.physics = TwinPhysics(sensor)
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
+        if mu_kinetic and isinstance(self._obstacle, Circle):
+            raise UsageError("friction is modelled on polygon edges only, not on the cylinder")
+        self.mu_kinetic = float(mu_kinetic)
+        self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
         self._pose = np.asarray(pose, float).copy()
         self._velocity, self._turn = np.zeros(2), 0.0
         self._noise_uT = float(sensor.magnetometer.noise_uT_rms[1])
         self._rest_y = float(self.physics.field_uT(self.physics.free())[1])
         self._rng = np.random.default_rng(seed)
-        self._previous = None
+        self._previous, self._dt_s = None, 0.0
+        # edges farther than this from the base cannot meet the whisker (mm; see _near_part)
+        self._keep_mm = float(sensor.whisker.reach_mm) + NEAR_MARGIN_MM
+        self._near = None  # (base position, first edge, count) of the last near run
+        if isinstance(self._obstacle, Polygon):
+            vertices = self._obstacle.vertices_mm
+            edge = np.roll(vertices, -1, axis=0) - vertices
+            self._edges = vertices, edge, (edge * edge).sum(axis=1)
 
     # -- the Robot interface -----------------------------------------------------------------
     def pose(self) -> np.ndarray:
@@ -91,23 +103,88 @@ class MobileSensor:
         """Move for ``dt_s`` s under the last command, then measure."""
         self._pose[:2] += self._velocity * dt_s
         self._pose[2] += self._turn * dt_s
-        equilibrium = self.physics.solve_shape(self._seen_from_sensor(), self._previous)
+        obstacle, first = self._seen_from_sensor()
+        count = len(getattr(self._obstacle, "vertices_mm", ()))
+        equilibrium = self.physics.solve_shape(obstacle, _reindexed(self._previous, -first, count))
+        equilibrium = _reindexed(equilibrium, first, count)
         self._previous = equilibrium
         z = float(self.physics.field_uT(equilibrium)[1]) - self._rest_y
         z += float(self._rng.normal(0.0, self._noise_uT))
-        return MobileSample(z, equilibrium.kind, self.to_world(equilibrium.tip_mm),
-                            self.to_world(equilibrium.contact_mm))
+        tip = self.to_world(equilibrium.tip_mm)
+        self._tips = (self._tips[1], tip if equilibrium.kind == "tip" else None)
+        self._dt_s = dt_s
+        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm))
+
+    def _sliding_mm_s(self) -> tuple[float, float]:
+        """The object's surface velocity past the tip (sensor frame, mm/s), from the tip's motion
+        over the last step (the object stands still in the world); zero without two tips."""
+        before, last = self._tips
+        if before is None or last is None or not self._dt_s:
+            return (0.0, 0.0)
+        moving = rotation(-self._pose[2]) @ (before - last) / self._dt_s
+        return (float(moving[0]), float(moving[1]))
 
     def to_world(self, point_mm) -> np.ndarray:
         """A point of the sensor's base frame in the world frame."""
         return rotation(self._pose[2]) @ np.asarray(point_mm, float) + self._pose[:2]
 
     def _seen_from_sensor(self):
-        """The object in the sensor's base frame. The contact model takes it as pushing from the
-        whisker's +y side, where the follower keeps it; a whisker driven round to the object's
-        other side is beyond what it models (the follower backs off when it reads z of the other
-        sign)."""
+        """The object in the sensor's base frame, and the index in the whole outline of its first
+        vertex. The contact model takes it as pushing from the whisker's +y side, where the
+        follower keeps it; a whisker driven round to the object's other side is beyond what it
+        models (the follower backs off when it reads z of the other sign)."""
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
         if isinstance(self._obstacle, Circle):
-            return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin))
-        return Polygon((self._obstacle.vertices_mm - origin) @ turn.T)
+            return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin)), 0
+        first, vertices = self._near_part(origin)
+        if self.mu_kinetic:
+            return Polygon((vertices - origin) @ turn.T, mu_kinetic=self.mu_kinetic,
+                           sliding_mm_s=self._sliding_mm_s()), first
+        return Polygon((vertices - origin) @ turn.T), first
+
+    def _near_part(self, origin: np.ndarray) -> tuple[int, np.ndarray]:
+        """The run of the outline's edges that come within ``_keep_mm`` of the sensor's base, as
+        a convex polygon (closed by a chord inside the object), and the index of its first vertex.
+
+        The whisker never reaches farther than its reach from the base, and it can only get
+        into the part cut off through edges farther than that, so the contact is the same; the
+        solve, whose cost grows with the number of edges, is faster. The whole
+        outline is kept without a warm start (the solver then brings the object in from where it
+        first touches the straight whisker, up to the margin's 40 mm away), or when the near
+        edges are not one run.
+        """
+        vertices = self._obstacle.vertices_mm
+        warm = self._previous is not None and len(self._previous.solution) > 3
+        if self._near is None or np.linalg.norm(origin - self._near[0]) > NEAR_REUSE_MM:
+            self._near = (origin.copy(), *self._near_run(origin))
+        _, first, count = self._near
+        if not warm or first is None or count < 2:  # a polygon needs three vertices
+            return 0, vertices
+        if (self._previous.solution[-1] - first) % len(vertices) >= count:  # its contact is not
+            return 0, vertices                                                # among the near edges
+        return first, vertices[(first + np.arange(count + 1)) % len(vertices)]
+
+    def _near_run(self, origin: np.ndarray) -> tuple[int | None, int]:
+        """First index and number of the edges within ``_keep_mm`` + NEAR_REUSE_MM of
+        ``origin`` (so that the run still holds while the base stays within NEAR_REUSE_MM of
+        it); (None, 0) when they are not one run."""
+        vertices, edge, length2 = self._edges
+        share = np.clip(((origin - vertices) * edge).sum(axis=1) / length2, 0.0, 1.0)
+        nearest = vertices + share[:, None] * edge - origin
+        near = (nearest * nearest).sum(axis=1) <= (self._keep_mm + NEAR_REUSE_MM) ** 2
+        starts = np.flatnonzero(near & ~np.roll(near, 1))
+        return (int(starts[0]), int(near.sum())) if len(starts) == 1 else (None, 0)
+
+
+NEAR_MARGIN_MM = 40.0
+NEAR_REUSE_MM = 2.0
+
+
+def _reindexed(equilibrium, shift: int, count: int):
+    """``equilibrium`` with the polygon corner/edge index of its warm start moved by ``shift``
+    (modulo the outline's ``count`` vertices: between the whole outline's numbering and a near
+    part's); a circle's has none."""
+    if equilibrium is None or len(equilibrium.solution) <= 3 or shift == 0:
+        return equilibrium
+    *head, index = equilibrium.solution
+    return replace(equilibrium, solution=(*head, (index + shift) % count))

@@ -19,6 +19,7 @@ from whiskercal.errors import UsageError
 # kinetic values were then tuned with the study sweep in docs/twin.md ("Mechanics").
 DEFAULT_MU_STATIC = 0.30
 DEFAULT_MU_KINETIC = 0.22
+SLIDE_DEADBAND_MM_S = 0.5  # a polygon's surface slower past the tip than this: no friction
 # The study's plane: its normal tilted about 20° from the whisker axis (reference/README.md).
 DEFAULT_PLANE_TILT_RAD = math.radians(20.0)
 # The study's stage moves the plane toward -tangent (the tip is dragged toward +y): with it the
@@ -163,10 +164,19 @@ class Circle:
 
 @dataclass(frozen=True)
 class Polygon:
-    """A convex polygon obstacle, frictionless; vertices in counter-clockwise order (mm)."""
+    """A convex polygon obstacle; vertices in counter-clockwise order (mm).
+
+    Frictionless unless ``mu_kinetic`` > 0 and the surface slides past the tip: then a tip on an
+    edge feels kinetic friction, mu_kinetic times the normal force, dragging it along
+    ``sliding_mm_s`` (the surface's velocity relative to the tip, same frame) when that
+    velocity's component along the edge exceeds ``SLIDE_DEADBAND_MM_S``. There is no static
+    friction (no sticking): a model of steady sliding only.
+    """
 
     vertices_mm: np.ndarray
     side: int = 1
+    mu_kinetic: float = 0.0
+    sliding_mm_s: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         vertices = np.asarray(self.vertices_mm, dtype=float)
@@ -174,26 +184,41 @@ class Polygon:
             raise UsageError("a polygon needs at least three (x, y) vertices in mm.")
         if not np.all(np.isfinite(vertices)):
             raise UsageError("polygon vertices must be finite numbers (mm).")
-        edges = np.roll(vertices, -1, axis=0) - vertices
-        turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] \
-            - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+        edges = _following(vertices) - vertices
+        after = _following(edges)
+        turns = edges[:, 0] * after[:, 1] - edges[:, 1] * after[:, 0]
         if np.any(turns <= 0):
             raise UsageError("polygon vertices must be convex and counter-clockwise.")
         object.__setattr__(self, "vertices_mm", vertices)
         _check_side(self.side)
+        finite_number("polygon mu_kinetic", self.mu_kinetic, 0.0)
+        finite_point("polygon sliding_mm_s", self.sliding_mm_s)
 
-    @property
+    def friction_along(self, index: int) -> float:
+        """Signed kinetic friction ratio F_t/F_n on a tip sliding on edge ``index`` (the
+        tangential direction is the edge's normal turned +90°), 0 when it does not slide."""
+        if self.mu_kinetic == 0.0:
+            return 0.0
+        normal = self.outward_normals[index]
+        along = -normal[1] * self.sliding_mm_s[0] + normal[0] * self.sliding_mm_s[1]
+        return math.copysign(self.mu_kinetic, along) if abs(along) > SLIDE_DEADBAND_MM_S else 0.0
+
+    @cached_property
     def outward_normals(self) -> np.ndarray:
-        """Unit outward normal of each edge i (from vertex i to i+1), shape (k, 2)."""
-        edges = np.roll(self.vertices_mm, -1, axis=0) - self.vertices_mm
+        """Unit outward normal of each edge i (from vertex i to i+1), shape (k, 2); computed
+        once (the contact solver asks for it many times per pose)."""
+        edges = _following(self.vertices_mm) - self.vertices_mm
         normals = np.column_stack([edges[:, 1], -edges[:, 0]])
         return normals / np.linalg.norm(normals, axis=1, keepdims=True)
 
+    @cached_property
+    def edge_offsets_mm(self) -> np.ndarray:
+        """n_i·v_i of each edge i: a point p lies outside edge i's line when n_i·p exceeds it."""
+        return np.einsum("ij,ij->i", self.outward_normals, self.vertices_mm)
+
     def depth_mm(self, points_mm: np.ndarray) -> np.ndarray:
         """How far each point lies inside the polygon (negative outside), shape (n,)."""
-        normals = self.outward_normals
-        offsets = np.einsum("ij,ij->i", normals, self.vertices_mm)
-        return np.min(offsets[None, :] - points_mm @ normals.T, axis=1)
+        return np.min(self.edge_offsets_mm[None, :] - points_mm @ self.outward_normals.T, axis=1)
 
     def moved(self, offset_mm: np.ndarray) -> "Polygon":
         """The same polygon moved by `offset_mm`."""
@@ -208,8 +233,7 @@ class Polygon:
         deeper than `tol_mm`? (Separating axes: the edge normals and each segment's normal.)"""
         points = np.asarray(points_mm, dtype=float)
         starts, ends = points[:-1], points[1:]
-        normals = self.outward_normals
-        offsets = np.einsum("ij,ij->i", normals, self.vertices_mm)
+        normals, offsets = self.outward_normals, self.edge_offsets_mm
         outside = np.minimum(starts @ normals.T, ends @ normals.T) - offsets >= -tol_mm
         separated = np.any(outside, axis=1)
         direction = ends - starts
@@ -218,6 +242,12 @@ class Polygon:
         signed = across @ self.vertices_mm.T - np.einsum("ij,ij->i", across, starts)[:, None]
         separated |= np.all(signed >= -tol_mm, axis=1) | np.all(signed <= tol_mm, axis=1)
         return bool(not np.all(separated))
+
+
+def _following(rows: np.ndarray) -> np.ndarray:
+    """Row i + 1 at row i, the last row followed by the first (``np.roll(rows, -1, axis=0)``,
+    without its overhead: polygons are built at every pose of a moving scene)."""
+    return np.concatenate([rows[1:], rows[:1]])
 
 
 def regular_polygon(center_mm, circumradius_mm: float, n_sides: int,

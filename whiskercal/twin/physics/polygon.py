@@ -8,6 +8,8 @@ edge) the other candidates are tried from the same starting state and the physic
 
 from __future__ import annotations
 
+import functools
+import itertools
 import math
 from dataclasses import replace
 
@@ -34,6 +36,7 @@ def _params(whisker, polygon: Polygon, code: int, index: int) -> np.ndarray:
         normal = polygon.outward_normals[index]
         p[el.P_NX], p[el.P_NY] = normal
         p[el.P_OFFSET] = normal @ vertices[index] / whisker.length_mm
+        p[el.P_MU] = polygon.friction_along(index)
     else:
         p[el.P_AX], p[el.P_AY] = vertices[index] / whisker.length_mm
     return p
@@ -61,7 +64,8 @@ def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
             return False
     elif code == el.TIP_LINE:
         tip = np.array([tip_x, tip_y]) * whisker.length_mm
-        start, end = polygon.vertices_mm[index], np.roll(polygon.vertices_mm, -1, axis=0)[index]
+        vertices = polygon.vertices_mm
+        start, end = vertices[index], vertices[(index + 1) % len(vertices)]
         along = (tip - start) @ (end - start) / ((end - start) @ (end - start))
         if not (force @ normals[index] > 0.0 and 0.0 <= along <= 1.0):
             return False
@@ -77,7 +81,9 @@ def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
 def _solve_pose(whisker, polygon: Polygon, state):
     """From state (code, index, z): the physical state at this pose, or None."""
     code, index, z = state
-    order = [(code, index)] + [c for c in _candidates(polygon, index) if c != (code, index)]
+    # lazily: the contact the last pose had usually still holds, and listing every other
+    # candidate of a many-edged polygon would cost more than solving it
+    order = itertools.chain([(code, index)], (c for c in _candidates(polygon, index) if c != (code, index)))
     for cand_code, cand_index in order:
         p = _params(whisker, polygon, cand_code, cand_index)
         start = np.append(z[:3], z[3] if len(z) > 3 else 0.999) \
@@ -130,7 +136,7 @@ def _edge_heights_at(vertices, x):
 
 
 def _shifted(polygon: Polygon, shift_mm: float) -> Polygon:
-    return Polygon(polygon.vertices_mm + np.array([0.0, polygon.side * shift_mm]), polygon.side)
+    return replace(polygon, vertices_mm=polygon.vertices_mm + np.array([0.0, polygon.side * shift_mm]))
 
 
 def _advance(whisker, polygon: Polygon, state, shift_from: float, shift_to: float,
@@ -160,6 +166,14 @@ def _path(whisker, polygon: Polygon):
     return state
 
 
+@functools.lru_cache(maxsize=8)
+def _undeflected(whisker) -> np.ndarray:
+    """The straight whisker's segment from its clamp to its tip (mm), per build (read-only)."""
+    line = free(whisker).shape_mm(2)[1:]
+    line.setflags(write=False)
+    return line
+
+
 def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
                   ) -> Equilibrium:
     """Equilibrium against a frictionless convex polygon (see the module's docstring).
@@ -168,8 +182,7 @@ def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
     touches the undeflected whisker. Returns kind "shaft", "tip" or "free".
     """
     check_whisker(whisker)
-    undeflected = free(whisker).shape_mm(2)[1:]
-    if not polygon.crosses_polyline(undeflected, 0.0):
+    if not polygon.crosses_polyline(_undeflected(whisker), 0.0):
         return free(whisker)  # frictionless: with nothing in the way the wire springs back
     if previous is not None and previous.slipped_past:
         return previous

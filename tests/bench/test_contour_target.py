@@ -1,0 +1,32 @@
+"""``bench --only contour-target``: contour error against the deflection target."""
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from whiskercal.bench.contour_target import _targets
+from whiskercal.cli import cli
+
+
+def test_the_targets_span_the_range_keep_the_chosen_one_and_list_those_past_the_range():
+    run, beyond = _targets(-5011.0, -9539.0, quick=False)
+    assert run == [-4000.0, -5000.0, -5011.0, -6000.0, -7000.0, -8000.0, -9000.0]
+    assert beyond == [-10000.0, -11000.0, -12000.0]
+    run, beyond = _targets(4200.0, 12500.0, quick=True)  # a positive target keeps its sign
+    assert run == [4200.0, 8000.0] and beyond == []
+
+
+@pytest.mark.slow
+def test_the_quick_comparison_runs_the_loop_at_each_target_and_draws_the_chart(tmp_path):
+    result = CliRunner().invoke(cli, ["bench", "--quick", "--only", "contour-target", "--out",
+                                      str(tmp_path), "--json"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    found = json.loads((tmp_path / "contour-target.json").read_text())
+    chosen = found["chosen_target_z_uT"]
+    assert [row["target_z_uT"] for row in found["rows"]] == [chosen, -8000.0]
+    for row in found["rows"]:  # measured against the twin's outline, no alignment
+        assert row["shape"] == "cylinder" and 0.0 < row["mean_error_mm"] < 1.0
+        assert row["control_ms_mean"] > 0.0
+    assert found["supports"]["target_z_uT"] == chosen
+    assert (tmp_path / "contour-target.png").read_bytes().startswith(b"\x89PNG")

@@ -1,0 +1,165 @@
+"""The controller's corner logic on synthetic key points, with a kinematic robot (no twin)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from whiskercal.follow import FollowConfig, Follower, surface_step
+from whiskercal.runtime import TrackerState
+
+
+class KinematicRobot:
+    """Integrates the commands exactly: a robot with no object, no limits."""
+
+    def __init__(self, pose):
+        self._pose = np.asarray(pose, float)
+        self.velocity, self.turn = np.zeros(2), 0.0
+
+    def pose(self):
+        return self._pose.copy()
+
+    def command(self, velocity_mm_s, turn_rad_s):
+        self.velocity, self.turn = np.asarray(velocity_mm_s, float), float(turn_rad_s)
+
+    def step(self, dt_s):
+        self._pose[:2] += self.velocity * dt_s
+        self._pose[2] += self.turn * dt_s
+
+
+class NoContact:
+    """A tracker that never feels anything (the whisker is off the object)."""
+
+    def update(self, z_uT):
+        return TrackerState(False, None, None)
+
+
+def _follower_that_lost_contact(config):
+    """A follower that followed the x axis (object above it) and has just lost the surface."""
+    follower = Follower(NoContact(), -5000.0, config, reach_mm=78.0)
+    follower.contacted, follower._touching, follower.pressed = True, True, True
+    follower.keys.extend(np.column_stack([np.arange(6) * 2.0, np.zeros(6)]))
+    follower.tangent = np.array([1.0, 0.0])
+    return follower
+
+
+def test_the_smoothing_spline_steadies_the_predicted_direction_on_noisy_key_points():
+    rng = np.random.default_rng(7)
+    angles = np.arange(6) * 2.0 / 40.0  # 2 mm apart on a 40 mm corner arc
+    exact = 40.0 * np.column_stack([np.cos(angles), np.sin(angles)])
+    true_direction = angles[-1] + math.pi / 2 + 1.0 / 40.0  # half a step further round
+    misses = {0.0: [], 0.1: []}
+    for _ in range(200):
+        noisy = exact + rng.normal(0.0, 0.1, exact.shape)  # mm
+        for noise_mm in misses:
+            end, following = surface_step(noisy, noise_mm)
+            step = following - end
+            miss = (math.atan2(step[1], step[0]) - true_direction + math.pi) % (2 * math.pi) - math.pi
+            misses[noise_mm].append(miss)
+    rms = {k: math.degrees(float(np.sqrt(np.mean(np.square(v))))) for k, v in misses.items()}
+    assert rms[0.1] < 0.6 * rms[0.0]  # deg: the smoothed spline scatters far less
+    assert rms[0.1] < 8.0
+
+
+def test_a_prediction_that_turns_far_moves_the_direction_only_a_little_but_is_not_ignored():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    turned = follower._turned_toward(np.array([math.cos(1.2), math.sin(1.2)]))  # 69 deg away
+    assert math.degrees(math.atan2(turned[1], turned[0])) == pytest.approx(config.key_turn_max_deg, abs=1e-9)
+
+
+def test_a_heading_that_lags_the_surface_slows_the_tangential_speed_until_it_stops():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    target = follower._target_heading()  # 70 deg: the whisker leans 20 deg back from +y
+    speeds = []
+    for lag_deg in (0.0, config.slow_heading_deg, 30.0, config.stop_heading_deg, 60.0):
+        follower._integral, follower._last_error = 0.0, None
+        velocity, turn = follower._action(-5000.0, np.array([0.0, -80.0, target - math.radians(lag_deg)]))
+        speeds.append(float(velocity @ follower.tangent))
+        if lag_deg:
+            assert turn == config.turn_max_rad_s  # turning toward the surface's heading
+    assert speeds[0] == pytest.approx(config.total_speed_mm_s) == pytest.approx(speeds[1])
+    assert speeds[2] == pytest.approx(speeds[0] * (45.0 - 30.0) / (45.0 - 20.0))
+    assert speeds[3] == speeds[4] == 0.0
+
+
+def test_after_losing_contact_it_backs_off_then_comes_in_along_the_last_key_points_normal():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    # the whisker had swung 40 deg past the heading the surface asks for (70 deg)
+    robot = KinematicRobot([10.0 - 78.0 * math.cos(0.5), -78.0 * math.sin(0.5), 0.5])
+    dt, phases, tips = 1.0 / config.rate_hz, [], []
+    for _ in range(int(20 * config.rate_hz)):
+        phases.append(follower.update(0.0, robot).phase)
+        robot.step(dt)
+        pose = robot.pose()
+        tips.append(pose[:2] + 78.0 * np.array([math.cos(pose[2]), math.sin(pose[2])]))
+    held = int(round(config.lost_after_s * config.rate_hz))  # a short gap is not a loss
+    assert phases[:held] == ["follow"] * held and phases[held] == "back-off"
+    assert "search" in phases
+    assert phases.count("back-off") == int(config.backoff_s * config.rate_hz)
+    heading = robot.pose()[2]
+    assert math.degrees(heading) == pytest.approx(70.0, abs=2.0)
+    # the free tip was brought to 10 mm short of the last key point (10, 0) on the line of that
+    # heading, outside the object, and then moved along that line toward the key point
+    along = np.array([math.cos(heading), math.sin(heading)])
+    start = np.array([10.0, 0.0]) - config.search_standoff_mm * along
+    assert min(np.linalg.norm(np.array(tips) - start, axis=1)) < 0.6
+    offset = tips[-1] - start
+    assert abs(offset @ np.array([-along[1], along[0]])) < 0.6  # mm off the line
+    assert offset @ along > 5.0
+
+
+def test_while_pressing_it_turns_toward_the_surface_but_does_not_move_along_it():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    lagging = follower._target_heading() - math.radians(30.0)
+    velocity, turn = follower._action(-3000.0, np.array([0.0, -80.0, lagging]), moving=False)
+    assert turn == config.turn_max_rad_s  # the heading follows the sliding tip
+    assert velocity @ follower.tangent == pytest.approx(0.0, abs=1e-12)
+    assert velocity @ np.array([0.0, 1.0]) > 0.0  # pressing toward the object (above the x axis)
+
+
+def test_a_tip_missing_for_a_few_samples_holds_still_and_does_not_count_as_lost():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    robot = KinematicRobot([0.0, -80.0, follower._target_heading()])
+    steps = [follower.update(0.0, robot) for _ in range(int(round(config.lost_after_s * config.rate_hz)))]
+    assert all(step.phase == "follow" and not np.any(step.velocity_mm_s) for step in steps)
+    assert follower._backing == 0  # not backing off: the contact is not lost yet
+    assert follower.update(0.0, robot).phase == "back-off"
+
+
+def test_a_search_that_passes_the_last_key_point_without_a_contact_stops_for_good():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    robot = KinematicRobot([10.0 - 78.0 * math.cos(1.2), -78.0 * math.sin(1.2), 1.2])
+    dt, phases = 1.0 / config.rate_hz, []
+    for _ in range(int(30 * config.rate_hz)):  # no object: the surface is never found again
+        phases.append(follower.update(0.0, robot).phase)
+        robot.step(dt)
+    pose = robot.pose()
+    tip = pose[:2] + 78.0 * np.array([math.cos(pose[2]), math.sin(pose[2])])
+    along = np.array([math.cos(pose[2]), math.sin(pose[2])])
+    assert follower.gave_up and phases[-1] == "gave-up" and "search" in phases
+    assert (tip - np.array([10.0, 0.0])) @ along == pytest.approx(config.search_standoff_mm, abs=0.1)
+    assert not np.any(robot.velocity) and robot.turn == 0.0  # stopped
+    assert follower.update(-5000.0, robot).phase == "gave-up"  # and stays stopped
+
+
+class Touching:
+    """A tracker that always feels a tip 70 mm along the whisker, 30 mm to its right."""
+
+    def update(self, z_uT):
+        return TrackerState(True, np.array([70.0, -30.0]), np.array([70.0, -30.0]))
+
+
+def test_backing_off_goes_on_for_its_whole_time_even_if_the_wire_still_touches():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)
+    follower._backing, follower._touching = 30, False  # backing off, 30 samples left
+    follower.tracker = Touching()
+    robot = KinematicRobot([0.0, -80.0, follower._target_heading()])
+    phases = [follower.update(-5000.0, robot).phase for _ in range(31)]
+    assert phases[:30] == ["back-off"] * 30 and phases[30] != "back-off"

@@ -1,0 +1,123 @@
+"""The study's rule checked on the closed loop: contour error against the deflection target.
+
+The default sensor's recorded grid (``data/twin-paper-75mm``) is fitted with the defaults and
+given the target its recorded flat-plane study chooses (``optimal-depth``); then the contour
+loop runs on the twin round each object at a range of targets (|z| from 4 to 9 mT, the sign
+of the chosen one, and the chosen one itself), each run measured against the object's true
+outline without alignment. Targets past the calibrated range (|z| above its end, about
+9.5 mT here) are listed, not run: the lookup has no tip to give there. The same runs measure
+the controller's own cost per sample (the twin's solve not included) against the sensor's
+3.3 ms period.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+import whiskercal
+from whiskercal.errors import UsageError
+from whiskercal.plotting import pyplot, save_png
+
+DATASET = Path(whiskercal.__file__).resolve().parents[1] / "data" / "twin-paper-75mm"
+MAGNITUDES_UT = (4000.0, 5000.0, 6000.0, 7000.0, 8000.0, 9000.0, 10000.0, 11000.0, 12000.0)
+PERIOD_MS = 1000.0 / 300.0
+
+
+def calibration_with_target(folder: Path, dataset: Path = DATASET) -> Path:
+    """The dataset's grid fitted with the defaults, its study's chosen target written in."""
+    from whiskercal import runtime
+    from whiskercal.artifacts.raw_grid import read_raw_grid
+    from whiskercal.fit import fit
+    from whiskercal.study.artifact_target import write_target
+    from whiskercal.study.report import build_report
+
+    if not (dataset / "raw_grid.h5").exists() or not (dataset / "plane_study.h5").exists():
+        raise UsageError(f"{dataset} holds no raw_grid.h5 and plane_study.h5: the contour-target "
+                         "comparison runs from a source checkout with its data/")
+    plain = fit(read_raw_grid(dataset / "raw_grid.h5")).write(folder / "calibration.h5")
+    report = build_report(dataset / "plane_study.h5", runtime.load(plain))
+    return write_target(plain, folder / "calibration-target.h5", report.choice, report.study.sha256)
+
+
+def _targets(chosen_uT: float, range_end_uT: float, quick: bool) -> tuple[list[float], list[float]]:
+    """Targets to run (µT, the chosen one included) and those past the calibrated range."""
+    sign = float(np.sign(chosen_uT))
+    magnitudes = (8000.0,) if quick else MAGNITUDES_UT
+    inside = [sign * m for m in magnitudes if m <= abs(range_end_uT)]
+    beyond = [sign * m for m in magnitudes if m > abs(range_end_uT)]
+    return sorted(set(inside) | {float(chosen_uT)}, key=abs), beyond
+
+
+def run(quick: bool = False, progress=None) -> dict:
+    """Contour error against target (rows), the controller's cost, JSON-able."""
+    from whiskercal import runtime
+    from whiskercal.contour import target_sweep
+
+    with tempfile.TemporaryDirectory(prefix="whiskercal-contour-target-") as folder:
+        artifact = calibration_with_target(Path(folder))
+        calibration = runtime.load(artifact)
+        chosen, range_end = float(calibration.target_z_uT), float(calibration.z_range_uT[0])
+        targets, beyond = _targets(chosen, range_end, quick)
+        shapes = ("cylinder",) if quick else ("cylinder", "rounded-rect", "octagon")
+        rows = target_sweep(artifact, targets, shapes, duration_s=8.0 if quick else 120.0,
+                            on_row=progress)
+    for row in rows:
+        row["default"] = row["target_z_uT"] == chosen
+    return {"rows": rows, "chosen_target_z_uT": chosen, "calibrated_range_end_uT": range_end,
+            "beyond_range_uT": beyond, "controller": _controller_cost(rows),
+            "supports": _supports(rows, chosen)}
+
+
+def _controller_cost(rows: list[dict]) -> dict:
+    mean = float(np.mean([r["control_ms_mean"] for r in rows]))
+    slowest = float(np.max([r["control_ms_max"] for r in rows]))
+    return {"mean_ms_per_sample": mean, "slowest_sample_ms": slowest, "period_ms": PERIOD_MS,
+            "mean_share_of_period": mean / PERIOD_MS}
+
+
+def _supports(rows: list[dict], chosen: float) -> dict:
+    best = {}
+    for shape in dict.fromkeys(r["shape"] for r in rows):
+        mine = [r for r in rows if r["shape"] == shape and r["coverage"] >= 0.95]
+        if mine:
+            best[shape] = min(mine, key=lambda r: r["mean_error_mm"])["target_z_uT"]
+    chosen_rows = [r for r in rows if r["target_z_uT"] == chosen]
+    return {"target_z_uT": chosen, "best_target_z_uT": best,
+            "chosen_mean_error_mm": {r["shape"]: r["mean_error_mm"] for r in chosen_rows},
+            "controller_ms_per_sample": _controller_cost(rows)["mean_ms_per_sample"],
+            "rule": "the target optimal-depth chose should give a contour error at or near the "
+                    "lowest of the targets run (runs that covered < 95 % of the outline do not count)"}
+
+
+def draw(result: dict, path: Path) -> Path:
+    """Mean contour error (no alignment) against |target|, one line per object; the chosen
+    target marked, runs that did not go round hollow, the calibrated range's end drawn."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    rows = result["rows"]
+    for shape in dict.fromkeys(r["shape"] for r in rows):
+        mine = sorted((r for r in rows if r["shape"] == shape), key=lambda r: abs(r["target_z_uT"]))
+        x = np.array([abs(r["target_z_uT"]) / 1000.0 for r in mine])
+        y = np.array([r["mean_error_mm"] for r in mine])
+        went_round = np.array([r["coverage"] >= 0.95 for r in mine])
+        line, = ax.plot(x, y, "-", lw=1, label=shape)
+        ax.plot(x[went_round], y[went_round], "o", color=line.get_color())
+        ax.plot(x[~went_round], y[~went_round], "o", mfc="none", color=line.get_color())
+    ax.axvline(abs(result["chosen_target_z_uT"]) / 1000.0, color="k", ls="--", lw=1,
+               label="optimal-depth's target")
+    ax.axvline(abs(result["calibrated_range_end_uT"]) / 1000.0, color="grey", ls=":", lw=1,
+               label="end of the calibrated range")
+    errors = np.array([r["mean_error_mm"] for r in rows], float)
+    errors = errors[np.isfinite(errors) & (errors > 0)]
+    if errors.size and errors.max() > 20 * errors.min():  # a run that lost the surface
+        ax.set_yscale("log")
+    else:
+        ax.set_ylim(bottom=0.0)
+    ax.set_xlabel("|deflection target| (mT)")
+    ax.set_ylabel("mean contour error, no alignment (mm)")
+    ax.set_title("contour error against the deflection target (hollow: covered < 95 %)")
+    ax.legend(fontsize=7)
+    return save_png(fig, path)
