@@ -16,6 +16,11 @@ accelerations, travel and homing settings, the switches at the negative end: ``$
 EEPROM that leaves is kept in the build directory next to the image and loaded at every
 power-up; what a host changes over the port (``$10=0``, say) is kept when the port is opened
 again, as the chip's EEPROM keeps it.
+
+grbl answers some lines long after they arrive and in silence meanwhile (``$H`` after its
+debounce pauses, ``G4`` after the moves before it and the dwell, the line that raised an alarm
+after the reset), so while a line is unanswered the board steps time in small quanta: its answer
+reaches the host when grbl sends it, not when the host's read times out.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from pathlib import Path
 from serial.serialutil import SerialException
 
 from whiskercal.atomic import write_text
+from whiskercal.twin.devices.avr_board import QUANTUM_S
 from whiskercal.twin.devices.avr_harness import F_CPU_HZ, AvrHarness, grbl_image
 from whiskercal.twin.devices.avr_stage import AvrStageBoard
 from whiskercal.twin.devices.stage import DEFAULT_SETTINGS, StageFaults
@@ -114,6 +120,34 @@ class GrblStageBoard(AvrStageBoard):
         self.image = grbl_image(homing)
         self.eeprom = owner_eeprom(self.image) if self.image.is_file() else b""
         super().__init__(start_mm, now_s, backlash_mm, faults)
+
+    def _start(self, t: float) -> None:
+        self._unanswered = 0  # lines grbl has taken and not yet answered with ok or error:N
+        self._output = bytearray()
+        super()._start(t)
+
+    def receive(self, data: bytes, t: float) -> None:
+        """Bytes from the host at time ``t``; its lines are counted until answered."""
+        self._unanswered += data.count(b"\n")
+        super().receive(data, t)
+
+    def _put_on_line(self, sent: list[tuple[int, int]]) -> None:
+        super()._put_on_line(sent)
+        self._output += bytes(byte for _, byte in sent)
+        *lines, rest = bytes(self._output).split(b"\n")
+        self._output = bytearray(rest)
+        for line in lines:
+            if line.startswith((b"ok", b"error:")):
+                self._unanswered = max(self._unanswered - 1, 0)
+            elif line.startswith(b"Grbl "):
+                self._unanswered = 0  # a reset: grbl dropped what it had not taken
+
+    def next_event_s(self) -> float | None:
+        """As any emulated board's; and a quantum ahead while a line waits for its answer."""
+        event = super().next_event_s()
+        if event is None and self._unanswered > 0:
+            return self.now_s + QUANTUM_S
+        return event
 
     def _make_harness(self) -> AvrHarness:
         harness = AvrHarness(self.kind, self._answer, self._report, image=self.image, pins=self.pins)
