@@ -42,6 +42,11 @@ SCENARIOS: dict[str, dict] = {
                   {"poll": 1, "check_mpos": True}, {"send": "G90 G0 X10\n", "until": OK, "after_s": 0.3},
                   {"send": "\x18", "wait_s": 1.0}, {"send": "\x18", "until": LOCKED}, {"poll": 1, "check_mpos": True}],
     },
+    "home_polled": {
+        "homing": "xy", "what": "? every second during $H: grbl's homing cycle serves no status request",
+        "steps": [BOOT, {"send": "$H\n", "wait_s": 0.5}, {"poll_until": "^Idle$", "every_s": 1.0, "timeout_s": 40,
+                                                                 "count_reports": True}],
+    },
     "status_wpos": {
         "homing": "xy", "what": "? with $10=1 (MPos) and $10=0 (WPos, WCO every few reports), G92 offset",
         "steps": [BOOT, UNLOCK, {"send": "G91 G1 X-5 Y-3 F600\n", "until": OK},

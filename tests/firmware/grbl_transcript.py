@@ -14,8 +14,9 @@ Steps (each a dict):
 - ``{"poll": N, "every_s": S}``: ``?`` N times;
 - ``{"wait_s": S}``: read for S seconds.
 
-Any step may add ``"after_s"`` (read that much longer) and ``"check_mpos": true`` (the step's last
-MPos is compared, not only its line kinds).
+Any step may add ``"after_s"`` (read that much longer), ``"check_mpos": true`` (the step's last
+MPos is compared, not only its line kinds) and ``"count_reports": true`` (every status report of
+the step counts, not only changes of state).
 """
 
 from __future__ import annotations
@@ -151,14 +152,16 @@ def kind(line: str) -> str | None:
     return f"other:{line}"
 
 
-def step_kinds(entries: list[dict], step: int) -> list[str]:
-    """The kinds of the board's lines in one step, repeated status states counted once."""
+def step_kinds(entries: list[dict], step: int, every_report: bool = False) -> list[str]:
+    """The kinds of the board's lines in one step, repeated status states counted once (unless
+    ``every_report``)."""
     kinds: list[str] = []
     for entry in entries:
         if entry["dir"] != "board" or entry["step"] != step:
             continue
         k = kind(entry["bytes"])
-        if k is not None and not (k.startswith("status:") and kinds and kinds[-1] == k):
+        repeated = k is not None and k.startswith("status:") and kinds and kinds[-1] == k
+        if k is not None and (every_report or not repeated):
             kinds.append(k)
     return kinds
 

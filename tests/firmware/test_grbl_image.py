@@ -88,7 +88,7 @@ def test_stock_config_homing_is_one_clear_line_not_a_hang():
     stage.close()
 
 
-def _collect(tmp_path, stage_query):
+def _collect(tmp_path, stage_query, wpos_reports=False):
     from whiskercal.artifacts.raw_grid import read_raw_grid
     from whiskercal.collect.config import load_config
     from whiskercal.collect.plan import build_plan
@@ -98,18 +98,24 @@ def _collect(tmp_path, stage_query):
     config_path.write_text(SMALL_GRID)
     plan = build_plan(load_config(config_path))
     name, out = f"grblgrid{uuid.uuid4().hex[:8]}", tmp_path / f"raw{uuid.uuid4().hex[:6]}.h5"
-    summary = collect(f"sim://{name}/stage?seed=11" + stage_query, f"sim://{name}/sensor", out, plan)
+    stage_url = f"sim://{name}/stage?seed=11" + stage_query
+    if wpos_reports:  # the board's owner left $10=0 (WPos reports); the EEPROM keeps it
+        with StageClient(stage_url, timeout_s=5.0) as board:
+            board.identify()
+            board.set_setting(10, 0)
+    summary = collect(stage_url, f"sim://{name}/sensor", out, plan)
     return summary, read_raw_grid(out)
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason="the client does not map the grid into grbl's negative machine "
                    "space yet (issue 19, item 1, being built in rig/ and session/)")
-def test_small_grid_through_stock_grbl_matches_the_python_boards(tmp_path):
+@pytest.mark.parametrize("wpos_reports", [False, True], ids=["mpos", "wpos"])
+def test_small_grid_through_stock_grbl_matches_the_python_boards(tmp_path, wpos_reports):
     grbl_or_skip("xy")
     _, python = _collect(tmp_path, "")
     started = time.perf_counter()
-    summary, grbl = _collect(tmp_path, "&firmware=grbl&homing=xy")
+    summary, grbl = _collect(tmp_path, "&firmware=grbl&homing=xy", wpos_reports)
     print(f"grbl grid: {time.perf_counter() - started:.1f} s wall")
     assert summary.complete and summary.dropped == 0 and summary.corrupt == 0
     np.testing.assert_array_equal(grbl.plan_index, python.plan_index)

@@ -31,7 +31,7 @@ def _step_of(header, key, value):
 
 def test_every_behaviour_has_a_transcript():
     names = {path.stem for path in transcripts()}
-    assert names >= {"banner_settings", "home_stock_config", "home_xy", "status_wpos", "feed_hold", "dwell",
+    assert names >= {"banner_settings", "home_stock_config", "home_xy", "home_polled", "status_wpos", "feed_hold", "dwell",
                       "soft_limit", "error_codes"}
 
 
@@ -97,6 +97,17 @@ def test_stock_config_homing_fails_on_the_missing_z_switch():
     seek_mm_s, accel = 500 / 60, 10.0
     assert alarm - sent == pytest.approx(1.5 * 200 / seek_mm_s + seek_mm_s / accel, abs=0.1)
     assert step_kinds(entries, home + 1) == ["status:Alarm"]
+
+
+def test_homing_serves_no_status_request_until_it_ends():
+    header, entries = _load("home_polled")
+    polls = _step_of(header, "poll_until", "^Idle$")
+    asked = [e["t"] for e in entries if e["step"] == polls and e["dir"] == "host"]
+    reports = [e for e in entries if e["step"] == polls and e["bytes"].startswith("<")]
+    ok = next(e["t"] for e in entries if e["bytes"] == "ok\r\n")
+    assert len(asked) >= 20  # a '?' every second for 25 s ...
+    assert reports[0]["bytes"].startswith("<Home|") and ok - reports[0]["t"] < 0.05  # ... one answer, at the end
+    assert [r["bytes"][:5] for r in reports] == ["<Home", "<Idle"]
 
 
 def test_wpos_plus_wco_is_the_machine_position():

@@ -18,6 +18,8 @@ NOT_YET = {
     "error_codes": "$Q is error:3 (grbl: 2), G20 G21 error:20 (21), N99999999 error:15 (27), G2 without F "
                    "error:20 (22), T300 error:20 (38)",
     "home_stock_config": "no ok for $H 500 ms after ALARM:9, before the reset's banner",
+    "home_polled": "the twin answers every '?' during homing; grbl's homing cycle answers none until it ends "
+                   "(one <Home|...> report with the final MPos, just before the ok)",
     "home_xy": NEGATIVE_SPACE + "; +10 mm after homing is accepted (grbl: ALARM:2), and a reset during the "
                                 "500 ms after an alarm is not lost",
     "soft_limit": "a target beyond the travel is accepted or error:15; grbl raises ALARM:2, waits 500 ms, says "

@@ -29,7 +29,8 @@ def differences(header: dict, recorded: list[dict], replayed: list[dict]) -> lis
     found = []
     for index, step in enumerate(header["steps"]):
         what = step.get("send", step.get("poll_until", step.get("poll", step.get("wait_s"))))
-        grbl, other = step_kinds(recorded, index), step_kinds(replayed, index)
+        every = bool(step.get("count_reports"))
+        grbl, other = step_kinds(recorded, index, every), step_kinds(replayed, index, every)
         if grbl != other:
             found.append(f"{header['name']} step {index} ({what!r}): grbl {grbl}, replay {other}")
         if step.get("check_mpos"):
