@@ -46,7 +46,7 @@ def test_image_repeats_its_transcript(name):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["feed_hold", "dwell", "home_xy", "home_stock_config"])
+@pytest.mark.parametrize("name", ["feed_hold", "dwell", "home_xy", "home_stock_config", "home_polled"])
 def test_image_repeats_its_motion_transcript(name):
     assert _image_replay(name) == []
 
