@@ -75,6 +75,23 @@ def test_xy_homing_and_moves_reach_the_twins_positions():
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=False, reason="the client resets at once after ALARM:2; grbl drops a reset sent in "
+                   "the 500 ms before [MSG:Reset to continue] (issue 19, item 1, being built in rig/)")
+def test_client_recovers_from_a_soft_limit_alarm_on_the_image():
+    grbl_or_skip("xy")
+    port, stage = _stage("firmware=grbl&homing=xy")
+    stage.identify()
+    stage.unlock()
+    with pytest.raises(StageAlarmError) as raised:
+        stage.move_to(10.0, 0.0, 3000.0)  # +10 mm: beyond grbl's -200..0 machine space
+    assert raised.value.code == StageAlarm.SOFT_LIMIT
+    assert stage.reset().startswith("Grbl 1.1h")
+    stage.unlock()
+    assert stage.status().idle
+    stage.close()
+
+
+@pytest.mark.slow
 def test_stock_config_homing_is_one_clear_line_not_a_hang():
     grbl_or_skip("")
     port, stage = _stage("firmware=grbl")
