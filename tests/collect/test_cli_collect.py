@@ -79,6 +79,10 @@ def test_dry_run_reads_the_travel_from_a_connected_stage(tmp_path):
     assert result.exit_code == 0, result.output
     # the twin's stage reports its own $130/$131 travel, which replaces the configured one
     assert json.loads(result.output)["travel_mm"] == [200.0, 200.0]
+    stock = invoke("--dry-run", "--json", "--config", str(config),
+                   "--stage", f"sim://d{uuid.uuid4().hex[:8]}/stage?stock=1&homing=xy")
+    # stock grbl works in -200..0 and homing leaves it at -199 ($27 = 1 mm), whiskercal's 0
+    assert json.loads(stock.output)["travel_mm"] == [199.0, 199.0]
 
 
 def test_progress_is_drawn_only_on_a_watched_terminal(monkeypatch):

@@ -143,11 +143,11 @@ def test_the_twin_reports_wpos_and_wco_when_dollar_10_asks_and_the_client_follow
     stage.identify()
     stage.command("$10=0")
     stage.unlock()
-    stage.move_to(12.0, 7.0, 1200)
+    stage.move_to(-12.0, -7.0, 1200)  # stock grbl's machine space is -travel..0
     stage.wait_idle(10)
     reports = [stage.status() for _ in range(25)]
     assert reports[-1].idle
-    np.testing.assert_allclose(reports[-1].mpos_mm, [12.0, 7.0], atol=1e-3)
+    np.testing.assert_allclose(reports[-1].mpos_mm, [-12.0, -7.0], atol=1e-3)
     assert all(report.wco_mm is not None for report in reports)
 
 
@@ -163,7 +163,8 @@ def test_stock_grbl_answers_g4_after_the_queued_moves_and_the_dwell_and_the_clie
         stage.identify()
         stage.unlock()
         start = stage.transport.now_s()
-        stage.move_to(60.0, 0.0, 1200)  # 3 s of motion at 20 mm/s (plus the ramps)
+        # 3 s of motion at 20 mm/s (plus the ramps); stock grbl works in -travel..0
+        stage.move_to(-60.0 if stock else 60.0, 0.0, 1200)
         stage.dwell(1.0)
         times[stock] = stage.transport.now_s() - start
         assert stage.status().idle == stock  # grbl's ok means the moves and the dwell are done

@@ -262,17 +262,38 @@ def test_a_failing_sensor_does_not_keep_the_stage_from_being_stopped():
     assert stage.log[-2:] == ["!", "reset"]
 
 
-def test_a_stage_that_works_in_negative_machine_space_is_refused_before_any_move():
-    class StockGrblSpace(Stage):
-        def identify(self) -> StageIdentity:
-            return StageIdentity("1.1h.20190825", "", "V", None, False)  # stock: no encoders
+class StockGrblSpace(Stage):
+    """A stock grbl 1.1 board homing X and Y toward their minimum ($23=3): machine -199 after $H."""
 
-        def home(self) -> None:
-            super().home()
-            self.position = np.array([-1.0, -1.0])  # grbl: machine zero at the switches, pulled off
+    def __init__(self, homed_mm=(-199.0, -199.0)) -> None:
+        super().__init__()
+        self.homed_mm = np.asarray(homed_mm, float)
 
+    def identify(self) -> StageIdentity:
+        return StageIdentity("1.1h.20190825", "", "V", None, False)  # stock: no encoders
+
+    def settings(self) -> dict[int, float]:
+        return {20: 1, 22: 1, 23: 3, 27: 1.0, 100: 80.0, 101: 80.0, 130: 200.0, 131: 200.0}
+
+    def home(self) -> None:
+        super().home()
+        self.position = self.homed_mm.copy()
+
+
+def test_a_stock_board_in_negative_machine_space_is_mapped_not_refused():
     stage = StockGrblSpace()
-    with pytest.raises(DeviceError, match=r"-travel\.\.0.*HOMING_FORCE_SET_ORIGIN"):
+    with open_session(stage, config=dataclasses.replace(CONFIG, home=True)) as rig:
+        assert rig.travel_mm == (199.0, 199.0)  # predicted from $$ before homing
+        rig.start()
+        assert stage.space.layout.startswith("stock")
+        np.testing.assert_allclose(stage.space.origin_mm, [-199.0, -199.0])
+        np.testing.assert_allclose(stage.space.to_machine([10.0, 20.0]), [-189.0, -179.0])
+        assert rig.travel_mm == (199.0, 199.0)  # stage 0..199 is grbl's -199..0
+
+
+def test_a_board_homed_where_no_layout_puts_it_is_refused_before_any_move():
+    stage = StockGrblSpace(homed_mm=(-1.0, -1.0))  # $23=3 says -199; a force-set origin says 0
+    with pytest.raises(DeviceError, match=r"fits neither stock grbl 1\.1.*HOMING_FORCE_SET_ORIGIN"):
         with open_session(stage, config=dataclasses.replace(CONFIG, home=True)) as rig:
             rig.start()
     assert not any(entry.startswith("G") for entry in stage.log)

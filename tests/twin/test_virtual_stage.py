@@ -237,13 +237,13 @@ def test_stock_grbl_does_not_notice_missed_steps():
 
     world = _world(stock=True, stage_faults=StageFaults(missed_steps_at_s=0.5))
     stage = StageClient(f"sim://{world.name}/stage")
-    stage.unlock()
-    stage.move_to(80, 0, 3000)
+    stage.unlock()  # unhomed, stock grbl's machine space is still -travel..0 from power-up
+    stage.move_to(0, -80, 3000)
     final = stage.wait_idle(10)
-    assert final.idle and final.mpos_mm[0] == 80
+    assert final.idle and final.mpos_mm[1] == -80
     # the ground truth knows the carriage is 1 mm short
     start = np.asarray(world.config.stage_start_mm)
-    assert world.stage_true_mm(world.now_s)[0] - start[0] == pytest.approx(79, abs=0.02)
+    assert start[1] - world.stage_true_mm(world.now_s)[1] == pytest.approx(79, abs=0.02)
 
 
 def test_backlash_is_cancelled_by_approaching_from_one_side():

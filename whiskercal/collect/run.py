@@ -235,9 +235,21 @@ def _beyond_guard_warning(collector: Collector) -> str | None:
             "and were skipped: the grid stops where this build nears the sensor's safe range")
 
 
-def read_stage_settings(stage_port) -> dict[int, float]:
-    """Open the stage only to read its settings (for ``--dry-run``), then close it."""
+def read_stage_settings(stage_port) -> tuple[dict[int, float], tuple[float, float] | None]:
+    """Open the stage only to read its settings (for ``--dry-run``), then close it.
+
+    Returns the settings and the travel in stage coordinates (mm; None when the board does not
+    state $130/$131): the board's own on whiskercal's firmware, the part of grbl's workspace
+    from whiskercal's origin up on a stock board (``rig.machine_space``, its layout before homing).
+    """
+    from whiskercal.rig.machine_space import machine_space
     from whiskercal.rig.stage import StageClient
 
     with StageClient(stage_port) as stage:
-        return stage.settings()
+        whiskercal_firmware = stage.identify().whiskercal_firmware
+        settings = stage.settings()
+    if 130 not in settings or 131 not in settings:
+        return settings, None
+    if whiskercal_firmware:
+        return settings, (settings[130], settings[131])
+    return settings, machine_space(settings).travel_mm

@@ -7,6 +7,7 @@ commands in order; pushed ``ALARM:N`` lines raise :class:`StageAlarmError` where
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 from typing import Callable
@@ -15,6 +16,7 @@ import numpy as np
 
 from whiskercal.errors import DeviceError
 from whiskercal.protocol.codes import StageAlarm, describe
+from whiskercal.rig.machine_space import MachineSpace
 from whiskercal.rig.transport import DeviceTimeout, Transport, open_port
 
 _STATUS = re.compile(r"^<([^|>]+)((?:\|[^|>]*)*)>$")
@@ -25,6 +27,10 @@ _POLL_INTERVAL_S = 0.02
 _MAX_LINE_BYTES = 256
 STATUS_TRIES = 3  # '?' sent again when unanswered (grbl drops it during an alarm's pause)
 LATE_REPORT_WAIT_S = 0.05
+# grbl 1.1's limit alarms stop everything until a reset; it says so with this message first
+CRITICAL_ALARMS = (StageAlarm.HARD_LIMIT, StageAlarm.SOFT_LIMIT)
+RESET_TO_CONTINUE = "[MSG:Reset to continue]"
+ALARM_LOCK_MESSAGE = "[MSG:'$H'|'$X' to unlock]"
 
 
 class StageAlarmError(DeviceError):
@@ -38,7 +44,8 @@ class StageAlarmError(DeviceError):
 
 HOMING_HINT = ("stock grbl 1.1 homes Z first and a two-axis stage has no Z switch: build grbl "
                "with the X-and-Y homing cycle in config.h (docs/stage.md), or set $22=0, put the "
-               "stage at its origin by hand and collect with [motion] home = false")
+               "stage at its origin by hand and collect with [motion] home = false; a board that "
+               "homes X and Y finds no switch when $23 sends an axis away from it")
 
 
 class StageCommandError(DeviceError):
@@ -52,7 +59,8 @@ class StageCommandError(DeviceError):
 
 @dataclass(frozen=True)
 class StageStatus:
-    """One status report. Positions in mm (machine coordinates); ``enc_mm`` is None on stock grbl."""
+    """One status report. Positions in mm, in the stage's coordinates: the board's machine
+    coordinates, mapped by ``StageClient.space`` when one is set; ``enc_mm`` is None on stock grbl."""
 
     state: str
     mpos_mm: np.ndarray
@@ -184,6 +192,10 @@ class StageClient:
         self._pending = bytearray()
         self.banner: str | None = None
         self.work_offset_mm: np.ndarray | None = None  # grbl's last WCO (x, y), mm
+        # where stage coordinates lie in the board's machine space (a stock grbl board's layout,
+        # rig.machine_space); None: they are the board's machine coordinates (whiskercal's firmware)
+        self.space: MachineSpace | None = None
+        self._reset_awaited = False  # grbl printed "Reset to continue": only a reset goes on
 
     def close(self) -> None:
         """Close the port. Nothing is sent: a stage that is moving keeps moving (see
@@ -218,6 +230,7 @@ class StageClient:
             if line.startswith("Grbl "):
                 self.banner = line
                 continue
+            self._note_message(line)
             if line and not line.startswith("[MSG:"):
                 return line
 
@@ -254,8 +267,14 @@ class StageClient:
                 self._drain_pushes(LATE_REPORT_WAIT_S)
             status = parse_status(line, self.work_offset_mm)
             self.work_offset_mm = status.wco_mm  # grbl sends WCO only every few reports
-            return status
+            return self._in_stage_coordinates(status)
         raise AssertionError("unreachable")
+
+    def _in_stage_coordinates(self, status: StageStatus) -> StageStatus:
+        if self.space is None:
+            return status
+        enc = None if status.enc_mm is None else self.space.to_stage(status.enc_mm)
+        return dataclasses.replace(status, mpos_mm=self.space.to_stage(status.mpos_mm), enc_mm=enc)
 
     def _status_line(self, timeout_s: float) -> str:
         while True:
@@ -297,10 +316,20 @@ class StageClient:
 
     # -- motion -----------------------------------------------------------------------------
     def move_to(self, x_mm: float, y_mm: float, feed_mm_min: float) -> None:
-        """Queue a linear move to machine position (x, y) mm at ``feed_mm_min``; returns at ``ok``."""
+        """Queue a linear move to stage position (x, y) mm at ``feed_mm_min``; returns at ``ok``.
+
+        With a :attr:`space` the target is mapped into the board's machine space, checked
+        against its workspace (DeviceError, nothing sent) and sent in machine coordinates
+        (``G53``), whatever work offset the board holds.
+        """
         if feed_mm_min <= 0:
             raise ValueError(f"feed rate must be positive, got {feed_mm_min} mm/min")
-        self.command(f"G90 G1 X{x_mm:.3f} Y{y_mm:.3f} F{feed_mm_min:.1f}")
+        if self.space is None:
+            self.command(f"G90 G1 X{x_mm:.3f} Y{y_mm:.3f} F{feed_mm_min:.1f}")
+            return
+        x_mm, y_mm = self.space.to_machine([x_mm, y_mm])
+        self.space.check([x_mm, y_mm], self.transport.name)
+        self.command(f"G90 G53 G1 X{x_mm:.3f} Y{y_mm:.3f} F{feed_mm_min:.1f}")
 
     def dwell(self, seconds: float, queued_motion_s: float = 60.0) -> None:
         """Dwell ``seconds`` s after the queued moves.
@@ -363,11 +392,41 @@ class StageClient:
         """Soft reset (0x18): stop at once, flush the queue; returns the banner."""
         self.transport.write(b"\x18")
         self._pending.clear()
+        self._reset_awaited = False
         while True:
             line = self._read_line(timeout_s, "the soft reset")
             if line.startswith("Grbl "):
                 self.banner = line
                 return line
+
+    def recover(self, code: int, timeout_s: float = 5.0) -> None:
+        """Bring the board back from ``ALARM:code`` in grbl 1.1's order.
+
+        After a limit alarm (1, 2) grbl prints ``[MSG:Reset to continue]`` and ignores everything
+        but a reset, and a reset that arrives before that message is lost; so the message is
+        waited for (``timeout_s``, s), then the reset (0x18) and its banner, then
+        ``[MSG:'$H'|'$X' to unlock]``, then ``$X``. A soft limit keeps the position (grbl stops
+        with a feed hold first); after a hard limit (1) the board stays locked: re-home it.
+        """
+        if code in CRITICAL_ALARMS and not self._reset_awaited:
+            self._wait_for_message(RESET_TO_CONTINUE, timeout_s)
+        self.reset(timeout_s)
+        self._wait_for_message(ALARM_LOCK_MESSAGE, timeout_s)
+        if code != StageAlarm.HARD_LIMIT:
+            self.unlock()
+
+    def _wait_for_message(self, message: str, timeout_s: float) -> None:
+        while True:
+            line = self._read_line(timeout_s, repr(message))
+            if line.startswith("Grbl "):
+                self.banner = line
+            self._note_message(line)
+            if line == message:
+                return
+
+    def _note_message(self, line: str) -> None:
+        if line == RESET_TO_CONTINUE:
+            self._reset_awaited = True
 
     def _wait_for_banner(self, wait_s: float) -> None:
         deadline = self.transport.now_s() + wait_s
@@ -380,6 +439,7 @@ class StageClient:
         self._pending += self.transport.read_some(_MAX_LINE_BYTES, wait_s)
         while b"\n" in self._pending:
             line = self._read_line(0.0, "a pushed message")
+            self._note_message(line)
             if line.startswith("ALARM:"):
                 raise StageAlarmError(_code(line), self.transport.name)
             if line.startswith("Grbl "):

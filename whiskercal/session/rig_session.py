@@ -29,8 +29,10 @@ import numpy as np
 from whiskercal.errors import DeviceError
 from whiskercal.protocol.codes import StageAlarm
 from whiskercal.protocol.sensor_config import SensorConfig
+from whiskercal.rig.machine_space import MachineSpace
+from whiskercal.rig.machine_space import machine_space as board_space
 from whiskercal.rig.sensor import SampleBlock
-from whiskercal.rig.stage import StageAlarmError, StageStatus
+from whiskercal.rig.stage import CRITICAL_ALARMS, StageAlarmError, StageStatus
 from whiskercal.session.frame import RigFrame, outside_travel
 
 # How much sensor time each status poll waits for while the stage moves, s.
@@ -181,8 +183,20 @@ class RigSession:
         return getattr(getattr(self.sensor, "transport", None), "port", None)
 
     @property
+    def machine_space(self) -> MachineSpace | None:
+        """Where stage coordinates lie in a stock grbl board's machine space (``rig.machine_space``):
+        the layout found at homing, or before it the one its ``$$`` predicts; None for
+        whiskercal's firmware, whose machine coordinates are the stage coordinates."""
+        if self.devices.stage.get("proto", "") is not None:  # whiskercal's firmware, or unknown
+            return None
+        return getattr(self.stage, "space", None) or board_space(self.devices.stage_settings)
+
+    @property
     def travel_mm(self) -> tuple[float, float]:
-        """The stage's travel (mm): its own $130/$131 when it states them, else the configured."""
+        """The stage's travel (mm): how far stage coordinates run from 0 inside the board's
+        workspace; its own $130/$131 when it states them, else the configured."""
+        if self.machine_space is not None:
+            return self.machine_space.travel_mm
         values = [self.devices.stage_settings.get(n) for n in TRAVEL_SETTINGS]
         if all(v is not None for v in values):
             return float(values[0]), float(values[1])
@@ -199,14 +213,32 @@ class RigSession:
         self._start_stream()
 
     def _prepare_stage(self) -> None:
+        stock = self.machine_space is not None
+        if stock:
+            self.stage.space = None  # a client used before keeps no earlier board's mapping
         if self.config.home:
             self.stage.home()
-            if not self.devices.has_encoder:  # a stock grbl board may work in -travel..0
-                _refuse_negative_machine_space(self.stage.status().mpos_mm)
-            return
-        if self.stage.status().alarm:
+        elif self.stage.status().alarm:
             raise DeviceError(f"stage is in alarm (not homed); home it ($H) or set "
                               f"{self.config.home_setting} = true in the configuration")
+        if stock:
+            self.stage.space = self._map_machine_space()
+
+    def _map_machine_space(self) -> MachineSpace:
+        """The stock board's layout, from its settings and where homing left it; a board whose
+        position lies outside the workspace that layout gives cannot be mapped."""
+        here_mm = np.asarray(self.stage.status().mpos_mm, float)[:2]
+        homed = self.config.home
+        space = board_space(self.devices.stage_settings, here_mm if homed else None,
+                            None if homed else here_mm)
+        if np.any(here_mm < space.low_mm - 1e-3) or np.any(here_mm > space.high_mm + 1e-3):
+            raise DeviceError(
+                f"the stage's machine position {np.round(here_mm, 3).tolist()} mm lies outside the "
+                f"workspace its settings give ({space.layout}: x {space.low_mm[0]:g}..{space.high_mm[0]:g}, "
+                f"y {space.low_mm[1]:g}..{space.high_mm[1]:g} mm); "
+                + ("check $22, $23, $27 and $130/$131" if self.config.home else
+                   f"home it with {self.config.home_setting} = true") + " (docs/stage.md)")
+        return space
 
     def _start_stream(self) -> None:
         settings = self.config.sensor
@@ -261,11 +293,25 @@ class RigSession:
             return self.stage.wait_idle(self.config.move_timeout_s,
                                         on_poll=on_poll or self.read_while_waiting)
         except StageAlarmError as error:
+            if error.code in CRITICAL_ALARMS:
+                self._recover_from_limit(error)
             if error.code != StageAlarm.ENCODER_MISMATCH:
                 raise
             raise EncoderMismatchError(
                 f"stage encoder and step positions disagree{where} (ALARM:100): missed steps or a "
                 "stall; re-home the stage and continue with --resume") from error
+
+    def _recover_from_limit(self, error: StageAlarmError) -> None:
+        """A limit alarm pauses grbl until a reset: run grbl's recovery (``StageClient.recover``)
+        and stop the run with what happened; the position is kept after a soft limit."""
+        try:
+            self.stage.recover(error.code)
+        except DeviceError as failed:
+            raise DeviceError(f"{error}; recovering from it failed: {failed}") from error
+        after = ("the stage was reset and unlocked at the same position; check $130/$131 and the "
+                 "rig's frame, then continue with --resume" if error.code == StageAlarm.SOFT_LIMIT
+                 else "the stage was reset and stays locked: home it, then continue with --resume")
+        raise DeviceError(f"{error}; {after}") from error
 
     def read_while_waiting(self, status: StageStatus) -> None:
         """Between status polls: read one poll period of samples into :attr:`sink`, so the
@@ -361,21 +407,6 @@ class RigSession:
         return SessionSummary(dropped=int(self.sensor.dropped), corrupt=int(self.sensor.corrupt),
                               stage_time_s=float(self.stage_clock() - stage_start),
                               wall_time_s=float(time.monotonic() - wall_start))
-
-
-def _refuse_negative_machine_space(homed_mm: np.ndarray) -> None:
-    """Stop before the first move when the stage works in -travel..0 after homing.
-
-    whiskercal commands machine coordinates 0..travel. Stock grbl 1.1 sets machine zero at the
-    switches and works in negative space unless built with HOMING_FORCE_SET_ORIGIN (and homing
-    toward the minimum, $23): right after homing its position is then 0, never negative.
-    """
-    if np.any(np.asarray(homed_mm, float) < -1e-3):
-        raise DeviceError(
-            f"the stage's machine position after homing is {np.round(homed_mm, 3).tolist()} mm: it "
-            "works in -travel..0 (stock grbl 1.1), whiskercal in 0..travel; build grbl with "
-            "HOMING_FORCE_SET_ORIGIN in config.h and home X and Y toward their minimum ($23=3) "
-            "(docs/stage.md)")
 
 
 def identify(stage, sensor) -> Devices:

@@ -43,7 +43,8 @@ class WorldConfig:
     solves; ``clock_drift_ppm`` the sensor board's clock error; ``stock`` a plain grbl stage;
     ``homing`` its homing cycle: ``"xy"`` (X and Y together, whiskercal's firmware always), or
     ``""`` for the board's default, which on stock grbl 1.1 homes Z first (ALARM:9 on a two-axis
-    stage, which has no Z switch).
+    stage, which has no Z switch); ``origin`` ``"set"`` for a stock build with
+    HOMING_FORCE_SET_ORIGIN (machine zero where homing ends, not stock grbl's -$130+$27).
     """
 
     sensor: object = None
@@ -55,6 +56,7 @@ class WorldConfig:
     sensor_faults: SensorFaults = field(default_factory=SensorFaults)
     stock: bool = False
     homing: str = ""
+    origin: str = ""
     seed: int = 0
     speed: float = 0.0
     max_step_mm: float = 0.05
@@ -92,7 +94,8 @@ class World:
         self.rng = np.random.default_rng(seeds[0])  # magnetometer noise
         self.clock = SimClock(speed=config.speed)
         self.stage = StageMechanics(config.stage_start_mm, config.backlash_mm, faults=config.stage_faults)
-        self.stage_board = VirtualStage(self.stage, stock=config.stock, homing=config.homing)
+        self.stage_board = VirtualStage(self.stage, stock=config.stock, homing=config.homing,
+                                        origin=config.origin)
         self.sensor_board = VirtualSensor(self.reading, config.sensor_faults,
                                           np.random.default_rng(seeds[1]), config.clock_drift_ppm)
         self._boards = Boards(self.clock, self.stage_board, self.sensor_board)

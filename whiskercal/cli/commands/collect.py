@@ -71,9 +71,7 @@ def _dry_run(plan, stage: str | None, as_json: bool) -> None:
 
     travel, accel, rate = None, None, None
     if stage:
-        settings = read_stage_settings(stage)
-        if 130 in settings and 131 in settings:
-            travel = (settings[130], settings[131])
+        settings, travel = read_stage_settings(stage)
         accel = min(settings.get(120, 0), settings.get(121, 0)) or None
         rate = min(settings.get(110, 0), settings.get(111, 0)) or None
     summary = plan_summary(plan, travel, accel, rate)

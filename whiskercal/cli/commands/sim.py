@@ -32,6 +32,8 @@ def command() -> None:
 @click.option("--stock", is_flag=True, help="Stage behaves like plain grbl 1.1 (no encoders).")
 @click.option("--homing", type=click.Choice(["xy"]), default=None,
               help="The stock board's config.h homes X and Y (default: grbl's own, Z first).")
+@click.option("--origin", type=click.Choice(["set"]), default=None,
+              help="The stock build has HOMING_FORCE_SET_ORIGIN (default: grbl's -travel..0 space).")
 @click.option("--fault", "faults", multiple=True, metavar="NAME@SECONDS",
               help="Inject a fault: missed_steps@T[:mm], stall@T, encoder_magnet@T, encoder_bus@T.")
 @click.option("--firmware", type=click.Choice(["python", "avr"]), default="python", show_default=True,
@@ -42,8 +44,8 @@ def command() -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the pty paths as JSON.")
 @pass_app
 def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod_radius: float,
-          stock: bool, homing: str | None, faults: tuple[str, ...], firmware: str, duration: float | None,
-          as_json: bool) -> None:
+          stock: bool, homing: str | None, origin: str | None, faults: tuple[str, ...], firmware: str,
+          duration: float | None, as_json: bool) -> None:
     """Expose a simulated rig on two pseudo-terminals until Ctrl-C.
 
     Prints the stage's and the sensor's pty paths; open them with any serial tool or pass
@@ -57,7 +59,8 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
     if duration is not None:
         number(duration, "--duration (leave it out to run until Ctrl-C)", low=0, unit="s")
     options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
-               "stock": ["1" if stock else "0"], "homing": [homing or ""], "fault": list(faults)}
+               "stock": ["1" if stock else "0"], "homing": [homing or ""],
+               "origin": [origin or ""], "fault": list(faults)}
     if sensor is not None:
         options["sensor"] = [sensor]
     world = world_from_options("serve", options)

@@ -29,7 +29,7 @@ from whiskercal.twin.world import World, create_world, get_world
 
 RECEIVE_BUFFER_BYTES = 4096
 _MIN_STEP_S = 1e-7
-_WORLD_OPTIONS = ("scene", "rod_radius", "seed", "stock", "homing", "corrupt", "drop", "speed", "sensor",
+_WORLD_OPTIONS = ("scene", "rod_radius", "seed", "stock", "homing", "origin", "corrupt", "drop", "speed", "sensor",
                   "backlash", "drift_ppm", "fault", "firmware")
 _STAGE_FAULTS = {"missed_steps": "missed_steps_at_s", "stall": "stall_at_s",
                  "encoder_magnet": "encoder_magnet_at_s", "encoder_bus": "encoder_bus_at_s"}
@@ -93,6 +93,7 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         seed=integer(value("seed", 0), "sim:// option seed", low=0),
         rod_radius_mm=number(value("rod_radius", 1.5), "sim:// option rod_radius", low=0, unit="mm"),
         stock=_flag(value("stock", "0"), "stock"), homing=_homing(value("homing", "")),
+        origin=_origin(value("origin", "")),
         speed=number(value("speed", 0), "sim:// option speed (0: as fast as the host allows)", low=0),
         backlash_mm=number(value("backlash", 0.02), "sim:// option backlash", low=0, unit="mm"),
         clock_drift_ppm=number(value("drift_ppm", 0), "sim:// option drift_ppm", low=-1e4, high=1e4),
@@ -116,6 +117,13 @@ def _firmware(options: dict[str, list[str]], board: str) -> str:
 def _homing(text: str) -> str:
     if text not in ("", "xy"):
         raise UsageError(f"sim:// option homing must be xy (the board homes X and Y), not {text!r}")
+    return text
+
+
+def _origin(text: str) -> str:
+    if text not in ("", "set"):
+        raise UsageError(f"sim:// option origin must be set (a HOMING_FORCE_SET_ORIGIN build), "
+                         f"not {text!r}")
     return text
 
 

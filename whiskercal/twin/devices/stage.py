@@ -359,9 +359,10 @@ class StageMechanics:
         return t + sum(s.duration_s for s in self.queue) + (
             self._timeline[-1].t_end - t if self.active(t) else 0.0)
 
-    def finish_homing(self) -> None:
-        """Machine zero is now the pulled-off switch position."""
-        self.home_offset_mm = np.zeros(2)
+    def finish_homing(self, homed_machine_mm=(0.0, 0.0)) -> None:
+        """Homing ended at the pulled-off switch position (physical 0), which becomes machine
+        ``homed_machine_mm`` (whiskercal's firmware: machine zero; stock grbl: -$130+$27)."""
+        self.home_offset_mm = -np.asarray(homed_machine_mm, float)
 
     def pins(self, t: float) -> str:
         """Limit switches pressed at time ``t`` (``Pn:`` letters)."""

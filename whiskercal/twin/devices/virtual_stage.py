@@ -4,7 +4,16 @@ It answers exactly what ``firmware/stage_stepper`` answers: the banner, ``ok``/`
 pushed ``ALARM:N``, realtime ``?``, ``!``, ``~`` and 0x18, ``$``, ``$H``, ``$X``, ``$I``, ``$$``,
 ``$N=v`` and G0/G1/G4/G17/G21/G90/G91/G94, with grbl 1.1's block rules. In ``stock`` mode it
 behaves like plain grbl 1.1: no ``Enc:`` field, no ``[PROTO:...]``, no encoder settings or
-alarms. Every number it answers with is a named code of the shared table (``rig.codes``).
+alarms, and its machine space and limit alarms are grbl's (below). Every number it answers
+with is a named code of the shared table (``rig.codes``).
+
+Stock grbl 1.1 (gnea/grbl ``limits_go_home``, ``system_check_travel_limits``): after ``$H`` the
+carriage stands at machine -$130+$27 (X and Y home toward their switches at the minimum,
+``$23=3``) and the workspace is -$130..0; a HOMING_FORCE_SET_ORIGIN build (``origin="set"``)
+stands at 0 and works in 0..$130. A target outside the workspace with ``$20=1`` is a soft-limit
+alarm: a feed hold, then ``ALARM:2`` and ``[MSG:Reset to continue]``, and until a reset the board
+ignores everything else (``?`` included). The twin's stage has switches at its minimum only: a
+``$23`` that sends X or Y toward the maximum finds no switch (``ALARM:9``).
 
 Time comes from outside: ``receive(data, t)`` and ``advance_to(t)`` are called with
 non-decreasing simulated times; replies go into ``self.line`` with their transmission delay.
@@ -32,12 +41,19 @@ Z_TRAVEL_MM = 200.0  # grbl's default $132, the Z travel a Z-first homing cycle 
 WCO_REFRESH_REPORTS = 10  # grbl 1.1 resends WCO every 10 reports at rest (30 while moving)
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
 _TRAVEL_EPS_MM = 1e-6
-_INTEGER_SETTINGS = (20, 22, 200)
+_INTEGER_SETTINGS = (10, 20, 22, 23, 200)
+RESET_TO_CONTINUE = "[MSG:Reset to continue]"
+# The stock board's settings where they differ from whiskercal's firmware: grbl's $10 (report
+# MPos) and the homing direction this stage's switches need ($23=3: X and Y toward their minimum;
+# grbl's own default 0 homes toward +, where the stage has no switch).
+STOCK_SETTINGS = {10: 1, 23: 3}
 _LOCKED = 0  # ``alarm`` value for the lock after power-up: Alarm state without an ALARM:N
 # The modal groups (grbl 1.1 / RS274NGC numbers) of the G codes this stage knows.
 _NON_MODAL, _MOTION, _PLANE, _DISTANCE, _FEED_MODE, _UNITS = 0, 1, 2, 3, 5, 6
 _G_GROUPS = {4: _NON_MODAL, 0: _MOTION, 1: _MOTION, 17: _PLANE, 90: _DISTANCE, 91: _DISTANCE,
              94: _FEED_MODE, 21: _UNITS}
+# stock grbl also knows G53 (move in machine coordinates); whiskercal's firmware does not
+_STOCK_G_GROUPS = {**_G_GROUPS, 53: _NON_MODAL}
 
 
 class GcodeError(Exception):
@@ -67,16 +83,18 @@ def _bad_word(first: str) -> StageError:
     return StageError.BAD_NUMBER_FORMAT if first.isalpha() else StageError.EXPECTED_COMMAND_LETTER
 
 
-def read_block(words: list[tuple[str, float]]) -> tuple[dict[int, int], dict[str, float]]:
+def read_block(words: list[tuple[str, float]],
+               known: dict[int, int] = _G_GROUPS) -> tuple[dict[int, int], dict[str, float]]:
     """A block's G codes by modal group and its X, Y, F, P words, checked word by word as grbl does.
 
-    N words (line numbers) are accepted and ignored; any other letter is ``error:20``.
+    ``known`` maps the G codes the board knows to their groups (stock grbl adds G53). N words
+    (line numbers) are accepted and ignored; any other letter is ``error:20``.
     """
     groups: dict[int, int] = {}
     values: dict[str, float] = {}
     for letter, value in words:
         if letter == "G":
-            _g_word(value, groups)
+            _g_word(value, groups, known)
         elif letter in "XYFP":
             if letter in values:
                 raise GcodeError(StageError.WORD_REPEATED)
@@ -88,8 +106,8 @@ def read_block(words: list[tuple[str, float]]) -> tuple[dict[int, int], dict[str
     return groups, values
 
 
-def _g_word(value: float, groups: dict[int, int]) -> None:
-    group = _G_GROUPS.get(int(value)) if value == int(value) else None  # G38.2 and the like: none
+def _g_word(value: float, groups: dict[int, int], known: dict[int, int]) -> None:
+    group = known.get(int(value)) if value == int(value) else None  # G38.2 and the like: none
     if group is None:
         raise GcodeError(StageError.UNSUPPORTED_COMMAND)
     if group == _MOTION and _MOTION in groups:
@@ -107,17 +125,23 @@ class VirtualStage:
     mechanics
         The stage's motion and faults.
     stock
-        Behave like plain grbl 1.1 (no encoders).
+        Behave like plain grbl 1.1 (no encoders, grbl's machine space and limit alarms).
+    homing
+        ``"xy"``: the stock build's config.h homes X and Y (grbl's own homes Z first).
+    origin
+        ``"set"``: a stock build with HOMING_FORCE_SET_ORIGIN (machine zero where homing ends).
     """
 
-    def __init__(self, mechanics: StageMechanics, stock: bool = False, homing: str = "") -> None:
+    def __init__(self, mechanics: StageMechanics, stock: bool = False, homing: str = "",
+                 origin: str = "") -> None:
         self.mech = mechanics
         self.stock = stock
         # stock grbl 1.1's config.h homes Z first; a two-axis stage has no Z switch to find
         self.homes_z_first = stock and homing != "xy"
-        if stock:  # grbl's $10: bit 0 set reports MPos (its default), clear reports WPos
-            self.mech.settings.setdefault(10, 1)
+        self.force_set_origin = stock and origin == "set"
         if stock:
+            for number, value in STOCK_SETTINGS.items():
+                self.mech.settings.setdefault(number, value)
             for number in WHISKERCAL_SETTINGS:
                 self.mech.settings.pop(number, None)
         self.line = SerialLine()
@@ -136,6 +160,8 @@ class VirtualStage:
         self._last_check_s = 0.0
         self._faults_done: set[str] = set()
         self._slipping = False  # a slip or stall happened since the last homing
+        self._soft_limit_at_s: float | None = None  # stock: a soft-limit hold ends, then ALARM:2
+        self._awaiting_reset = False  # stock: grbl's pause after a limit alarm
         self.now_s = 0.0
         self._boot(0.0, moving=False, power_up=True)
 
@@ -167,11 +193,13 @@ class VirtualStage:
         self._boot(t, moving=False, power_up=True)
 
     def _realtime(self, byte: int, t: float) -> None:
+        if self._awaiting_reset and byte != 0x18:
+            return  # grbl's pause after a limit alarm serves nothing but a reset
         if byte == ord("?"):
             self._send(self.status_report(t), t)
         elif byte == ord("!") and self.state(t) == "Run":
             self.hold_stop_s = self.mech.hold(t)
-        elif byte == ord("~") and self.hold_stop_s is not None:
+        elif byte == ord("~") and self.hold_stop_s is not None and self._soft_limit_at_s is None:
             self._resume_requested = True
             self._finish_hold(t)
         elif byte == 0x18:
@@ -182,6 +210,7 @@ class VirtualStage:
         self._pending.clear()
         self._input.clear()
         self.hold_stop_s, self._resume_requested = None, False
+        self._soft_limit_at_s, self._awaiting_reset = None, False
         self._absolute, self._motion, self._feed_mm_min = True, 0, None
         self._reports_to_wco, self._ok_after_dwell = 0, False
         if moving:
@@ -202,6 +231,8 @@ class VirtualStage:
         times = [self._next_fault_s(), self._next_check_s()]
         if self.homing_until_s is not None:
             times.append(self.homing_until_s)
+        if self._soft_limit_at_s is not None:
+            times.append(self._soft_limit_at_s)
         if self._resume_requested and self.hold_stop_s is not None:
             times.append(self.hold_stop_s)
         if self._pending and self.homing_until_s is None and self.mech.queue and not self.mech.paused:
@@ -234,6 +265,8 @@ class VirtualStage:
         self.now_s = t
         if self.homing_until_s is not None and t >= self.homing_until_s:
             self._end_homing(t)
+        if self._soft_limit_at_s is not None and t >= self._soft_limit_at_s:
+            self._soft_limit_alarm(t)
         self._apply_faults(t)
         self._check_encoders(t)
         self._finish_hold(t)
@@ -241,13 +274,47 @@ class VirtualStage:
 
     def _end_homing(self, t: float) -> None:
         self.homing_until_s = None
-        if self.homes_z_first:  # grbl: the alarm, then the reset that ends every failed cycle
+        if self._homing_finds_no_switch():  # grbl: the alarm, then the reset ending a failed cycle
             self._raise_alarm(StageAlarm.HOMING_FAIL_APPROACH, t)
             self._boot(t, moving=False)
             return
-        self.mech.finish_homing()
+        self.mech.finish_homing(self._homed_machine_mm())
         self.alarm = None
         self._send("ok", t)
+
+    def _homing_finds_no_switch(self) -> bool:
+        """Z first (no Z switch here), or ``$23`` sends X or Y toward the maximum (no switch there)."""
+        return self.homes_z_first or (self.stock and int(self.mech.settings[23]) & 3 != 3)
+
+    def _homed_machine_mm(self) -> np.ndarray:
+        """Machine position where homing leaves the carriage (pulled off the minimum switches):
+        grbl sets the switch to -$130 and the workspace to -$130..0 unless it forces the origin."""
+        if not self.stock or self.force_set_origin:
+            return np.zeros(2)
+        travel = np.array([self.mech.settings[130], self.mech.settings[131]])
+        return -travel + self.mech.settings[27]
+
+    def _workspace_mm(self) -> tuple[np.ndarray, np.ndarray]:
+        """The soft-limit box in machine coordinates, mm: 0..travel (whiskercal's firmware and a
+        HOMING_FORCE_SET_ORIGIN build homing toward the minimum) or stock grbl's -travel..0."""
+        travel = np.array([self.mech.settings[130], self.mech.settings[131]])
+        if not self.stock or self.force_set_origin:
+            return np.zeros(2), travel
+        return -travel, np.zeros(2)
+
+    def _soft_limit(self, t: float) -> None:
+        """Stock grbl's answer to a target outside the workspace: a feed hold, then the alarm."""
+        self._soft_limit_at_s = self.mech.hold(t) if self.mech.busy(t) else t
+        if self._soft_limit_at_s > t:
+            self.hold_stop_s = self._soft_limit_at_s  # reported as Hold:1 while it decelerates
+        else:
+            self._soft_limit_alarm(t)
+
+    def _soft_limit_alarm(self, t: float) -> None:
+        self._soft_limit_at_s = None
+        self._raise_alarm(StageAlarm.SOFT_LIMIT, t)
+        self._send(RESET_TO_CONTINUE, t)
+        self._awaiting_reset = True
 
     def _finish_hold(self, t: float) -> None:
         if self._resume_requested and self.hold_stop_s is not None and t >= self.hold_stop_s:
@@ -349,6 +416,8 @@ class VirtualStage:
 
     # -- lines ------------------------------------------------------------------------------
     def _run_pending(self, t: float) -> None:
+        if self._soft_limit_at_s is not None or self._awaiting_reset:
+            return  # grbl sits in its soft-limit check, then in the alarm's pause
         if self._ok_after_dwell:
             if self.mech.busy(t):
                 return  # stock grbl's main loop sits in the dwell; lines wait
@@ -375,8 +444,8 @@ class VirtualStage:
             if self.alarm is not None:
                 raise GcodeError(StageError.SYSTEM_GC_LOCK)
             self._gcode(parse_words(text), t)
-            if not self._ok_after_dwell:
-                self._send("ok", t)
+            if not self._ok_after_dwell and self._soft_limit_at_s is None and not self._awaiting_reset:
+                self._send("ok", t)  # a line that hit the soft limits is never answered
         else:
             self._send("ok", t)
 
@@ -426,8 +495,10 @@ class VirtualStage:
         self.alarm = None
         self.hold_stop_s, self._resume_requested = None, False
         self._slipping = False  # homing re-references steps and encoders
-        if self.homes_z_first:  # searches 1.5 x Z's travel at the seek rate, finds nothing
-            self.homing_until_s = t + 1.5 * Z_TRAVEL_MM / self.mech.settings[25] * 60.0
+        if self._homing_finds_no_switch():  # searches 1.5 x the travel at the seek rate in vain
+            travel = Z_TRAVEL_MM if self.homes_z_first else max(self.mech.settings[130],
+                                                                self.mech.settings[131])
+            self.homing_until_s = t + 1.5 * travel / self.mech.settings[25] * 60.0
             return
         self.homing_until_s = self.mech.plan_homing(t)
 
@@ -447,11 +518,12 @@ class VirtualStage:
 
     def _gcode(self, words: list[tuple[str, float]], t: float) -> None:
         """Check a whole block first; modal state and the queue change only when it is accepted."""
-        groups, values = read_block(words)
+        groups, values = read_block(words, _STOCK_G_GROUPS if self.stock else _G_GROUPS)
         motion = groups.get(_MOTION, self._motion)
         absolute = groups[_DISTANCE] == 90 if _DISTANCE in groups else self._absolute
         feed = (values["F"] or None) if "F" in values else self._feed_mm_min  # F0: undefined
-        dwell = _NON_MODAL in groups
+        dwell = groups.get(_NON_MODAL) == 4
+        machine = groups.get(_NON_MODAL) == 53
         if dwell and "P" not in values:
             raise GcodeError(StageError.VALUE_WORD_MISSING)
         axes = "X" in values or "Y" in values
@@ -459,7 +531,10 @@ class VirtualStage:
         # axis words only set the mode, but G1 still needs a feed rate.
         if (axes or _MOTION in groups) and motion == 1 and feed is None:
             raise GcodeError(StageError.UNDEFINED_FEED_RATE)
-        target = self._target(absolute, values) if axes else None
+        target = self._target(absolute or machine, values) if axes else None
+        if target is not None and self._outside_soft_limits(target):
+            self._soft_limit(t)
+            return
         if dwell:
             self.mech.queue_dwell(values["P"], t)  # grbl dwells before it moves
             # stock grbl 1.1 dwells in its main loop and answers "ok" only after it; whiskercal's
@@ -470,16 +545,21 @@ class VirtualStage:
         self._motion, self._absolute, self._feed_mm_min = motion, absolute, feed
 
     def _target(self, absolute: bool, values: dict[str, float]) -> np.ndarray:
-        """Machine target of a move, mm; outside the travel with soft limits on: ``error:15``."""
+        """Machine target of a move, mm (the work offset is always zero here, so G53's machine
+        coordinates are G90's); outside the travel with soft limits on, whiskercal's firmware
+        answers ``error:15``."""
         start = self.mech.planned_end_mm() - self.mech.home_offset_mm
         offset = np.array([values.get("X", 0.0), values.get("Y", 0.0)])
         target = start + offset if not absolute else np.array(
             [values.get("X", start[0]), values.get("Y", start[1])])
-        travel = np.array([self.mech.settings[130], self.mech.settings[131]])
-        outside = np.any(target < -_TRAVEL_EPS_MM) or np.any(target > travel + _TRAVEL_EPS_MM)
-        if self.mech.settings[20] and outside:
+        if not self.stock and self._outside_soft_limits(target):
             raise GcodeError(StageError.TRAVEL_EXCEEDED)
         return target
+
+    def _outside_soft_limits(self, target: np.ndarray) -> bool:
+        low, high = self._workspace_mm()
+        outside = np.any(target < low - _TRAVEL_EPS_MM) or np.any(target > high + _TRAVEL_EPS_MM)
+        return bool(self.mech.settings[20]) and bool(outside)
 
 
 def _is_dwell(line: str | None) -> bool:
