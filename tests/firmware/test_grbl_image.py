@@ -74,9 +74,6 @@ def test_xy_homing_and_moves_reach_the_twins_positions():
     stage.close()
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="the client resets at once after ALARM:2; grbl drops a reset sent in "
-                   "the 500 ms before [MSG:Reset to continue] (issue 19, item 1, being built in rig/)")
 def test_client_recovers_from_a_soft_limit_alarm_on_the_image():
     grbl_or_skip("xy")
     port, stage = _stage("firmware=grbl&homing=xy")
@@ -85,9 +82,8 @@ def test_client_recovers_from_a_soft_limit_alarm_on_the_image():
     with pytest.raises(StageAlarmError) as raised:
         stage.move_to(10.0, 0.0, 3000.0)  # +10 mm: beyond grbl's -200..0 machine space
     assert raised.value.code == StageAlarm.SOFT_LIMIT
-    assert stage.reset().startswith("Grbl 1.1h")
-    stage.unlock()
-    assert stage.status().idle
+    stage.recover(raised.value.code)  # grbl's order: its message, then the reset, the banner, $X
+    assert stage.banner.startswith("Grbl 1.1h") and stage.status().idle
     stage.close()
 
 
@@ -125,8 +121,6 @@ def _collect(tmp_path, stage_query, wpos_reports=False):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="the client does not map the grid into grbl's negative machine "
-                   "space yet (issue 19, item 1, being built in rig/ and session/)")
 @pytest.mark.parametrize("wpos_reports", [False, True], ids=["mpos", "wpos"])
 def test_small_grid_through_stock_grbl_matches_the_python_boards(tmp_path, wpos_reports):
     grbl_or_skip("xy")

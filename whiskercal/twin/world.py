@@ -144,7 +144,8 @@ class World:
             if not isinstance(self.stage_board, AvrStageBoard):
                 start = (self.stage.carriage_mm(self.now_s), self.now_s, self.config.backlash_mm,
                          self.config.stage_faults)
-                board = GrblStageBoard(*start, homing=self.config.homing) if firmware == "grbl" \
+                board = GrblStageBoard(*start, homing=self.config.homing, origin=self.config.origin) \
+                    if firmware == "grbl" \
                     else AvrStageBoard(*start)
                 self._boards.detach(self.stage_board)
                 self.stage_board = self._boards.stage = board

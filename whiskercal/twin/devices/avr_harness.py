@@ -34,10 +34,12 @@ def firmware_build_dir() -> Path:
     return Path(__file__).resolve().parents[3] / "build" / "firmware"
 
 
-def grbl_image(homing: str) -> Path:
+def grbl_image(homing: str, origin: str = "") -> Path:
     """Stock grbl 1.1h built by ``make grbl-sim``: its own config.h (``homing=""``, Z homed
-    first) or the copy that homes X and Y in one cycle (``homing="xy"``)."""
-    return firmware_build_dir() / "grbl" / ("xy" if homing == "xy" else "stock") / "grbl.hex"
+    first), the copy that homes X and Y in one cycle (``homing="xy"``), or that copy with
+    HOMING_FORCE_SET_ORIGIN as well (``homing="xy"``, ``origin="set"``)."""
+    variant = "stock" if homing != "xy" else ("xy-origin" if origin == "set" else "xy")
+    return firmware_build_dir() / "grbl" / variant / "grbl.hex"
 
 
 def harness_files(board: str, image: Path | None = None) -> tuple[Path, Path]:

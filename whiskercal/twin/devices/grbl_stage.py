@@ -1,9 +1,10 @@
 """Stock grbl 1.1h on simavr as the stage: ``sim://NAME/stage?firmware=grbl[&homing=xy]``.
 
 grbl is not part of whiskercal (it is GPL and lives in its own repository): ``make grbl-sim``
-builds a checkout of gnea/grbl v1.1h twice, unchanged (``WHISKERCAL_GRBL_SRC``), with its own
-config.h (Z homed first, then X and Y) and with a copy of config.h whose only homing cycle homes
-X and Y together (``homing=xy``). The image runs in the same harness as whiskercal's own stage
+builds a checkout of gnea/grbl v1.1h, unchanged (``WHISKERCAL_GRBL_SRC``), with its own config.h
+(Z homed first, then X and Y), with a copy of config.h whose only homing cycle homes X and Y
+together (``homing=xy``), and with that copy and HOMING_FORCE_SET_ORIGIN (``homing=xy&origin=set``:
+machine zero where homing ends). The image runs in the same harness as whiskercal's own stage
 firmware, with stock grbl's ATmega328P pin map (``firmware/sim/stage_part.h``): its step counters
 move the twin's carriage (``avr_stage.StepTrace``), the X and Y limit switches close where the
 Python stage's do (1 mm below the homed zero), its Z axis has neither motor nor switch, and there
@@ -31,6 +32,7 @@ from pathlib import Path
 from serial.serialutil import SerialException
 
 from whiskercal.atomic import write_text
+from whiskercal.errors import UsageError
 from whiskercal.twin.devices.avr_board import QUANTUM_S
 from whiskercal.twin.devices.avr_harness import F_CPU_HZ, AvrHarness, grbl_image
 from whiskercal.twin.devices.avr_stage import AvrStageBoard
@@ -111,13 +113,19 @@ class GrblStageBoard(AvrStageBoard):
         As for :class:`AvrStageBoard` (the encoder faults have nothing to act on: no encoders).
     homing
         ``"xy"`` for the image that homes X and Y in one cycle, ``""`` for grbl's own config.h.
+    origin
+        ``"set"`` for the XY image built with HOMING_FORCE_SET_ORIGIN (machine zero where homing
+        ends); refused with grbl's own config.h, which has no such build here.
     """
 
     pins = "grbl"
 
     def __init__(self, start_mm, now_s: float, backlash_mm: float, faults: StageFaults | None = None,
-                 homing: str = "") -> None:
-        self.image = grbl_image(homing)
+                 homing: str = "", origin: str = "") -> None:
+        if origin == "set" and homing != "xy":
+            raise UsageError("sim:// firmware=grbl with origin=set needs homing=xy (the HOMING_FORCE_SET_ORIGIN "
+                             "build homes X and Y in one cycle)")
+        self.image = grbl_image(homing, origin)
         self.eeprom = owner_eeprom(self.image) if self.image.is_file() else b""
         super().__init__(start_mm, now_s, backlash_mm, faults)
 
