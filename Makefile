@@ -75,7 +75,7 @@ regress: $(INSTALLED)
 record-data: $(INSTALLED)
 	$(PY) scripts/record_data.py
 
-# Stock grbl 1.1h (WHISKERCAL_GRBL_SRC=checkout of gnea/grbl, not part of this repository) built twice
-# for the emulator: sim://NAME/stage?firmware=grbl[&homing=xy] (docs/firmware.md)
+# Stock grbl 1.1h (WHISKERCAL_GRBL_SRC=checkout of gnea/grbl, not part of this repository) built for
+# the emulator: sim://NAME/stage?firmware=grbl[&homing=xy[&origin=set]] (docs/firmware.md)
 grbl-sim:
 	$(MAKE) -C firmware grbl

@@ -47,6 +47,13 @@ SCENARIOS: dict[str, dict] = {
         "steps": [BOOT, {"send": "$H\n", "wait_s": 0.5}, {"poll_until": "^Idle$", "every_s": 1.0, "timeout_s": 40,
                                                                  "count_reports": True}],
     },
+    "home_xy_origin": {
+        "homing": "xy", "origin": "set",
+        "what": "$H with the XY cycle and HOMING_FORCE_SET_ORIGIN: machine zero where homing ends",
+        "steps": [BOOT, {"send": "$H\n", "until": OK, "timeout_s": 90}, {"poll": 1, "check_mpos": True},
+                  {"send": "G90 G0 X10 Y10\n", "until": OK}, {"poll_until": "^Idle$", "every_s": 0.05, "check_mpos": True},
+                  {"send": "G90 G0 X-1\n", "until": OK, "after_s": 0.6}],
+    },
     "status_wpos": {
         "homing": "xy", "what": "? with $10=1 (MPos) and $10=0 (WPos, WCO every few reports), G92 offset",
         "steps": [BOOT, UNLOCK, {"send": "G91 G1 X-5 Y-3 F600\n", "until": OK},
@@ -90,19 +97,20 @@ SCENARIOS: dict[str, dict] = {
 
 def record(name: str, scenario: dict, out: Path) -> Path:
     """Run one scenario on a fresh emulated board; the transcript's path."""
-    homing = scenario["homing"]
-    url = f"sim://rec{uuid.uuid4().hex[:8]}/stage?firmware=grbl" + (f"&homing={homing}" if homing else "")
+    homing, origin = scenario["homing"], scenario.get("origin", "")
+    query = (f"&homing={homing}" if homing else "") + (f"&origin={origin}" if origin else "")
+    url = f"sim://rec{uuid.uuid4().hex[:8]}/stage?firmware=grbl" + query
     port = serial.serial_for_url(url, timeout=1)
     wall = time.perf_counter()
     entries = Recorder(port).run(scenario["steps"])
     wall = time.perf_counter() - wall
     simulated = entries[-1]["t"] if entries else 0.0
     port.close()
-    header = {"name": name, "what": scenario["what"], "image": "xy" if homing else "stock",
+    header = {"name": name, "what": scenario["what"], "image": grbl_image(homing, origin).parent.name,
               "grbl": "1.1h.20190825 (gnea/grbl tag v1.1h.20190825), avr-gcc -Os, ATmega328P at 16 MHz",
               "recorded_with": "simavr " + _simavr_version() + ", whiskercal firmware/sim harness, grbl pin map",
               "owner_settings": {f"${n}": v for n, v in sorted(OWNER_SETTINGS.items())},
-              "twin_url": "?stock=1" + (f"&homing={homing}" if homing else ""),
+              "twin_url": "?stock=1" + query,
               "simulated_s": simulated, "wall_s": round(wall, 2), "steps": scenario["steps"]}
     path = out / f"{name}.jsonl"
     write_transcript(path, header, entries)
@@ -119,9 +127,9 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", default=None)
     parser.add_argument("--out", type=Path, default=TRANSCRIPTS)
     args = parser.parse_args()
-    for homing in ("", "xy"):
-        if not grbl_image(homing).is_file():
-            sys.exit(f"{grbl_image(homing)} is missing: run WHISKERCAL_GRBL_SRC=DIR make grbl-sim")
+    for homing, origin in (("", ""), ("xy", ""), ("xy", "set")):
+        if not grbl_image(homing, origin).is_file():
+            sys.exit(f"{grbl_image(homing, origin)} is missing: run WHISKERCAL_GRBL_SRC=DIR make grbl-sim")
     args.out.mkdir(parents=True, exist_ok=True)
     for name, scenario in SCENARIOS.items():
         if args.only and name not in args.only:

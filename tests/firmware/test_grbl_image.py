@@ -34,8 +34,8 @@ expected_points = 0
 
 def _image_replay(name):
     header, recorded = read_transcript(TRANSCRIPTS / f"{name}.jsonl")
-    grbl_or_skip(header["image"] if header["image"] == "xy" else "")
-    query = "?firmware=grbl" + ("&homing=xy" if header["image"] == "xy" else "")
+    grbl_or_skip("xy" if header["image"] != "stock" else "")
+    query = "?firmware=grbl" + header["twin_url"].removeprefix("?stock=1")
     return differences(header, recorded, replay(header, f"sim://NAME/stage{query}"))
 
 
@@ -46,7 +46,8 @@ def test_image_repeats_its_transcript(name):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["feed_hold", "dwell", "home_xy", "home_stock_config", "home_polled"])
+@pytest.mark.parametrize("name", ["feed_hold", "dwell", "home_xy", "home_stock_config", "home_polled",
+                                  "home_xy_origin"])
 def test_image_repeats_its_motion_transcript(name):
     assert _image_replay(name) == []
 

@@ -22,3 +22,8 @@ def test_unbuilt_grbl_image_names_the_build_command(tmp_path, monkeypatch):
 def test_grbl_is_a_stage_firmware():
     with pytest.raises(UsageError, match="stage"):
         serial.serial_for_url(f"sim://grblsensor{uuid.uuid4().hex[:8]}/sensor?firmware=grbl")
+
+
+def test_set_origin_image_homes_x_and_y():
+    with pytest.raises(UsageError, match="homing=xy"):
+        StageClient(f"sim://grblorigin{uuid.uuid4().hex[:8]}/stage?firmware=grbl&origin=set")

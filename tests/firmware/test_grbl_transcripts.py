@@ -31,7 +31,7 @@ def _step_of(header, key, value):
 
 def test_every_behaviour_has_a_transcript():
     names = {path.stem for path in transcripts()}
-    assert names >= {"banner_settings", "home_stock_config", "home_xy", "home_polled", "status_wpos", "feed_hold", "dwell",
+    assert names >= {"banner_settings", "home_stock_config", "home_xy", "home_polled", "home_xy_origin", "status_wpos", "feed_hold", "dwell",
                       "soft_limit", "error_codes"}
 
 
@@ -83,6 +83,15 @@ def test_xy_homing_leaves_the_machine_at_minus_travel_plus_pull_off():
     assert step_kinds(entries, home + 4) == ["ok", "banner", "[MSG:'$H'|'$X' to unlock]"]
     assert step_kinds(entries, home + 5) == ["status:Alarm"]
     np.testing.assert_allclose(last_mpos(entries, home + 5), expected, atol=1e-9)  # the position is kept
+
+
+def test_set_origin_build_homes_to_zero_and_works_in_plus_travel():
+    header, entries = _load("home_xy_origin")
+    home = _step_of(header, "send", "$H\n")
+    assert step_kinds(entries, home) == ["ok"]
+    np.testing.assert_allclose(last_mpos(entries, home + 1), [0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(last_mpos(entries, home + 3), [10.0, 10.0], atol=1e-9)  # +10 mm is inside
+    assert step_kinds(entries, home + 4) == ["ALARM:2", "[MSG:Reset to continue]"]  # -1 mm is not
 
 
 def test_stock_config_homing_fails_on_the_missing_z_switch():
