@@ -51,7 +51,7 @@ clean:
 	rm -rf out build .pytest_cache
 
 # ---- firmware (firmware/Makefile has the details; docs/firmware.md the wiring and flashing) ----
-.PHONY: firmware-host-test firmware-sim
+.PHONY: firmware-host-test firmware-sim grbl-sim
 
 firmware:
 	$(MAKE) -C firmware avr
@@ -74,3 +74,8 @@ regress: $(INSTALLED)
 
 record-data: $(INSTALLED)
 	$(PY) scripts/record_data.py
+
+# Stock grbl 1.1h (WHISKERCAL_GRBL_SRC=checkout of gnea/grbl, not part of this repository) built for
+# the emulator: sim://NAME/stage?firmware=grbl[&homing=xy[&origin=set]] (docs/firmware.md)
+grbl-sim:
+	$(MAKE) -C firmware grbl

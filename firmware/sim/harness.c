@@ -1,11 +1,13 @@
 // Runs a sketch's .hex on an emulated ATmega328P at 16 MHz with the board's parts attached, and
-// serves the line protocol of harness.h. Usage: avr_harness sensor|stage FIRMWARE.hex
+// serves the line protocol of harness.h. Usage: avr_harness sensor|stage FIRMWARE.hex [PINS]
+// (PINS, for the stage: "whiskercal", the default, or "grbl": stage_part.h).
 #include "harness.h"
 
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include <avr_eeprom.h>
 #include <avr_uart.h>
 #include <sim_interrupts.h>
 #include <sim_hex.h>
@@ -19,6 +21,8 @@ enum {
     RAM_START = 0x100,   // ATmega328P: 2 KiB of SRAM at 0x100..0x8FF
     RAM_END = 0x8FF,
     PAINT = 0xA5,
+    EEPROM_BYTES = 1024,
+    REQUEST_MAX = 2 * EEPROM_BYTES + 16,  // "W <hex>" carries the whole EEPROM
 };
 
 static avr_t* avr;
@@ -163,8 +167,31 @@ static void feed_uart(const char* hex) {
     }
 }
 
+// "E <cycle> <hex>": the EEPROM's 1 KiB, so that the host can keep it across a power-up as the
+// chip does; "W <hex>" writes it back (before the first run, as if it had been there all along).
+static void report_eeprom(void) {
+    uint8_t bytes[EEPROM_BYTES];
+    avr_eeprom_desc_t desc = {bytes, 0, EEPROM_BYTES};
+    avr_ioctl(avr, AVR_IOCTL_EEPROM_GET, &desc);
+    printf("E %llu ", (unsigned long long)avr->cycle);
+    for (int i = 0; i < EEPROM_BYTES; ++i) printf("%02x", bytes[i]);
+    putchar('\n');
+}
+
+static void write_eeprom(const char* hex) {
+    uint8_t bytes[EEPROM_BYTES];
+    unsigned byte;
+    int count = 0;
+    while (count < EEPROM_BYTES && sscanf(hex, "%2x", &byte) == 1) {
+        bytes[count++] = (uint8_t)byte;
+        hex += 2;
+    }
+    avr_eeprom_desc_t desc = {bytes, 0, (uint32_t)count};
+    if (count) avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &desc);
+}
+
 static void serve(void) {
-    char line[HARNESS_LINE_MAX];
+    static char line[REQUEST_MAX];
     while (fgets(line, sizeof line, stdin)) {
         if (line[0] == 'R') {
             run_to(strtoull(line + 1, NULL, 10));
@@ -176,6 +203,10 @@ static void serve(void) {
             report_memory();
         } else if (line[0] == 'V') {
             report_latency();
+        } else if (line[0] == 'E') {
+            report_eeprom();
+        } else if (line[0] == 'W') {
+            write_eeprom(line + 2);
         } else if (line[0] == 'I') {
             feed_uart(line + 2);
         } else if (line[0] == 'Q') {
@@ -189,8 +220,9 @@ static void serve(void) {
 }
 
 int main(int argc, char** argv) {
-    if (argc != 3 || (strcmp(argv[1], "sensor") != 0 && strcmp(argv[1], "stage") != 0)) {
-        fprintf(stderr, "usage: avr_harness sensor|stage FIRMWARE.hex\n");
+    const stage_pins* pins = stage_pins_named(argc == 4 ? argv[3] : "whiskercal");
+    if (argc < 3 || argc > 4 || (strcmp(argv[1], "sensor") != 0 && strcmp(argv[1], "stage") != 0) || !pins) {
+        fprintf(stderr, "usage: avr_harness sensor|stage FIRMWARE.hex [whiskercal|grbl]\n");
         return 2;
     }
     avr = avr_make_mcu_by_name("atmega328p");
@@ -208,7 +240,7 @@ int main(int argc, char** argv) {
     watch_interrupts();
     is_stage = strcmp(argv[1], "stage") == 0;
     if (is_stage) {
-        stage_part_init(avr, &stage);
+        stage_part_init(avr, &stage, pins);
     } else {
         mlx90393_part_init(avr, &mlx, MLX_ADDRESS);
     }

@@ -9,10 +9,12 @@
 //                                                              "<x> <y> <z> <conversion µs>"
 //                                           K <cycle>          the run (or input) is done
 //   I <hex>      bytes into the UART        K <cycle>
-//   (stage)                                 P <cycle> <x> <y>  motor steps, before each run's K
+//   (stage)                                 P <cycle> <x> <y> <z>  motor steps, before each run's K
 //   L <x> <y>    where the limit switches   A <cycle> <axis> <x> <y>  an AS5600 is read (with the
 //                close, in motor steps          step counters): the host answers
 //                                               "<status> <raw angle>" or "nack"
+//   E            the EEPROM                 E <cycle> <1024 bytes in hex>, then K
+//   W <hex>      write the EEPROM           K
 //   M            stack use                  M <cycle> <stack bytes> <never used bytes>, then K
 //   V            interrupt latency          V <vector> <calls> <longest> <total> (cycles from the
 //                                             flag to the vector's call) per vector, then K

@@ -133,15 +133,20 @@ class World:
                 self.sensor_board = self._boards.sensor = board
             return self.sensor_board
 
-    def use_emulated_stage_board(self):
+    def use_emulated_stage_board(self, firmware: str = "avr"):
         """Put the compiled stage firmware on simavr in place of the Python stage board (once):
-        its step counters move the carriage from now on. The board in use."""
+        its step counters move the carriage from now on. ``firmware``: ``avr`` (whiskercal's
+        stage_stepper) or ``grbl`` (stock grbl 1.1h, homing as ``config.homing``). The board in use."""
         from whiskercal.twin.devices.avr_stage import AvrStageBoard
+        from whiskercal.twin.devices.grbl_stage import GrblStageBoard
 
         with self.lock:
             if not isinstance(self.stage_board, AvrStageBoard):
-                board = AvrStageBoard(self.stage.carriage_mm(self.now_s), self.now_s,
-                                      self.config.backlash_mm, self.config.stage_faults)
+                start = (self.stage.carriage_mm(self.now_s), self.now_s, self.config.backlash_mm,
+                         self.config.stage_faults)
+                board = GrblStageBoard(*start, homing=self.config.homing, origin=self.config.origin) \
+                    if firmware == "grbl" \
+                    else AvrStageBoard(*start)
                 self._boards.detach(self.stage_board)
                 self.stage_board = self._boards.stage = board
                 self.stage = board.trace

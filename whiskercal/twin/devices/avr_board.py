@@ -68,7 +68,11 @@ class AvrBoard:
         self.powered_at_s = t
         self._input: deque[tuple[float, bytes]] = deque()
         self._active_until_s = t + IDLE_S  # the sketch starts up
-        self.harness = AvrHarness(self.kind, self._answer, self._report)
+        self.harness = self._make_harness()
+
+    def _make_harness(self) -> AvrHarness:
+        """The harness with this board's sketch, fresh from power-up."""
+        return AvrHarness(self.kind, self._answer, self._report)
 
     def _answer(self, words: list[str]) -> str:
         raise ValueError(f"unexpected request from the AVR emulation harness: {' '.join(words)}")

@@ -34,24 +34,37 @@ def firmware_build_dir() -> Path:
     return Path(__file__).resolve().parents[3] / "build" / "firmware"
 
 
-def harness_files(board: str) -> tuple[Path, Path]:
-    """(harness, .hex) for ``board`` (``sensor`` or ``stage``); raises ``SerialException`` with
-    what to do when either is missing."""
+def grbl_image(homing: str, origin: str = "") -> Path:
+    """Stock grbl 1.1h built by ``make grbl-sim``: its own config.h (``homing=""``, Z homed
+    first), the copy that homes X and Y in one cycle (``homing="xy"``), or that copy with
+    HOMING_FORCE_SET_ORIGIN as well (``homing="xy"``, ``origin="set"``)."""
+    variant = "stock" if homing != "xy" else ("xy-origin" if origin == "set" else "xy")
+    return firmware_build_dir() / "grbl" / variant / "grbl.hex"
+
+
+def harness_files(board: str, image: Path | None = None) -> tuple[Path, Path]:
+    """(harness, .hex) for ``board`` (``sensor`` or ``stage``; ``image`` instead of the board's
+    own sketch); raises ``SerialException`` with what to do when either is missing."""
     build = firmware_build_dir()
-    harness, image = build / "sim" / "avr_harness", build / "avr" / f"{SKETCHES[board]}.hex"
+    harness = build / "sim" / "avr_harness"
+    image = image or build / "avr" / f"{SKETCHES[board]}.hex"
     for path in (harness, image):
         if not path.is_file():
+            if path.parent.parent.name == "grbl":
+                raise SerialException(f"firmware=grbl needs {path}: run `WHISKERCAL_GRBL_SRC=DIR make grbl-sim` "
+                                      "with DIR a checkout of gnea/grbl v1.1h (grbl is not part of whiskercal)")
             raise SerialException(f"firmware=avr needs {path}: run `make firmware-sim` (needs simavr, "
                                   "libsimavr-dev, libelf-dev, gcc-avr, avr-libc, arduino-core-avr)")
     return harness, image
 
 
-def unavailable_reason(board: str = "sensor") -> str | None:
-    """Why ``firmware=avr`` cannot run here (None when it can): for tests that skip."""
+def unavailable_reason(board: str = "sensor", image: Path | None = None) -> str | None:
+    """Why ``firmware=avr`` (or the ``image`` given) cannot run here (None when it can): for
+    tests that skip."""
     if shutil.which("simavr") is None:
         return "simavr is not installed"
     try:
-        harness_files(board)
+        harness_files(board, image)
     except SerialException as error:
         return str(error)
     return None
@@ -69,13 +82,18 @@ def _stop(process: subprocess.Popen) -> None:
 
 
 class AvrHarness:
-    """One running harness: an ATmega328P with ``board``'s sketch, at AVR cycle ``cycle``."""
+    """One running harness: an ATmega328P with ``board``'s sketch, at AVR cycle ``cycle``.
 
-    def __init__(self, board: str, responder: Responder, reporter: Reporter | None = None) -> None:
-        harness, image = harness_files(board)
+    ``image`` runs another .hex on the board (stock grbl on the stage), ``pins`` names the
+    stage's pin map (``whiskercal`` or ``grbl``, ``firmware/sim/stage_part.h``).
+    """
+
+    def __init__(self, board: str, responder: Responder, reporter: Reporter | None = None,
+                 image: Path | None = None, pins: str = "whiskercal") -> None:
+        harness, image = harness_files(board, image)
         self.responder = responder
         self.reporter = reporter
-        self._process = subprocess.Popen([str(harness), board, str(image)], stdin=subprocess.PIPE,
+        self._process = subprocess.Popen([str(harness), board, str(image), pins], stdin=subprocess.PIPE,
                                          stdout=subprocess.PIPE, text=True, bufsize=1)
         self._finalizer = weakref.finalize(self, _stop, self._process)
         self.cycle = 0
@@ -129,6 +147,19 @@ class AvrHarness:
         """A request that only gets "K" (e.g. the stage's ``L`` switch positions)."""
         self._send(line)
         self._expect_done()
+
+    def eeprom(self) -> bytes:
+        """The EEPROM's 1 KiB now (kept by the host across a power-up, as the chip keeps it)."""
+        self._send("E")
+        words = self._line()
+        if words[0] != "E":
+            raise SerialException(f"the AVR emulation harness answered {' '.join(words)!r} to E")
+        self._expect_done()
+        return bytes.fromhex(words[2])
+
+    def write_eeprom(self, data: bytes) -> None:
+        """Put ``data`` into the EEPROM from address 0 (before the first run: there from the start)."""
+        self.send_request(f"W {data.hex()}")
 
     def stack_use(self) -> tuple[int, int]:
         """(deepest stack since power-up, SRAM bytes never written), bytes: the harness paints

@@ -132,6 +132,7 @@ class AvrStageBoard(AvrBoard):
         self.trace = StepTrace(start_mm, now_s, backlash_mm)
         self.stage_faults = faults or StageFaults()
         self._slipped = False
+        self._z_steps = 0
         if self.stage_faults.stall_at_s is not None:
             self.trace.stall_from_s = self.stage_faults.stall_at_s
         super().__init__(now_s)
@@ -147,8 +148,10 @@ class AvrStageBoard(AvrBoard):
         t = self._time(int(words[1]))
         moved_before = self.trace.commanded_mm(self.now_s)
         self.trace.record(t, (int(words[2]), int(words[3])))
-        if not np.array_equal(moved_before, self.trace.commanded_mm(t)):
-            self.keep_active(t + 0.1)  # moving: keep the physics in small steps
+        z_steps = int(words[4]) if len(words) > 4 else 0  # grbl's Z: no motor, but the firmware is busy
+        if not np.array_equal(moved_before, self.trace.commanded_mm(t)) or z_steps != self._z_steps:
+            self.keep_active(t + 0.1)  # moving: keep the physics (and the answers) in small steps
+        self._z_steps = z_steps
         self._apply_slip(t)
 
     def _apply_slip(self, t: float) -> None:

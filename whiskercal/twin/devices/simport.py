@@ -102,11 +102,15 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
     return world
 
 
-def _firmware(options: dict[str, list[str]]) -> str:
-    """The port's ``firmware=`` option: ``""`` (the Python board) or ``avr`` (the .hex on simavr)."""
+def _firmware(options: dict[str, list[str]], board: str) -> str:
+    """The port's ``firmware=`` option: ``""`` (the Python board), ``avr`` (whiskercal's .hex on
+    simavr) or, for the stage, ``grbl`` (stock grbl 1.1h on simavr, built by ``make grbl-sim``)."""
     firmware = options.get("firmware", [""])[-1]
-    if firmware not in ("", "avr"):
-        raise UsageError(f"sim:// option firmware must be avr (the compiled image on simavr), not {firmware!r}")
+    if firmware not in ("", "avr", "grbl"):
+        raise UsageError(f"sim:// option firmware must be avr (the compiled image on simavr) or, for the "
+                         f"stage, grbl (stock grbl 1.1h on simavr), not {firmware!r}")
+    if firmware == "grbl" and board != "stage":
+        raise UsageError("sim:// option firmware=grbl is for the stage port (grbl is a stage firmware)")
     return firmware
 
 
@@ -155,9 +159,10 @@ class Serial(SerialBase):
                                   "give the options on the first port only")
         self.world = world
         self.board_kind = board
-        if _firmware(options) == "avr" and board == "stage":
-            world.use_emulated_stage_board()
-        elif _firmware(options) == "avr":
+        firmware = _firmware(options, board)
+        if firmware and board == "stage":
+            world.use_emulated_stage_board(firmware)
+        elif firmware:
             world.use_emulated_sensor_board()
         self.board = world.stage_board if board == "stage" else world.sensor_board
         self.disconnect_at_s = next((w for n, w, _ in _faults(options) if n == "disconnect"), math.inf)
