@@ -32,7 +32,7 @@ HERE = Path(__file__).resolve().parent
 # name, twin sensor, world seeds (grid, study), config files in the dataset directory (or None).
 DATASETS = (
     {"name": "twin-paper-75mm", "sensor": "twin-paper-75mm", "seeds": (101, 102),
-     "collect_config": None, "study_config": None,
+     "collect_config": "collect.toml", "study_config": None,
      # a shaft study (docs/shaft.md): seed, config file in the dataset directory
      "shaft": (103, "shaft_study.toml")},
     {"name": "twin-short-60mm", "sensor": "twin-short-60mm", "seeds": (201, 202),
