@@ -74,7 +74,8 @@ class Follower:
         axis (``axial_uT``, µT from its reading at rest); command the robot; return what was
         done. The tracker reads the tip from both when its calibration carries a (Y, Z) table,
         from z alone otherwise (and without ``axial_uT``)."""
-        state = self.tracker.update(float(z_uT), None if axial_uT is None else float(axial_uT))
+        state = (self.tracker.update(float(z_uT)) if axial_uT is None
+                 else self.tracker.update(float(z_uT), float(axial_uT)))
         pose = robot.pose()
         self.contacted |= state.contact
         slip = self._slip(z_uT, state.raw_tip_mm)
