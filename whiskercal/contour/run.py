@@ -1,7 +1,8 @@
 """One contour-following run on the twin: the follower drives the mobile sensor around an object.
 
 ``run_contour`` starts the sensor outside the object, pointing at it, and runs the loop for a
-duration of robot time (or until stopped), recording every sample: time, z, the
+duration of robot time (or until stopped), recording every sample: time, z and the chip's Z
+axis (fed to the tracker, which uses it when the calibration carries a (Y, Z) table), the
 estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind and
 slips. The estimate is never aligned to the truth; docs/contour.md has the metrics.
 """
@@ -19,7 +20,7 @@ from whiskercal.follow import FollowConfig, Follower
 from whiskercal.twin.mobile import MobileSensor
 from whiskercal.twin.outlines import Outline
 
-COLUMNS = ("t_s", "z_uT", "estimate_mm", "true_tip_mm", "true_contact_mm", "pose", "slip",
+COLUMNS = ("t_s", "z_uT", "axial_uT", "estimate_mm", "true_tip_mm", "true_contact_mm", "pose", "slip",
            "phase", "kind", "control_s")
 
 
@@ -71,7 +72,7 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
             if stop_requested is not None and stop_requested():
                 break
             tic = time.perf_counter()
-            step = follower.update(sample.z_uT, robot)
+            step = follower.update(sample.z_uT, robot, sample.axial_uT)
             _record(rows, index * dt, sample, step, robot.pose(), time.perf_counter() - tic)
             sample = robot.step(dt)
             if on_progress is not None and index % int(config.rate_hz) == 0:
@@ -86,7 +87,8 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
 
 
 def _record(rows, t_s: float, sample, step, pose, control_s: float) -> None:
-    for name, value in (("t_s", t_s), ("z_uT", sample.z_uT), ("estimate_mm", step.contact_mm),
+    for name, value in (("t_s", t_s), ("z_uT", sample.z_uT), ("axial_uT", sample.axial_uT),
+                        ("estimate_mm", step.contact_mm),
                         ("true_tip_mm", sample.tip_mm), ("true_contact_mm", sample.contact_mm),
                         ("pose", pose), ("slip", step.slip), ("phase", step.phase),
                         ("kind", sample.kind), ("control_s", control_s)):

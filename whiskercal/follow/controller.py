@@ -1,7 +1,8 @@
 """The paper's closed loop, one sample at a time: keep the whisker at the target deflection
 against an unknown object and move along it, leaving contact points in the world frame.
 
-Per sample: the runtime tracker turns z into a filtered tip (whisker frame), the robot's pose
+Per sample: the runtime tracker turns z into a filtered tip (whisker frame; with the chip's Z
+axis too when the calibration carries a (Y, Z) table: ``runtime.Tracker.update``), the robot's pose
 puts it in the world; every ``key_every`` samples a key point is kept (at least ``key_spacing_mm``
 from the last); a cubic B-spline through the last ``key_points`` predicts the next, and so the
 surface's direction; the sensor turns so that the whisker leans ``tilt_deg`` back from the
@@ -68,9 +69,13 @@ class Follower:
         self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
         self._missing, self._grace = 0, int(round(config.lost_after_s * config.rate_hz))
 
-    def update(self, z_uT: float, robot: Robot) -> Step:
-        """Feed one z sample (µT from rest); command the robot; return what was done."""
-        state = self.tracker.update(float(z_uT))
+    def update(self, z_uT: float, robot: Robot, axial_uT: float | None = None) -> Step:
+        """Feed one z sample (µT from rest) and, when the magnetometer streams it, the chip's Z
+        axis (``axial_uT``, µT from its reading at rest); command the robot; return what was
+        done. The tracker reads the tip from both when its calibration carries a (Y, Z) table,
+        from z alone otherwise (and without ``axial_uT``)."""
+        state = (self.tracker.update(float(z_uT)) if axial_uT is None
+                 else self.tracker.update(float(z_uT), float(axial_uT)))
         pose = robot.pose()
         self.contacted |= state.contact
         slip = self._slip(z_uT, state.raw_tip_mm)

@@ -5,8 +5,10 @@ undeflected whisker) in the world frame; it takes a velocity command (world fram
 heading rate (rad/s), each limited as a robot's would be, and integrates them over each control
 period. Each period the object is seen from the sensor, the twin solves the whisker against it
 (its frictionless shape contact: tip, shaft or tangential), and the magnet and magnetometer turn
-the suspension's pose into z (µT from rest, with the sensor's noise). The truth (tip, contact,
-kind) is reported in the world frame. Everything runs in-process, as fast as the solver goes.
+the suspension's pose into z (µT from rest, with the sensor's noise), and the chip's Z axis
+likewise (``axial_uT``: a real magnetometer streams all three axes, and a calibration with a
+(Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
+frame. Everything runs in-process, as fast as the solver goes.
 """
 
 from __future__ import annotations
@@ -32,12 +34,14 @@ class RobotLimits:
 
 @dataclass(frozen=True)
 class MobileSample:
-    """One control period's measurement and the twin's truth (world frame, mm)."""
+    """One control period's measurement (Y axis ``z_uT`` and Z axis ``axial_uT``, each µT from
+    its reading at rest, with noise) and the twin's truth (world frame, mm)."""
 
     z_uT: float
     kind: str
     tip_mm: np.ndarray
     contact_mm: np.ndarray
+    axial_uT: float = float("nan")
 
 
 def rotation(angle_rad: float) -> np.ndarray:
@@ -73,8 +77,13 @@ class MobileSensor:
         self._pose = np.asarray(pose, float).copy()
         self._velocity, self._turn = np.zeros(2), 0.0
         self._noise_uT = float(sensor.magnetometer.noise_uT_rms[1])
-        self._rest_y = float(self.physics.field_uT(self.physics.free())[1])
+        self._axial_noise_uT = float(sensor.magnetometer.noise_uT_rms[2])
+        rest = self.physics.field_uT(self.physics.free())
+        self._rest_y, self._rest_z = float(rest[1]), float(rest[2])
         self._rng = np.random.default_rng(seed)
+        # the Z axis's noise from its own stream, so that the Y stream (and every run recorded
+        # before the Z axis was) stays the same for a seed
+        self._axial_rng = np.random.default_rng([seed, 2])
         self._previous, self._dt_s = None, 0.0
         # edges farther than this from the base cannot meet the whisker (mm; see _near_part)
         self._keep_mm = float(sensor.whisker.reach_mm) + NEAR_MARGIN_MM
@@ -108,12 +117,13 @@ class MobileSensor:
         equilibrium = self.physics.solve_shape(obstacle, _reindexed(self._previous, -first, count))
         equilibrium = _reindexed(equilibrium, first, count)
         self._previous = equilibrium
-        z = float(self.physics.field_uT(equilibrium)[1]) - self._rest_y
-        z += float(self._rng.normal(0.0, self._noise_uT))
+        field = self.physics.field_uT(equilibrium)
+        z = float(field[1]) - self._rest_y + float(self._rng.normal(0.0, self._noise_uT))
+        axial = float(field[2]) - self._rest_z + float(self._axial_rng.normal(0.0, self._axial_noise_uT))
         tip = self.to_world(equilibrium.tip_mm)
         self._tips = (self._tips[1], tip if equilibrium.kind == "tip" else None)
         self._dt_s = dt_s
-        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm))
+        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial)
 
     def _sliding_mm_s(self) -> tuple[float, float]:
         """The object's surface velocity past the tip (sensor frame, mm/s), from the tip's motion

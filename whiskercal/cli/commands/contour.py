@@ -21,7 +21,8 @@ def command() -> None:
               help="The object: a Ø160 mm cylinder, a 160 mm square prism with 40 mm corners, or "
                    "an octagonal prism (70 mm sides, 30 mm corners).")
 @click.option("--artifact", type=click.Path(dir_okay=False), required=True,
-              help="Calibration artifact (CAL.h5) of the twin's sensor, with a target.")
+              help="Calibration artifact (CAL.h5) of the twin's sensor, with a target; one from "
+                   "`fit --field-table` places the contacts from the Y and Z axes (docs/contour.md).")
 @click.option("--sensor", "sensor_name", default=None, metavar="ID_OR_PATH",
               help="The twin's sensor build: a shipped id or a .toml file [default: the default sensor].")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,
