@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from whiskercal.fit.field_table import REFUSE_ESTIMATE_MM, WARN_ESTIMATE_MM, trust_verdict
-from whiskercal.mechfit.table_error import ambiguity_tip_error_mm
+from whiskercal.mechfit.table_error import ambiguity_tip_error_mm, noise_propagation_mm
 
 NOISE_UT = (5.6, 9.0)  # one sample's Y and Z noise
 
@@ -24,8 +24,8 @@ def _smooth_loads(seed: int = 0, mm_per_uT: float = 0.001):
 def test_a_smooth_map_is_estimated_at_its_noise_through_its_slope():
     fields, tips = _smooth_loads()
     estimate = ambiguity_tip_error_mm(fields, tips, NOISE_UT)
-    # neighbours within one sample's noise lie at most |noise| * slope away: 0.0106 mm
-    assert 0.001 < estimate < 0.0106
+    # neighbours within twice one sample's noise lie at most 2 |noise| * slope away: 0.021 mm
+    assert 0.001 < estimate < 0.0212
     assert trust_verdict(estimate, (1.0, 1.0)) == (True, [])
 
 
@@ -47,3 +47,12 @@ def test_the_rule_warns_between_the_goal_and_the_refusal_and_refuses_a_poor_resi
     write, warnings = trust_verdict(0.05, (2.5, 1.0))
     assert not write and "2.5x the noise" in warnings[0]
     assert trust_verdict(float("nan"), (1.0, 1.0))[0] is False
+
+
+def test_the_noise_through_a_linear_tables_slope_is_its_slope_times_the_noise():
+    y, z = np.linspace(-2000.0, 0.0, 41), np.linspace(-3000.0, 0.0, 31)
+    yy, zz = np.meshgrid(y, z, indexing="ij")
+    tips = np.stack([0.002 * yy, 0.001 * zz], axis=-1)  # mm per µT
+    tips[:3, :3] = np.nan  # unanswered cells drop out
+    expected = np.hypot(0.002 * NOISE_UT[0], 0.001 * NOISE_UT[1])
+    assert abs(noise_propagation_mm(y, z, tips, NOISE_UT) - expected) < 1e-9

@@ -17,7 +17,7 @@ import numpy as np
 from whiskercal.artifacts.raw_grid import baseline_y_at
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
-from whiskercal.mechfit.table_error import ambiguity_tip_error_mm
+from whiskercal.mechfit.table_error import estimated_tip_error_mm
 from whiskercal.mechfit.tables import table_load_points, tabulate
 from whiskercal.model.calibrate import contact_mask
 
@@ -80,7 +80,7 @@ def trust_verdict(estimate_mm: float, residual_ratio) -> tuple[bool, list[str]]:
     ratio = float(np.max(residual_ratio))
     reasons = []
     if not estimate_mm <= REFUSE_ESTIMATE_MM:
-        reasons.append(f"loads within one reading's noise give tips {estimate_mm:.2f} mm RMS apart")
+        reasons.append(f"its estimated tip error is {estimate_mm:.2f} mm RMS")
     if not ratio <= MAX_RESIDUAL_RATIO:
         reasons.append(f"the (Y, Z) model leaves {ratio:.1f}x the noise unexplained")
     if reasons:
@@ -108,7 +108,8 @@ def fit_field_table(raw, length_mm: float) -> FieldTableFit:
     y_range = (float(fields[:, 0].min()), float(fields[:, 0].max()))
     load_fields, load_tips = table_load_points(fit, y_range)
     table = tabulate(load_fields, load_tips, y_range)
-    estimate = ambiguity_tip_error_mm(load_fields, load_tips, _sample_noise(raw, used))
+    error = estimated_tip_error_mm(load_fields, load_tips, table, _sample_noise(raw, used))
+    estimate = error["estimate_mm"]
     ratio = fit.rms_uT / noise
     metrics = {"stiffness_ratio": 1.0 / fit.suspension.rot_compliance,
                "stub_mm": fit.suspension.stub_mm,
@@ -119,7 +120,8 @@ def fit_field_table(raw, length_mm: float) -> FieldTableFit:
                "ratio_profile": fit.starts[-1].get("ratio_profile", [])}
     write, verdict = trust_verdict(estimate, ratio)
     warnings = _identification_warnings(metrics["ratio_profile"]) + verdict
-    metrics.update(field_table_estimated_tip_error_mm=estimate, field_table_written=write,
+    metrics.update(field_table_estimated_tip_error_mm=estimate, estimated_error_parts=error,
+                   field_table_written=write,
                    fit_s=time.perf_counter() - started)
     arrays = {"y_uT": table.y_uT, "axial_uT": table.z_uT, "tip_mm": table.tips_mm}
     return FieldTableFit(arrays if write else None,
