@@ -41,7 +41,7 @@ def test_two_branches_with_the_same_fields_are_estimated_at_their_distance():
 
 
 def test_the_rule_warns_between_the_goal_and_the_refusal_and_refuses_a_poor_residual():
-    between = 0.5 * (WARN_ESTIMATE_MM + REFUSE_ESTIMATE_MM)
+    between = 0.5 * (WARN_ESTIMATE_MM + REFUSE_ESTIMATE_MM)  # warned, written
     write, warnings = trust_verdict(between, (1.0, 1.0))
     assert write and len(warnings) == 1 and "estimated tip error" in warnings[0]
     write, warnings = trust_verdict(0.05, (2.5, 1.0))
