@@ -5,6 +5,8 @@ at the same Y; the chip's Z axis can (docs/calibration.md). The mechanics and a 
 map are fitted to the grid's Y and Z together (``mechfit.magnetfit``), solved for tip loads of
 every direction (``mechfit.tables.field_tip_table``), and the tips resampled on a regular
 (Y, Z) grid that the artifact carries in ``/field_table`` and the runtime reads bilinearly.
+The table's tip error is estimated without the truth (``mechfit.table_error``): warned above the
+goal, and the table withheld (the runtime then reads the z lookup) where it cannot be trusted.
 """
 
 from __future__ import annotations
