@@ -117,9 +117,16 @@ def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
 
     Loads tilted by each of ``betas_deg`` from the tip's normal and, with ``space_fixed``, the
     space-fixed loads of ``loadgrid.py`` (pushes along and past the wire's axis included) within
-    1.5 times the grid's largest pose. The fit must carry the Y and Z axes (in that order). Y spans ``y_range_uT``; Z spans
-    what the loads reach there.
+    1.5 times the grid's largest pose. The fit must carry the Y and Z axes (in that order). Y
+    spans ``y_range_uT``; Z spans what the loads reach there.
     """
+    fields, tips = table_load_points(fit, y_range_uT, betas_deg, space_fixed)
+    return tabulate(fields, tips, y_range_uT, shape)
+
+
+def table_load_points(fit: MechanicsFit, y_range_uT: tuple[float, float],
+                      betas_deg=DEFAULT_BETAS_DEG, space_fixed: bool = True):
+    """The model's tip loads the table is made from: (Y, Z) µT (n, 2) and tips mm (n, 2)."""
     if fit.pose_map.coefficients.shape[1] < 2:
         raise UsageError("a (Y, Z) table needs a fit of both axes.")
     fields, tips = _family_points(fit, betas_deg)
@@ -127,7 +134,12 @@ def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
         more = _load_grid_points(fit)
         fields, tips = np.concatenate([fields, more[0]]), np.concatenate([tips, more[1]])
     inside = (fields[:, 0] >= y_range_uT[0] - 0.05 * np.ptp(y_range_uT)) & (fields[:, 0] <= 0.0)
-    fields, tips = fields[inside], tips[inside]
+    return fields[inside], tips[inside]
+
+
+def tabulate(fields: np.ndarray, tips: np.ndarray, y_range_uT: tuple[float, float],
+             shape: tuple[int, int] = DEFAULT_SHAPE) -> FieldTipTable:
+    """Tips resampled on a regular (Y, Z) grid by linear interpolation between the loads."""
     scale = np.ptp(fields, axis=0)
     interpolant = LinearNDInterpolator(fields / scale, tips)
     y_axis = np.linspace(y_range_uT[0], y_range_uT[1], shape[0])

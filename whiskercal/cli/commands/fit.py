@@ -37,6 +37,10 @@ def _summary(data, elapsed_s: float) -> dict:
     for key in ("lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm"):
         if key in m:
             summary[key] = m[key]
+    if "field_table_estimated_tip_error_mm" in m:  # fit --field-table
+        summary["field_table_estimated_tip_error_mm"] = float(
+            m["field_table_estimated_tip_error_mm"])
+        summary["field_table_written"] = data.field_table is not None
     return summary
 
 
@@ -146,6 +150,10 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
                + (", extrapolated range marked" if summary["extrapolated"] else ""))
     click.echo(f"tip model {summary['tip_model']}, estimated tip error "
                f"{summary['estimated_tip_error_mm']:.3f} mm RMS")
+    if "field_table_written" in summary:
+        click.echo(f"(Y, Z)    table {'written' if summary['field_table_written'] else 'withheld'}"
+                   f", estimated tip error {summary['field_table_estimated_tip_error_mm']:.3f}"
+                   " mm RMS")
     if "lookup_vs_truth_rmse_mm" in summary:
         click.echo(f"truth     lookup vs the twin's true tips: RMSE "
                    f"{summary['lookup_vs_truth_rmse_mm']:.3f} mm, max "

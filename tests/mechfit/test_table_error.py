@@ -1,0 +1,58 @@
+"""The (Y, Z) table's truth-free error estimate and the rule that warns or withholds the table.
+
+Synthetic load sets (seeded): a smooth one-to-one map, whose estimate is the noise carried through
+its slope, and two branches that give the same fields with tips 10 mm apart (a thin wire bent both
+ways), whose estimate must show the branches' distance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from whiskercal.fit.field_table import REFUSE_ESTIMATE_MM, WARN_ESTIMATE_MM, trust_verdict
+from whiskercal.mechfit.table_error import ambiguity_tip_error_mm, noise_propagation_mm
+
+NOISE_UT = (5.6, 9.0)  # one sample's Y and Z noise
+
+
+def _smooth_loads(seed: int = 0, mm_per_uT: float = 0.001):
+    """Fields on a 2000 x 2000 µT patch; tips a linear map of them (mm_per_uT mm per µT)."""
+    fields = np.random.default_rng(seed).uniform(-2000.0, 0.0, (3000, 2))
+    return fields, fields * mm_per_uT
+
+
+def test_a_smooth_map_is_estimated_at_its_noise_through_its_slope():
+    fields, tips = _smooth_loads()
+    estimate = ambiguity_tip_error_mm(fields, tips, NOISE_UT)
+    # neighbours within twice one sample's noise lie at most 2 |noise| * slope away: 0.021 mm
+    assert 0.001 < estimate < 0.0212
+    assert trust_verdict(estimate, (1.0, 1.0)) == (True, [])
+
+
+def test_two_branches_with_the_same_fields_are_estimated_at_their_distance():
+    fields, tips = _smooth_loads()
+    other = tips + np.array([10.0, 0.0])  # the same fields, tips 10 mm apart
+    estimate = ambiguity_tip_error_mm(np.concatenate([fields, fields]),
+                                      np.concatenate([tips, other]), NOISE_UT)
+    # half of each load's neighbours lie on the other branch: about 10 / sqrt(2) mm RMS
+    assert 6.0 < estimate < 8.0
+    write, warnings = trust_verdict(estimate, (1.0, 1.0))
+    assert not write and len(warnings) == 1 and "no (Y, Z) table written" in warnings[0]
+
+
+def test_the_rule_warns_between_the_goal_and_the_refusal_and_refuses_a_poor_residual():
+    between = 0.5 * (WARN_ESTIMATE_MM + REFUSE_ESTIMATE_MM)  # warned, written
+    write, warnings = trust_verdict(between, (1.0, 1.0))
+    assert write and len(warnings) == 1 and "estimated tip error" in warnings[0]
+    write, warnings = trust_verdict(0.05, (2.5, 1.0))
+    assert not write and "2.5x the noise" in warnings[0]
+    assert trust_verdict(float("nan"), (1.0, 1.0))[0] is False
+
+
+def test_the_noise_through_a_linear_tables_slope_is_its_slope_times_the_noise():
+    y, z = np.linspace(-2000.0, 0.0, 41), np.linspace(-3000.0, 0.0, 31)
+    yy, zz = np.meshgrid(y, z, indexing="ij")
+    tips = np.stack([0.002 * yy, 0.001 * zz], axis=-1)  # mm per µT
+    tips[:3, :3] = np.nan  # unanswered cells drop out
+    expected = np.hypot(0.002 * NOISE_UT[0], 0.001 * NOISE_UT[1])
+    assert abs(noise_propagation_mm(y, z, tips, NOISE_UT) - expected) < 1e-9
