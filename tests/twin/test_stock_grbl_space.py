@@ -77,14 +77,14 @@ def test_a_soft_limit_while_moving_holds_then_alarms_and_only_a_reset_ends_the_p
     port.write(b"?")
     assert _lines(port, 0.05)[0].startswith("<Hold:1|")  # grbl's feed hold decelerates first
     alarm = _lines(port, 2.0)
-    assert alarm == ["ALARM:2", "[MSG:Reset to continue]"]  # and the line gets no answer
+    assert alarm == ["ALARM:2", "[MSG:Reset to continue]"]  # and the line gets no answer yet
     stopped = world.stage.machine_mm(world.now_s).copy()
     port.write(b"?")
     port.write(b"G53 G1 X-150\n")
     port.write(b"$X\n")
     assert _lines(port, 1.0) == []  # the pause: no report, no line taken
-    port.write(b"\x18")
-    assert _lines(port, 0.2) == [BANNER, "[MSG:'$H'|'$X' to unlock]"]
+    port.write(b"\x18")  # grbl returns from the refused line (its ok), then resets
+    assert _lines(port, 0.2) == ["ok", BANNER, "[MSG:'$H'|'$X' to unlock]"]
     port.write(b"?")
     assert _lines(port, 0.1)[0].startswith("<Alarm|")
     port.write(b"$X\n")
