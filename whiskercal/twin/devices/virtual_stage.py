@@ -37,7 +37,6 @@ PROTO = "whiskercal-stage-1"
 FIRMWARE_VERSION = "0.1.0"
 MAX_LINE_CHARS = 80
 PLANNER_BLOCKS = 15
-Z_TRAVEL_MM = 200.0  # grbl's default $132, the Z travel a Z-first homing cycle searches
 WCO_REFRESH_REPORTS = 10  # grbl 1.1 resends WCO every 10 reports at rest (30 while moving)
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
 _TRAVEL_EPS_MM = 1e-6
@@ -189,6 +188,9 @@ class VirtualStage:
         self._after_pause = None
         self._ok_on_reset = False  # stock: the line that hit the soft limits is answered by a reset
         self._status_requested = False  # stock: a '?' during homing, served when homing ends
+        # Z's step counter, mm: the stage has no Z motor, but stock grbl's failed Z search counts
+        # its steps all the same (whiskercal's firmware has no Z: always 0)
+        self.z_mm = 0.0
         self.now_s = 0.0
         self._boot(0.0, moving=False, power_up=True)
 
@@ -217,6 +219,7 @@ class VirtualStage:
         self.mech.home_offset_mm = self.mech.commanded_mm(t)
         self.line.clear()
         self.alarm, self.homing_until_s = None, None
+        self.z_mm = 0.0
         self._boot(t, moving=False, power_up=True)
 
     def _realtime(self, byte: int, t: float) -> None:
@@ -316,6 +319,8 @@ class VirtualStage:
         if self._homing_finds_no_switch():  # only stock grbl's cycles: see _homing_finds_no_switch
             # grbl: the alarm; after its pause the ok of $H, then the reset ending a failed cycle
             self.homing_until_s, self._status_requested = None, False
+            if self.homes_z_first:  # the search toward +Z, counted from 0, was stepped out in vain
+                self.z_mm = 1.5 * self.mech.settings[132]
             self._raise_alarm(StageAlarm.HOMING_FAIL_APPROACH, t)
             self._pause(t, self._answer_failed_homing)
             return
@@ -455,9 +460,9 @@ class VirtualStage:
         or a G92 and every WCO_REFRESH_REPORTS reports after that (the work offset is stock
         grbl's G92 offset, always zero with whiskercal's firmware)."""
         if int(self.mech.settings.get(10, 1)) & 1:
-            return f"MPos:{x:.3f},{y:.3f},0.000"
+            return f"MPos:{x:.3f},{y:.3f},{self.z_mm:.3f}"
         wx, wy = self._work_offset_mm
-        field = f"WPos:{x - wx:.3f},{y - wy:.3f},0.000"
+        field = f"WPos:{x - wx:.3f},{y - wy:.3f},{self.z_mm:.3f}"
         if self._reports_to_wco == 0:
             field += f"|WCO:{wx:.3f},{wy:.3f},0.000"
             self._reports_to_wco = WCO_REFRESH_REPORTS
@@ -558,7 +563,7 @@ class VirtualStage:
         self.hold_stop_s, self._resume_requested = None, False
         self._slipping = False  # homing re-references steps and encoders
         if self._homing_finds_no_switch():  # searches 1.5 x the travel at the seek rate in vain
-            travel = Z_TRAVEL_MM if self.homes_z_first else max(self.mech.settings[130],
+            travel = self.mech.settings[132] if self.homes_z_first else max(self.mech.settings[130],
                                                                 self.mech.settings[131])
             self.homing_until_s = t + 1.5 * travel / self.mech.settings[25] * 60.0
             return
