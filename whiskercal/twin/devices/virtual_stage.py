@@ -11,9 +11,12 @@ Stock grbl 1.1 (gnea/grbl ``limits_go_home``, ``system_check_travel_limits``): a
 carriage stands at machine -$130+$27 (X and Y home toward their switches at the minimum,
 ``$23=3``) and the workspace is -$130..0; a HOMING_FORCE_SET_ORIGIN build (``origin="set"``)
 stands at 0 and works in 0..$130. A target outside the workspace with ``$20=1`` is a soft-limit
-alarm: a feed hold, then ``ALARM:2`` and ``[MSG:Reset to continue]``, and until a reset the board
-ignores everything else (``?`` included). The twin's stage has switches at its minimum only: a
-``$23`` that sends X or Y toward the maximum finds no switch (``ALARM:9``).
+alarm: a feed hold, then ``ALARM:2``, ALARM_PAUSE_S in which every byte is lost (a reset too),
+``[MSG:Reset to continue]``, and until a reset the board ignores everything else (``?``
+included); the reset answers the refused line's ``ok`` before its banner. A failed homing cycle
+is ``ALARM:9``, the same pause, the ``ok`` of ``$H`` and a reset; a homing cycle serves no ``?``
+until it ends. The twin's stage has switches at its minimum only: a ``$23`` that sends X or Y
+toward the maximum finds no switch (``ALARM:9``). tests/data/grbl_transcripts pin all this down.
 
 Time comes from outside: ``receive(data, t)`` and ``advance_to(t)`` are called with
 non-decreasing simulated times; replies go into ``self.line`` with their transmission delay.
