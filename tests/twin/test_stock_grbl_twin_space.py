@@ -77,14 +77,14 @@ def test_a_soft_limit_while_moving_holds_then_alarms_and_only_a_reset_ends_the_p
     port.write(b"?")
     assert _lines(port, 0.05)[0].startswith("<Hold:1|")  # grbl's feed hold decelerates first
     alarm = _lines(port, 2.0)
-    assert alarm == ["ALARM:2", "[MSG:Reset to continue]"]  # and the line gets no answer
+    assert alarm == ["ALARM:2", "[MSG:Reset to continue]"]  # and the line gets no answer yet
     stopped = world.stage.machine_mm(world.now_s).copy()
     port.write(b"?")
     port.write(b"G53 G1 X-150\n")
     port.write(b"$X\n")
     assert _lines(port, 1.0) == []  # the pause: no report, no line taken
-    port.write(b"\x18")
-    assert _lines(port, 0.2) == [BANNER, "[MSG:'$H'|'$X' to unlock]"]
+    port.write(b"\x18")  # grbl returns from the refused line (its ok), then resets
+    assert _lines(port, 0.2) == ["ok", BANNER, "[MSG:'$H'|'$X' to unlock]"]
     port.write(b"?")
     assert _lines(port, 0.1)[0].startswith("<Alarm|")
     port.write(b"$X\n")
@@ -106,3 +106,21 @@ def test_the_client_recovers_in_grbls_order_and_keeps_the_position():
     np.testing.assert_allclose(status.mpos_mm, [-199.0, -199.0])
     stage.move_to(-190.0, -190.0, 3000)
     assert stage.wait_idle(10).idle
+
+
+def test_grbls_own_z_first_homing_fails_then_answers_its_ok_and_resets_with_z_stepped_out():
+    world = create_world(f"stock-space-{next(_names)}", physics=RigidWhiskerPhysics(), stock=True)
+    stage = StageClient(f"sim://{world.name}/stage")
+    stage.status()  # the power-up banner read
+    port = stage.transport.port
+    port.timeout = 0.01
+    port.write(b"$H\n")
+    port.write(b"?")  # grbl's homing cycle serves no report; the failed one none at all
+    # config.h's Z cycle searches 1.5 x $132 = 300 mm at $25 = 500 mm/min: 36 s, in vain
+    assert _lines(port, 35.9) == []
+    assert _lines(port, 0.2) == ["ALARM:9"]
+    port.write(b"?")  # lost in the alarm's pause
+    assert _lines(port, 0.35) == []
+    assert _lines(port, 0.1) == ["ok", BANNER, "[MSG:'$H'|'$X' to unlock]"]
+    port.write(b"?")
+    assert _lines(port, 0.1)[0].startswith("<Alarm|MPos:0.000,0.000,300.000|")  # Z's counter: 1.5 x $132

@@ -36,9 +36,10 @@ def command() -> None:
               help="The stock build has HOMING_FORCE_SET_ORIGIN (default: grbl's -travel..0 space).")
 @click.option("--fault", "faults", multiple=True, metavar="NAME@SECONDS",
               help="Inject a fault: missed_steps@T[:mm], stall@T, encoder_magnet@T, encoder_bus@T.")
-@click.option("--firmware", type=click.Choice(["python", "avr"]), default="python", show_default=True,
+@click.option("--firmware", type=click.Choice(["python", "avr", "grbl"]), default="python", show_default=True,
               help="avr: both boards are their compiled .hex on simavr (make firmware-sim) instead of "
-                   "the twin's Python boards.")
+                   "the twin's Python boards; grbl: the stage is stock grbl 1.1h on simavr (make grbl-sim, "
+                   "--homing/--origin choose the build), the sensor the twin's Python board.")
 @click.option("--duration", type=float, default=None,
               help="Stop after this many real seconds (default: run until Ctrl-C).")
 @click.option("--json", "as_json", is_flag=True, help="Print the pty paths as JSON.")
@@ -64,8 +65,8 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
     if sensor is not None:
         options["sensor"] = [sensor]
     world = world_from_options("serve", options)
-    if firmware == "avr":
-        _use_emulated_boards(world)
+    if firmware != "python":
+        _use_emulated_boards(world, firmware)
     bridge = PtyBridge(world, speed)
     info = {"stage": bridge.paths["stage"], "sensor": bridge.paths["sensor"], "scene": scene,
             "seed": seed, "speed": speed, "sensor_id": world.sensor.sensor_id, "firmware": firmware}
@@ -83,14 +84,16 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
         bridge.close()
 
 
-def _use_emulated_boards(world) -> None:
-    """Both boards as their .hex on simavr; a missing harness is the user's to build."""
+def _use_emulated_boards(world, firmware: str) -> None:
+    """Both boards as their .hex on simavr (``avr``), or the stage as stock grbl (``grbl``); a
+    missing harness or image is the user's to build."""
     from serial.serialutil import SerialException
 
     from whiskercal.errors import UsageError
 
     try:
-        world.use_emulated_stage_board()
-        world.use_emulated_sensor_board()
+        world.use_emulated_stage_board(firmware)
+        if firmware == "avr":
+            world.use_emulated_sensor_board()
     except SerialException as error:
         raise UsageError(str(error)) from error

@@ -11,9 +11,12 @@ Stock grbl 1.1 (gnea/grbl ``limits_go_home``, ``system_check_travel_limits``): a
 carriage stands at machine -$130+$27 (X and Y home toward their switches at the minimum,
 ``$23=3``) and the workspace is -$130..0; a HOMING_FORCE_SET_ORIGIN build (``origin="set"``)
 stands at 0 and works in 0..$130. A target outside the workspace with ``$20=1`` is a soft-limit
-alarm: a feed hold, then ``ALARM:2`` and ``[MSG:Reset to continue]``, and until a reset the board
-ignores everything else (``?`` included). The twin's stage has switches at its minimum only: a
-``$23`` that sends X or Y toward the maximum finds no switch (``ALARM:9``).
+alarm: a feed hold, then ``ALARM:2``, ALARM_PAUSE_S in which every byte is lost (a reset too),
+``[MSG:Reset to continue]``, and until a reset the board ignores everything else (``?``
+included); the reset answers the refused line's ``ok`` before its banner. A failed homing cycle
+is ``ALARM:9``, the same pause, the ``ok`` of ``$H`` and a reset; a homing cycle serves no ``?``
+until it ends. The twin's stage has switches at its minimum only: a ``$23`` that sends X or Y
+toward the maximum finds no switch (``ALARM:9``). tests/data/grbl_transcripts pin all this down.
 
 Time comes from outside: ``receive(data, t)`` and ``advance_to(t)`` are called with
 non-decreasing simulated times; replies go into ``self.line`` with their transmission delay.
@@ -37,23 +40,34 @@ PROTO = "whiskercal-stage-1"
 FIRMWARE_VERSION = "0.1.0"
 MAX_LINE_CHARS = 80
 PLANNER_BLOCKS = 15
-Z_TRAVEL_MM = 200.0  # grbl's default $132, the Z travel a Z-first homing cycle searches
 WCO_REFRESH_REPORTS = 10  # grbl 1.1 resends WCO every 10 reports at rest (30 while moving)
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
 _TRAVEL_EPS_MM = 1e-6
-_INTEGER_SETTINGS = (10, 20, 22, 23, 200)
+# grbl prints these without decimals ($30/$31, the spindle's rpm, with none either)
+_INTEGER_SETTINGS = (0, 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 26, 30, 31, 32, 200)
 RESET_TO_CONTINUE = "[MSG:Reset to continue]"
+# grbl's pause between a limit or homing alarm and what follows it (the message, or the ok of $H), s
+ALARM_PAUSE_S = 0.5
+MAX_LINE_NUMBER = 9999999  # grbl 1.1's largest N word
+MAX_TOOL_NUMBER = 255  # grbl 1.1's largest T word
+MM_PER_INCH = 25.4
 # The stock board's settings where they differ from whiskercal's firmware: grbl's $10 (report
 # MPos) and the homing direction this stage's switches need ($23=3: X and Y toward their minimum;
-# grbl's own default 0 homes toward +, where the stage has no switch).
-STOCK_SETTINGS = {10: 1, 23: 3}
+# grbl's own default 0 homes toward +, where the stage has no switch); the rest of grbl 1.1h's 34
+# settings at grbl's defaults (step pulse, junction deviation, arcs, spindle, and Z's $102..$132,
+# Z having no motor here). $$ lists them all; only the X/Y motion and homing ones act.
+STOCK_SETTINGS = {0: 10, 1: 25, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 10: 1, 11: 0.010, 12: 0.002, 13: 0,
+                  21: 0, 23: 3, 26: 250, 30: 1000, 31: 0, 32: 0,
+                  102: 250.0, 112: 500.0, 122: 10.0, 132: 200.0}
 _LOCKED = 0  # ``alarm`` value for the lock after power-up: Alarm state without an ALARM:N
 # The modal groups (grbl 1.1 / RS274NGC numbers) of the G codes this stage knows.
 _NON_MODAL, _MOTION, _PLANE, _DISTANCE, _FEED_MODE, _UNITS = 0, 1, 2, 3, 5, 6
 _G_GROUPS = {4: _NON_MODAL, 0: _MOTION, 1: _MOTION, 17: _PLANE, 90: _DISTANCE, 91: _DISTANCE,
              94: _FEED_MODE, 21: _UNITS}
-# stock grbl also knows G53 (move in machine coordinates); whiskercal's firmware does not
-_STOCK_G_GROUPS = {**_G_GROUPS, 53: _NON_MODAL}
+# stock grbl also knows G53 (move in machine coordinates), G92/G92.1 (set/clear the work offset),
+# G20 (inches) and the arcs G2/G3 (whose feed rate is checked; the twin draws no arcs)
+_STOCK_G_GROUPS = {**_G_GROUPS, 53: _NON_MODAL, 92: _NON_MODAL, 92.1: _NON_MODAL, 20: _UNITS,
+                   2: _MOTION, 3: _MOTION}
 
 
 class GcodeError(Exception):
@@ -83,17 +97,20 @@ def _bad_word(first: str) -> StageError:
     return StageError.BAD_NUMBER_FORMAT if first.isalpha() else StageError.EXPECTED_COMMAND_LETTER
 
 
-def read_block(words: list[tuple[str, float]],
-               known: dict[int, int] = _G_GROUPS) -> tuple[dict[int, int], dict[str, float]]:
+def read_block(words: list[tuple[str, float]], known: dict[float, int] = _G_GROUPS,
+               stock: bool = False) -> tuple[dict[int, float], dict[str, float]]:
     """A block's G codes by modal group and its X, Y, F, P words, checked word by word as grbl does.
 
-    ``known`` maps the G codes the board knows to their groups (stock grbl adds G53). N words
-    (line numbers) are accepted and ignored; any other letter is ``error:20``.
+    ``known`` maps the G codes the board knows to their groups (stock grbl adds G53, G92...). N
+    words (line numbers) are accepted and ignored, and with ``stock`` T words too (grbl 1.1
+    checks their range and ignores tool changes); any other letter is ``error:20``.
     """
-    groups: dict[int, int] = {}
+    groups: dict[int, float] = {}
     values: dict[str, float] = {}
     for letter, value in words:
-        if letter == "G":
+        if stock and letter in "NT":
+            _stock_number_word(letter, value)
+        elif letter == "G":
             _g_word(value, groups, known)
         elif letter in "XYFP":
             if letter in values:
@@ -106,15 +123,22 @@ def read_block(words: list[tuple[str, float]],
     return groups, values
 
 
-def _g_word(value: float, groups: dict[int, int], known: dict[int, int]) -> None:
-    group = known.get(int(value)) if value == int(value) else None  # G38.2 and the like: none
+def _stock_number_word(letter: str, value: float) -> None:
+    if letter == "N" and value > MAX_LINE_NUMBER:
+        raise GcodeError(StageError.INVALID_LINE_NUMBER)
+    if letter == "T" and value > MAX_TOOL_NUMBER:
+        raise GcodeError(StageError.MAX_VALUE_EXCEEDED)
+
+
+def _g_word(value: float, groups: dict[int, float], known: dict[float, int]) -> None:
+    group = known.get(value)  # G38.2 and the like: none (4.0 finds 4, 92.1 finds 92.1)
     if group is None:
         raise GcodeError(StageError.UNSUPPORTED_COMMAND)
     if group == _MOTION and _MOTION in groups:
         raise GcodeError(StageError.AXIS_WORDS_CONFLICT)  # grbl checks this before the group
     if group in groups:
         raise GcodeError(StageError.MODAL_GROUP_VIOLATION)
-    groups[group] = int(value)
+    groups[group] = int(value) if value == int(value) else value
 
 
 class VirtualStage:
@@ -162,6 +186,14 @@ class VirtualStage:
         self._slipping = False  # a slip or stall happened since the last homing
         self._soft_limit_at_s: float | None = None  # stock: a soft-limit hold ends, then ALARM:2
         self._awaiting_reset = False  # stock: grbl's pause after a limit alarm
+        # stock: grbl's silent ALARM_PAUSE_S after a limit or homing alarm, and what ends it
+        self._pause_until_s: float | None = None
+        self._after_pause = None
+        self._ok_on_reset = False  # stock: the line that hit the soft limits is answered by a reset
+        self._status_requested = False  # stock: a '?' during homing, served when homing ends
+        # Z's step counter, mm: the stage has no Z motor, but stock grbl's failed Z search counts
+        # its steps all the same (whiskercal's firmware has no Z: always 0)
+        self.z_mm = 0.0
         self.now_s = 0.0
         self._boot(0.0, moving=False, power_up=True)
 
@@ -190,12 +222,17 @@ class VirtualStage:
         self.mech.home_offset_mm = self.mech.commanded_mm(t)
         self.line.clear()
         self.alarm, self.homing_until_s = None, None
+        self.z_mm = 0.0
         self._boot(t, moving=False, power_up=True)
 
     def _realtime(self, byte: int, t: float) -> None:
+        if self._pause_until_s is not None:
+            return  # grbl's pause after an alarm loses every realtime byte, a reset too
         if self._awaiting_reset and byte != 0x18:
             return  # grbl's pause after a limit alarm serves nothing but a reset
-        if byte == ord("?"):
+        if byte == ord("?") and self.stock and self.homing_until_s is not None:
+            self._status_requested = True  # grbl's homing cycle serves no realtime report
+        elif byte == ord("?"):
             self._send(self.status_report(t), t)
         elif byte == ord("!") and self.state(t) == "Run":
             self.hold_stop_s = self.mech.hold(t)
@@ -203,6 +240,8 @@ class VirtualStage:
             self._resume_requested = True
             self._finish_hold(t)
         elif byte == 0x18:
+            if self._ok_on_reset:
+                self._send("ok", t)  # grbl returns from the refused line before it resets
             self._boot(t, moving=self.mech.busy(t) or self.homing_until_s is not None)
 
     def _boot(self, t: float, moving: bool, power_up: bool = False) -> None:
@@ -211,7 +250,10 @@ class VirtualStage:
         self._input.clear()
         self.hold_stop_s, self._resume_requested = None, False
         self._soft_limit_at_s, self._awaiting_reset = None, False
-        self._absolute, self._motion, self._feed_mm_min = True, 0, None
+        self._pause_until_s, self._after_pause, self._ok_on_reset = None, None, False
+        self._status_requested = False
+        self._absolute, self._motion, self._feed_mm_min, self._inches = True, 0, None, False
+        self._work_offset_mm = np.zeros(2)  # stock grbl's G92 offset, cleared by a reset
         self._reports_to_wco, self._ok_after_dwell = 0, False
         if moving:
             self.homing_until_s = None
@@ -233,6 +275,8 @@ class VirtualStage:
             times.append(self.homing_until_s)
         if self._soft_limit_at_s is not None:
             times.append(self._soft_limit_at_s)
+        if self._pause_until_s is not None:
+            times.append(self._pause_until_s)
         if self._resume_requested and self.hold_stop_s is not None:
             times.append(self.hold_stop_s)
         if self._pending and self.homing_until_s is None and self.mech.queue and not self.mech.paused:
@@ -267,20 +311,42 @@ class VirtualStage:
             self._end_homing(t)
         if self._soft_limit_at_s is not None and t >= self._soft_limit_at_s:
             self._soft_limit_alarm(t)
+        if self._pause_until_s is not None and t >= self._pause_until_s:
+            self._end_pause(t)
         self._apply_faults(t)
         self._check_encoders(t)
         self._finish_hold(t)
         self._run_pending(t)
 
     def _end_homing(self, t: float) -> None:
-        self.homing_until_s = None
-        if self._homing_finds_no_switch():  # grbl: the alarm, then the reset ending a failed cycle
+        if self._homing_finds_no_switch():  # only stock grbl's cycles: see _homing_finds_no_switch
+            # grbl: the alarm; after its pause the ok of $H, then the reset ending a failed cycle
+            self.homing_until_s, self._status_requested = None, False
+            if self.homes_z_first:  # the search toward +Z, counted from 0, was stepped out in vain
+                self.z_mm = 1.5 * self.mech.settings[132]
             self._raise_alarm(StageAlarm.HOMING_FAIL_APPROACH, t)
-            self._boot(t, moving=False)
+            self._pause(t, self._answer_failed_homing)
             return
         self.mech.finish_homing(self._homed_machine_mm())
+        if self._status_requested:  # still "Home", at the final position
+            self._status_requested = False
+            self._send(self.status_report(t), t)
+        self.homing_until_s = None
         self.alarm = None
         self._send("ok", t)
+
+    def _answer_failed_homing(self, t: float) -> None:
+        self._send("ok", t)
+        self._boot(t, moving=False)
+
+    def _pause(self, t: float, then) -> None:
+        """Stock grbl's silent ALARM_PAUSE_S after a limit or homing alarm, then ``then(t)``."""
+        self._pause_until_s, self._after_pause = t + ALARM_PAUSE_S, then
+
+    def _end_pause(self, t: float) -> None:
+        then = self._after_pause
+        self._pause_until_s, self._after_pause = None, None
+        then(t)
 
     def _homing_finds_no_switch(self) -> bool:
         """Z first (no Z switch here), or ``$23`` sends X or Y toward the maximum (no switch there)."""
@@ -313,8 +379,8 @@ class VirtualStage:
     def _soft_limit_alarm(self, t: float) -> None:
         self._soft_limit_at_s = None
         self._raise_alarm(StageAlarm.SOFT_LIMIT, t)
-        self._send(RESET_TO_CONTINUE, t)
-        self._awaiting_reset = True
+        self._awaiting_reset, self._ok_on_reset = True, True
+        self._pause(t, lambda when: self._send(RESET_TO_CONTINUE, when))
 
     def _finish_hold(self, t: float) -> None:
         if self._resume_requested and self.hold_stop_s is not None and t >= self.hold_stop_s:
@@ -394,12 +460,14 @@ class VirtualStage:
 
     def _position_field(self, x: float, y: float) -> str:
         """MPos, or (``$10`` bit 0 clear) WPos with grbl's WCO on the first report after a reset
-        and every WCO_REFRESH_REPORTS reports after that (the work offset is always zero here)."""
+        or a G92 and every WCO_REFRESH_REPORTS reports after that (the work offset is stock
+        grbl's G92 offset, always zero with whiskercal's firmware)."""
         if int(self.mech.settings.get(10, 1)) & 1:
-            return f"MPos:{x:.3f},{y:.3f},0.000"
-        field = f"WPos:{x:.3f},{y:.3f},0.000"
+            return f"MPos:{x:.3f},{y:.3f},{self.z_mm:.3f}"
+        wx, wy = self._work_offset_mm
+        field = f"WPos:{x - wx:.3f},{y - wy:.3f},{self.z_mm:.3f}"
         if self._reports_to_wco == 0:
-            field += "|WCO:0.000,0.000,0.000"
+            field += f"|WCO:{wx:.3f},{wy:.3f},0.000"
             self._reports_to_wco = WCO_REFRESH_REPORTS
         self._reports_to_wco -= 1
         return field
@@ -416,7 +484,7 @@ class VirtualStage:
 
     # -- lines ------------------------------------------------------------------------------
     def _run_pending(self, t: float) -> None:
-        if self._soft_limit_at_s is not None or self._awaiting_reset:
+        if self._soft_limit_at_s is not None or self._awaiting_reset or self._pause_until_s is not None:
             return  # grbl sits in its soft-limit check, then in the alarm's pause
         if self._ok_after_dwell:
             if self.mech.busy(t):
@@ -458,6 +526,8 @@ class VirtualStage:
             handlers[command](t)
         elif re.fullmatch(r"\d+=.*", command):
             self._set_setting(command, t)
+        elif self.stock and not command[:1].isdigit():
+            raise GcodeError(StageError.BAD_NUMBER_FORMAT)  # grbl reads an unknown $ letter as a number
         else:
             raise GcodeError(StageError.INVALID_STATEMENT)
 
@@ -496,7 +566,7 @@ class VirtualStage:
         self.hold_stop_s, self._resume_requested = None, False
         self._slipping = False  # homing re-references steps and encoders
         if self._homing_finds_no_switch():  # searches 1.5 x the travel at the seek rate in vain
-            travel = Z_TRAVEL_MM if self.homes_z_first else max(self.mech.settings[130],
+            travel = self.mech.settings[132] if self.homes_z_first else max(self.mech.settings[130],
                                                                 self.mech.settings[131])
             self.homing_until_s = t + 1.5 * travel / self.mech.settings[25] * 60.0
             return
@@ -518,7 +588,9 @@ class VirtualStage:
 
     def _gcode(self, words: list[tuple[str, float]], t: float) -> None:
         """Check a whole block first; modal state and the queue change only when it is accepted."""
-        groups, values = read_block(words, _STOCK_G_GROUPS if self.stock else _G_GROUPS)
+        groups, values = read_block(words, _STOCK_G_GROUPS if self.stock else _G_GROUPS, self.stock)
+        inches = groups[_UNITS] == 20 if _UNITS in groups else self._inches
+        values = _in_mm(values) if inches else values
         motion = groups.get(_MOTION, self._motion)
         absolute = groups[_DISTANCE] == 90 if _DISTANCE in groups else self._absolute
         feed = (values["F"] or None) if "F" in values else self._feed_mm_min  # F0: undefined
@@ -529,9 +601,15 @@ class VirtualStage:
         axes = "X" in values or "Y" in values
         # A motion command, or axis words in the modal motion mode; as in grbl, G0 and G1 without
         # axis words only set the mode, but G1 still needs a feed rate.
-        if (axes or _MOTION in groups) and motion == 1 and feed is None:
+        if (axes or _MOTION in groups) and motion in (1, 2, 3) and feed is None:
             raise GcodeError(StageError.UNDEFINED_FEED_RATE)
-        target = self._target(absolute or machine, values) if axes else None
+        if motion in (2, 3) and (axes or _MOTION in groups):
+            raise GcodeError(StageError.UNSUPPORTED_COMMAND)  # the twin draws no arcs
+        if groups.get(_NON_MODAL) in (92, 92.1):
+            self._set_work_offset(groups[_NON_MODAL], values)
+            self._inches = inches
+            return
+        target = self._target(absolute, machine, values) if axes else None
         if target is not None and self._outside_soft_limits(target):
             self._soft_limit(t)
             return
@@ -543,15 +621,31 @@ class VirtualStage:
         if target is not None:
             self.mech.queue_move(target, feed if motion == 1 else None, t)
         self._motion, self._absolute, self._feed_mm_min = motion, absolute, feed
+        self._inches = inches
 
-    def _target(self, absolute: bool, values: dict[str, float]) -> np.ndarray:
-        """Machine target of a move, mm (the work offset is always zero here, so G53's machine
-        coordinates are G90's); outside the travel with soft limits on, whiskercal's firmware
-        answers ``error:15``."""
+    def _set_work_offset(self, code: float, values: dict[str, float]) -> None:
+        """Stock grbl's G92 (the planned position becomes the given work coordinates) and G92.1
+        (no offset), mm; whiskercal's firmware has neither, its work offset is always zero."""
+        if code == 92.1:
+            self._work_offset_mm = np.zeros(2)
+        elif "X" not in values and "Y" not in values:
+            raise GcodeError(StageError.NO_AXIS_WORDS)
+        else:
+            planned = self.mech.planned_end_mm() - self.mech.home_offset_mm
+            for axis, letter in enumerate("XY"):
+                if letter in values:
+                    self._work_offset_mm[axis] = planned[axis] - values[letter]
+        self._reports_to_wco = 0  # grbl sends WCO with the next report after a change
+
+    def _target(self, absolute: bool, machine: bool, values: dict[str, float]) -> np.ndarray:
+        """Machine target of a move, mm: G90 words are work coordinates (machine plus the G92
+        offset), G53's are machine coordinates; outside the travel with soft limits on,
+        whiskercal's firmware answers ``error:15``."""
         start = self.mech.planned_end_mm() - self.mech.home_offset_mm
         offset = np.array([values.get("X", 0.0), values.get("Y", 0.0)])
-        target = start + offset if not absolute else np.array(
-            [values.get("X", start[0]), values.get("Y", start[1])])
+        work = np.zeros(2) if machine else self._work_offset_mm
+        target = start + offset if not (absolute or machine) else np.array(
+            [values.get("X", start[0] - work[0]), values.get("Y", start[1] - work[1])]) + work
         if not self.stock and self._outside_soft_limits(target):
             raise GcodeError(StageError.TRAVEL_EXCEEDED)
         return target
@@ -560,6 +654,11 @@ class VirtualStage:
         low, high = self._workspace_mm()
         outside = np.any(target < low - _TRAVEL_EPS_MM) or np.any(target > high + _TRAVEL_EPS_MM)
         return bool(self.mech.settings[20]) and bool(outside)
+
+
+def _in_mm(values: dict[str, float]) -> dict[str, float]:
+    """A block's X, Y and F words given in inches (G20), in mm and mm/min."""
+    return {letter: value * MM_PER_INCH if letter in "XYF" else value for letter, value in values.items()}
 
 
 def _is_dwell(line: str | None) -> bool:
