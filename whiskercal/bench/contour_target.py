@@ -5,9 +5,11 @@ given the target its recorded flat-plane study chooses (``optimal-depth``); then
 loop runs on the twin round each object at a range of targets (|z| from 4 to 9 mT, the sign
 of the chosen one, and the chosen one itself), each run measured against the object's true
 outline without alignment. Targets past the calibrated range (|z| above its end, about
-9.5 mT here) are listed, not run: the lookup has no tip to give there. The same runs measure
-the controller's own cost per sample (the twin's solve not included) against the sensor's
-3.3 ms period.
+9.5 mT here) are listed, not run: the lookup has no tip to give there. The full run does it
+twice, once per tip model: the z lookup alone and the (Y, Z) table (``fit --field-table``,
+fitted once and reused for every run; ``--quick`` skips it). The same runs measure the
+controller's own cost per sample (the twin's solve not included) against the sensor's 3.3 ms
+period.
 """
 
 from __future__ import annotations
