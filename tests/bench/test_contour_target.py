@@ -26,7 +26,28 @@ def test_the_quick_comparison_runs_the_loop_at_each_target_and_draws_the_chart(t
     chosen = found["chosen_target_z_uT"]
     assert [row["target_z_uT"] for row in found["rows"]] == [chosen, -8000.0]
     for row in found["rows"]:  # measured against the twin's outline, no alignment
+        assert row["tip_model"] == "z-lookup"  # quick mode skips the minutes-long table fit
         assert row["shape"] == "cylinder" and 0.0 < row["mean_error_mm"] < 1.0
         assert row["control_ms_mean"] > 0.0
     assert found["supports"]["target_z_uT"] == chosen
     assert (tmp_path / "contour-target.png").read_bytes().startswith(b"\x89PNG")
+
+
+def _row(model, shape, target, error, coverage=1.0):
+    return {"tip_model": model, "shape": shape, "target_z_uT": target, "mean_error_mm": error,
+            "coverage": coverage, "control_ms_mean": 0.1, "control_ms_max": 1.0}
+
+
+def test_each_tip_model_gets_its_own_best_target_and_the_chart_draws_both(tmp_path):
+    from whiskercal.bench.contour_target import _supports, draw
+
+    rows = [_row("z-lookup", "cylinder", -4000.0, 0.04),
+            _row("z-lookup", "cylinder", -5011.0, 0.22),
+            _row("yz-table", "cylinder", -4000.0, 0.03, coverage=0.5),  # did not go round
+            _row("yz-table", "cylinder", -5011.0, 0.017)]
+    supports = _supports(rows, -5011.0)
+    assert supports["best_target_z_uT"] == {"z-lookup": {"cylinder": -4000.0},
+                                            "yz-table": {"cylinder": -5011.0}}
+    assert supports["chosen_mean_error_mm"]["yz-table"] == {"cylinder": 0.017}
+    result = {"rows": rows, "chosen_target_z_uT": -5011.0, "calibrated_range_end_uT": -9539.0}
+    assert draw(result, tmp_path / "c.png").read_bytes().startswith(b"\x89PNG")

@@ -5,9 +5,11 @@ given the target its recorded flat-plane study chooses (``optimal-depth``); then
 loop runs on the twin round each object at a range of targets (|z| from 4 to 9 mT, the sign
 of the chosen one, and the chosen one itself), each run measured against the object's true
 outline without alignment. Targets past the calibrated range (|z| above its end, about
-9.5 mT here) are listed, not run: the lookup has no tip to give there. The same runs measure
-the controller's own cost per sample (the twin's solve not included) against the sensor's
-3.3 ms period.
+9.5 mT here) are listed, not run: the lookup has no tip to give there. The full run does it
+twice, once per tip model: the z lookup alone and the (Y, Z) table (``fit --field-table``,
+fitted once and reused for every run; ``--quick`` skips it). The same runs measure the
+controller's own cost per sample (the twin's solve not included) against the sensor's 3.3 ms
+period.
 """
 
 from __future__ import annotations
@@ -26,49 +28,79 @@ MAGNITUDES_UT = (4000.0, 5000.0, 6000.0, 7000.0, 8000.0, 9000.0, 10000.0, 11000.
 PERIOD_MS = 1000.0 / 300.0
 
 
-def calibration_with_target(folder: Path, dataset: Path = DATASET) -> Path:
-    """The dataset's grid fitted with the defaults, its study's chosen target written in."""
+def calibrations_with_target(folder: Path, dataset: Path = DATASET,
+                             field_table: bool = True) -> dict[str, Path]:
+    """The dataset's grid fitted once with the defaults (and the (Y, Z) table when asked),
+    written as one artifact per tip model, each with its study's chosen target.
+
+    Both artifacts share the fit's z lookup, so the study, run on the z-lookup one, chooses the
+    same target for both: the series differ only in how a reading becomes a tip.
+    """
+    from dataclasses import replace
+
     from whiskercal import runtime
     from whiskercal.artifacts.raw_grid import read_raw_grid
-    from whiskercal.fit import fit
+    from whiskercal.fit import FitOptions, fit
     from whiskercal.study.artifact_target import write_target
     from whiskercal.study.report import build_report
 
     if not (dataset / "raw_grid.h5").exists() or not (dataset / "plane_study.h5").exists():
         raise UsageError(f"{dataset} holds no raw_grid.h5 and plane_study.h5: the contour-target "
                          "comparison runs from a source checkout with its data/")
-    plain = fit(read_raw_grid(dataset / "raw_grid.h5")).write(folder / "calibration.h5")
+    result = fit(read_raw_grid(dataset / "raw_grid.h5"), FitOptions(field_table=field_table))
+    plain = replace(result, field_table=None).write(folder / "calibration.h5")
     report = build_report(dataset / "plane_study.h5", runtime.load(plain))
-    return write_target(plain, folder / "calibration-target.h5", report.choice, report.study.sha256)
+    made = {"z-lookup": write_target(plain, folder / "calibration-target.h5", report.choice,
+                                     report.study.sha256)}
+    if field_table:
+        table = result.write(folder / "calibration-table.h5")
+        made["yz-table"] = write_target(table, folder / "calibration-table-target.h5",
+                                        report.choice, report.study.sha256)
+    return made
 
 
-def _targets(chosen_uT: float, range_end_uT: float, quick: bool) -> tuple[list[float], list[float]]:
+def calibration_with_target(folder: Path, dataset: Path = DATASET) -> Path:
+    """The dataset's grid fitted with the defaults, its study's chosen target written in."""
+    return calibrations_with_target(folder, dataset, field_table=False)["z-lookup"]
+
+
+def _targets(chosen_uT: float, range_end_uT: float, quick: bool,
+             magnitudes_uT=MAGNITUDES_UT) -> tuple[list[float], list[float]]:
     """Targets to run (µT, the chosen one included) and those past the calibrated range."""
     sign = float(np.sign(chosen_uT))
-    magnitudes = (8000.0,) if quick else MAGNITUDES_UT
+    magnitudes = (8000.0,) if quick else magnitudes_uT
     inside = [sign * m for m in magnitudes if m <= abs(range_end_uT)]
     beyond = [sign * m for m in magnitudes if m > abs(range_end_uT)]
     return sorted(set(inside) | {float(chosen_uT)}, key=abs), beyond
 
 
-def run(quick: bool = False, progress=None) -> dict:
-    """Contour error against target (rows), the controller's cost, JSON-able."""
+def run(quick: bool = False, progress=None, field_table: bool | None = None,
+        shapes: tuple[str, ...] | None = None, magnitudes_uT=MAGNITUDES_UT,
+        duration_s: float | None = None) -> dict:
+    """Contour error against target (rows), one series per tip model, the controller's cost.
+
+    ``field_table`` (default: all but ``quick``) adds the (Y, Z) table's series; the table's fit
+    (minutes) is done once and its artifact used for every run of the series.
+    """
     from whiskercal import runtime
     from whiskercal.contour import target_sweep
 
+    field_table = (not quick) if field_table is None else field_table
+    shapes = shapes or (("cylinder",) if quick else ("cylinder", "rounded-rect", "octagon"))
+    duration_s = duration_s or (8.0 if quick else 120.0)
+    rows = []
     with tempfile.TemporaryDirectory(prefix="whiskercal-contour-target-") as folder:
-        artifact = calibration_with_target(Path(folder))
-        calibration = runtime.load(artifact)
+        artifacts = calibrations_with_target(Path(folder), field_table=field_table)
+        calibration = runtime.load(artifacts["z-lookup"])
         chosen, range_end = float(calibration.target_z_uT), float(calibration.z_range_uT[0])
-        targets, beyond = _targets(chosen, range_end, quick)
-        shapes = ("cylinder",) if quick else ("cylinder", "rounded-rect", "octagon")
-        rows = target_sweep(artifact, targets, shapes, duration_s=8.0 if quick else 120.0,
-                            on_row=progress)
-    for row in rows:
-        row["default"] = row["target_z_uT"] == chosen
+        targets, beyond = _targets(chosen, range_end, quick, magnitudes_uT)
+        for series, artifact in artifacts.items():
+            tag = (lambda row, s=series: progress({"tip_model": s, **row})) if progress else None
+            for row in target_sweep(artifact, targets, shapes, duration_s=duration_s, on_row=tag):
+                rows.append({"tip_model": series, **row, "default": row["target_z_uT"] == chosen})
     return {"rows": rows, "chosen_target_z_uT": chosen, "calibrated_range_end_uT": range_end,
-            "beyond_range_uT": beyond, "controller": _controller_cost(rows),
-            "supports": _supports(rows, chosen)}
+            "beyond_range_uT": beyond, "duration_s": duration_s,
+            "controller": _controller_cost(rows), "supports": _supports(rows, chosen)}
 
 
 def _controller_cost(rows: list[dict]) -> dict:
@@ -78,34 +110,51 @@ def _controller_cost(rows: list[dict]) -> dict:
             "mean_share_of_period": mean / PERIOD_MS}
 
 
+def _series(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
+    """Rows by (tip model, shape), each list in order of |target|."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row.get("tip_model", "z-lookup"), row["shape"]), []).append(row)
+    return {key: sorted(mine, key=lambda r: abs(r["target_z_uT"])) for key, mine in groups.items()}
+
+
 def _supports(rows: list[dict], chosen: float) -> dict:
-    best = {}
-    for shape in dict.fromkeys(r["shape"] for r in rows):
-        mine = [r for r in rows if r["shape"] == shape and r["coverage"] >= 0.95]
-        if mine:
-            best[shape] = min(mine, key=lambda r: r["mean_error_mm"])["target_z_uT"]
-    chosen_rows = [r for r in rows if r["target_z_uT"] == chosen]
+    best, at_chosen = {}, {}
+    for (model, shape), mine in _series(rows).items():
+        went_round = [r for r in mine if r["coverage"] >= 0.95]
+        if went_round:
+            best.setdefault(model, {})[shape] = min(
+                went_round, key=lambda r: r["mean_error_mm"])["target_z_uT"]
+        at_chosen.setdefault(model, {}).update(
+            {shape: r["mean_error_mm"] for r in mine if r["target_z_uT"] == chosen})
     return {"target_z_uT": chosen, "best_target_z_uT": best,
-            "chosen_mean_error_mm": {r["shape"]: r["mean_error_mm"] for r in chosen_rows},
+            "chosen_mean_error_mm": at_chosen,
             "controller_ms_per_sample": _controller_cost(rows)["mean_ms_per_sample"],
             "rule": "the target optimal-depth chose should give a contour error at or near the "
                     "lowest of the targets run (runs that covered < 95 % of the outline do not count)"}
 
 
+LINE_STYLES = {"z-lookup": "-", "yz-table": "--"}
+LABELS = {"z-lookup": "z lookup", "yz-table": "(Y, Z) table"}
+
+
 def draw(result: dict, path: Path) -> Path:
-    """Mean contour error (no alignment) against |target|, one line per object; the chosen
-    target marked, runs that did not go round hollow, the calibrated range's end drawn."""
+    """Mean contour error (no alignment) against |target|, one line per tip model and object
+    (colour: object, line: tip model); the chosen target marked, runs that did not go round
+    hollow, the calibrated range's end drawn."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
     rows = result["rows"]
-    for shape in dict.fromkeys(r["shape"] for r in rows):
-        mine = sorted((r for r in rows if r["shape"] == shape), key=lambda r: abs(r["target_z_uT"]))
+    colours = {shape: f"C{i}" for i, shape in enumerate(dict.fromkeys(r["shape"] for r in rows))}
+    for (model, shape), mine in _series(rows).items():
         x = np.array([abs(r["target_z_uT"]) / 1000.0 for r in mine])
         y = np.array([r["mean_error_mm"] for r in mine])
         went_round = np.array([r["coverage"] >= 0.95 for r in mine])
-        line, = ax.plot(x, y, "-", lw=1, label=shape)
-        ax.plot(x[went_round], y[went_round], "o", color=line.get_color())
-        ax.plot(x[~went_round], y[~went_round], "o", mfc="none", color=line.get_color())
+        colour = colours[shape]
+        ax.plot(x, y, LINE_STYLES.get(model, ":"), lw=1, color=colour,
+                label=f"{shape}, {LABELS.get(model, model)}")
+        ax.plot(x[went_round], y[went_round], "o", color=colour)
+        ax.plot(x[~went_round], y[~went_round], "o", mfc="none", color=colour)
     ax.axvline(abs(result["chosen_target_z_uT"]) / 1000.0, color="k", ls="--", lw=1,
                label="optimal-depth's target")
     ax.axvline(abs(result["calibrated_range_end_uT"]) / 1000.0, color="grey", ls=":", lw=1,
