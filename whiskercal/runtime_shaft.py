@@ -46,11 +46,11 @@ SAMPLE_NOISE_UT = 5.6
 holds only the grid's averaged noise. Override with ``noise_uT=`` for another sensor."""
 MIN_FIT_UT = 0.0
 """|z| below which a sample adds nothing to the fit (µT): there the surface is extrapolated."""
-SHAFT_SURFACE_MISFIT_LENGTH_MM = 30.0
-"""Travel (mm) per independent sample of the shaft surface's misfit: what is left of it after the
-degree-5 ripple (period a few mm, ``ShaftParams.misfit_length_mm`` 3 mm) varies slowly along
-the whisker. Measured on the default sensor's study (docs/shaft.md): with 3 mm the reported sd was
-half the error, with 30 mm about equal to it."""
+SHAFT_SURFACE_MISFIT_LENGTH_MM = float("inf")
+"""Travel (mm) per independent sample of the shaft surface's misfit: none. What is left of it
+after the degree-5 ripple (period a few mm, ``ShaftParams.misfit_length_mm`` 3 mm) varies slowly
+along the whisker, over more than a contact's slide, so it counts once per contact; its size is
+the artifact's own (the larger of the misfit on the grid and between its columns, docs/shaft.md)."""
 MISFIT_RMS = 3.0
 """RMS residual (in noise units) above which the shaft model does not explain z."""
 
@@ -125,8 +125,10 @@ def shaft_surface_of(calibration):
     surface and its fit RMSE."""
     data = calibration.data
     if data.shaft_surface is not None:
-        return (shaft_surface_group.surface_of(data.shaft_surface), data.shaft_surface.rmse_uT,
-                SHAFT_SURFACE_MISFIT_LENGTH_MM)
+        shaft = data.shaft_surface
+        # between the grid's columns the surface may miss by more than on them (column CV)
+        misfit = float(np.nanmax([shaft.rmse_uT, shaft.cv_rmse_uT]))
+        return (shaft_surface_group.surface_of(shaft), misfit, SHAFT_SURFACE_MISFIT_LENGTH_MM)
     return surface_of(data), float(data.metrics.get("rmse_uT") or 0.0), \
         ShaftParams.misfit_length_mm
 

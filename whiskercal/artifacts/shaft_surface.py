@@ -2,7 +2,8 @@
 own measurement surface (``whiskercal.fit.shaft_surface``), radial patches of polynomials.
 
 Layout: attributes ``edges_mm`` (radial distances where neighbouring patches meet), ``blend_mm``,
-``rmse_uT`` (misfit on the grid's contacts), ``source`` (``grid+mechanics`` or ``grid``) and
+``rmse_uT`` (misfit on the grid's contacts), ``cv_rmse_uT`` (misfit on each inner grid column
+left out of the fit in turn: between the columns; optional, absent from older artifacts), ``source`` (``grid+mechanics`` or ``grid``) and
 ``mechanics_points``; one subgroup per patch, ``patch0``, ``patch1``, ..., ordered by radial
 distance, each laid out like ``/surface``. Artifacts without the group load as before; the shaft
 localizer then uses ``/surface``.
@@ -34,9 +35,11 @@ class ShaftSurfaceData:
     rmse_uT: float
     source: str
     mechanics_points: int = 0
+    cv_rmse_uT: float = float("nan")
 
 
-def data_of(surface, rmse_uT: float, source: str, mechanics_points: int) -> ShaftSurfaceData:
+def data_of(surface, rmse_uT: float, source: str, mechanics_points: int,
+            cv_rmse_uT: float = float("nan")) -> ShaftSurfaceData:
     """The plain form of a :class:`~whiskercal.model.patched_surface.PatchedSurface`."""
     patches = [{"degree": p.degree, "coordinates": p.coordinates,
                 "coefficients": np.asarray(p.coefficients, float),
@@ -44,7 +47,7 @@ def data_of(surface, rmse_uT: float, source: str, mechanics_points: int) -> Shaf
                 "scale_half_width": np.asarray(p.scaling.half_width, float)}
                for p in surface.patches]
     return ShaftSurfaceData(patches, np.asarray(surface.edges_mm, float), float(surface.blend_mm),
-                            float(rmse_uT), source, int(mechanics_points))
+                            float(rmse_uT), source, int(mechanics_points), float(cv_rmse_uT))
 
 
 def surface_of(data: ShaftSurfaceData):
@@ -68,6 +71,8 @@ def write(handle: h5py.File, data: ShaftSurfaceData) -> None:
     write_array(group, "edges_mm", np.asarray(data.edges_mm, float), "mm")
     group.attrs["blend_mm"] = float(data.blend_mm)
     group.attrs["rmse_uT"] = float(data.rmse_uT)
+    if np.isfinite(data.cv_rmse_uT):
+        group.attrs["cv_rmse_uT"] = float(data.cv_rmse_uT)
     group.attrs["source"] = data.source
     group.attrs["mechanics_points"] = int(data.mechanics_points)
     for k, patch in enumerate(data.patches):
@@ -97,4 +102,5 @@ def read(handle: h5py.File, path: Path) -> ShaftSurfaceData | None:
     return ShaftSurfaceData(patches, np.atleast_1d(read_array(group, "edges_mm", path)),
                             float(group.attrs["blend_mm"]), float(group.attrs["rmse_uT"]),
                             as_text(group.attrs["source"]),
-                            int(group.attrs.get("mechanics_points", 0)))
+                            int(group.attrs.get("mechanics_points", 0)),
+                            float(group.attrs.get("cv_rmse_uT", np.nan)))

@@ -77,7 +77,7 @@ class FitResult:
 
             shaft = self.shaft_surface
             data.shaft_surface = data_of(shaft.surface, shaft.rmse_uT, shaft.source,
-                                         shaft.mechanics_points)
+                                         shaft.mechanics_points, shaft.cv_rmse_uT)
         return data
 
     def write(self, path: str | Path) -> Path:

@@ -62,7 +62,7 @@ class ShaftParams:
     max_points: int = 96
     iterations: int = 2
     research_every: int = 16
-    min_travel_mm: float = 1.0
+    min_travel_mm: float = 3.0
     min_signal: float = 10.0
     max_sd_mm: float = 0.5
     ambiguity_chi2: float = 9.0
