@@ -1,14 +1,12 @@
 """``whiskercal sim serve --firmware avr``: the compiled images on simavr behind two ptys."""
 
-import json
 import os
-import subprocess
-import sys
 
 import numpy as np
 import serial
 
 from avr_emulation import emulation_or_skip
+from served_sim import sim_serve
 from whiskercal.rig.sensor import SensorClient
 from whiskercal.rig.stage import StageClient
 
@@ -16,16 +14,7 @@ from whiskercal.rig.stage import StageClient
 def test_sim_serve_runs_the_images_behind_ptys():
     emulation_or_skip("stage")
     emulation_or_skip("sensor")
-    process = subprocess.Popen([sys.executable, "-m", "whiskercal", "sim", "serve", "--json", "--firmware", "avr",
-                                "--speed", "1", "--duration", "30"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True)
-    try:
-        text = ""
-        while not text.rstrip().endswith("}"):
-            line = process.stdout.readline()
-            assert line, f"sim serve ended early: {process.stderr.read()}"
-            text += line
-        info = json.loads(text)
+    with sim_serve("--firmware", "avr") as info:
         assert info["firmware"] == "avr" and os.path.exists(info["stage"])
         # generous timeouts: they only guard against a hang on a busy host
         stage = StageClient(serial.Serial(info["stage"], 115200, timeout=1), timeout_s=30.0)
@@ -37,6 +26,3 @@ def test_sim_serve_runs_the_images_behind_ptys():
         sensor.stop()
         np.testing.assert_array_equal(np.diff(block.seq), 1)
         assert block.dropped == 0 and block.corrupt == 0
-    finally:
-        process.terminate()
-        process.wait(5)

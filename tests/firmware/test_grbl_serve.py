@@ -2,15 +2,13 @@
 pty (the sensor stays the twin's Python board). Marked ``grbl``: skipped unless
 WHISKERCAL_GRBL_SRC names a checkout of gnea/grbl v1.1h."""
 
-import json
 import os
-import subprocess
-import sys
 
 import pytest
 import serial
 
 from grbl_emulation import grbl_or_skip
+from served_sim import sim_serve
 from whiskercal.rig.stage import StageClient
 
 pytestmark = pytest.mark.grbl
@@ -18,22 +16,10 @@ pytestmark = pytest.mark.grbl
 
 def test_sim_serve_runs_stock_grbl_behind_the_stage_pty():
     grbl_or_skip("xy")
-    process = subprocess.Popen([sys.executable, "-m", "whiskercal", "sim", "serve", "--json", "--firmware", "grbl",
-                                "--homing", "xy", "--speed", "1", "--duration", "30"], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
-    try:
-        text = ""
-        while not text.rstrip().endswith("}"):
-            line = process.stdout.readline()
-            assert line, f"sim serve ended early: {process.stderr.read()}"
-            text += line
-        info = json.loads(text)
+    with sim_serve("--firmware", "grbl", "--homing", "xy") as info:
         assert info["firmware"] == "grbl" and os.path.exists(info["stage"])
         # generous timeout: it only guards against a hang on a busy host
         stage = StageClient(serial.Serial(info["stage"], 115200, timeout=1), timeout_s=30.0)
         settings = stage.settings()
         assert len(settings) == 34  # grbl 1.1h's own $$, not the twin's
         assert stage.identify().version.startswith("1.1h.20190825")
-    finally:
-        process.terminate()
-        process.wait(5)
