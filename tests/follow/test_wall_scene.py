@@ -47,3 +47,16 @@ def test_a_whisker_pressed_on_the_straight_wall_meets_a_half_plane():
     assert sample.kind == truth.kind == "tip"
     assert sample.contact_mm[1] == pytest.approx(0.0, abs=1e-6)
     np.testing.assert_allclose(sample.tip_mm, robot.to_world(truth.tip_mm), atol=1e-6)
+
+
+def test_a_wall_run_starts_at_the_step_top_facing_it():
+    from whiskercal.contour.run import start_pose
+
+    wall = outline("wall")
+    for seed in range(5):
+        x, y, heading = start_pose(wall, 20.0, 5.0, np.random.default_rng(seed), 75.0)
+        # the outline point the whisker aims at, reach + standoff (80 mm) from the base
+        aimed = np.array([x, y]) + 80.0 * np.array([math.cos(heading), math.sin(heading)])
+        assert 240.0 <= aimed[0] <= 290.0  # 10-60 mm along the step's top from x = 300 mm
+        assert aimed[1] == pytest.approx(20.0, abs=1e-6)
+        assert heading == pytest.approx(math.radians(-110.0))  # 20° back from the normal (-y)
