@@ -11,10 +11,11 @@ likewise (``axial_uT``: a real magnetometer streams all three axes, and a calibr
 frame. Everything runs in-process, as fast as the solver goes.
 
 An open wall (``outlines.WallOutline``) comes as convex pieces. Each period the whisker is solved
-against every piece within its reach of the base, and the piece that deflects it most is the
-contact: where one piece pushes, the others lie behind the surface it makes. Right in a concave
-corner the whisker can press on two pieces at once; that is not modelled (the other piece may
-then cut into the wire).
+against every piece within its reach + NEAR_MARGIN_MM of the base, and the piece that deflects
+it most is the contact: where one piece pushes, the others lie behind the surface it makes.
+Right in a concave corner the whisker can press on two pieces at once; that is not modelled
+(the other piece may then cut into the wire), nor, as for every object here, a piece met from
+the whisker's -y side (docs/contour.md, "The wall").
 """
 
 from __future__ import annotations
