@@ -41,3 +41,18 @@ def test_an_artifact_without_a_target_is_refused_with_one_line(tmp_path):
                                       "--out", str(tmp_path / "run.h5")])
     assert result.exit_code == 2 and "has no deflection target" in result.stderr
     assert not (tmp_path / "run.h5").exists()
+
+
+def test_a_short_wall_run_reports_an_open_outline(tmp_path):
+    run = tmp_path / "wall.h5"
+    result = CliRunner().invoke(cli, ["-q", "contour", "run", "--shape", "wall", "--artifact",
+                                      str(calibration_path()), "--duration", "10", "--seed", "1",
+                                      "--out", str(run), "--json"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    report = CliRunner().invoke(cli, ["contour", "report", str(run), "--out", str(tmp_path / "rep"),
+                                      "--json"], catch_exceptions=False)
+    summary = json.loads(report.output)
+    assert summary["shape"] == "wall" and summary["time_to_go_round_s"] is None
+    # the first 10 s press on and follow the step's top (y = 20 mm): on it, against the truth
+    assert summary["contacts"] > 1500 and summary["mean_error_mm"] < 0.35
+    assert 0.0 < summary["coverage"] < 0.2  # a few cm of the 468.7 mm

@@ -41,8 +41,10 @@ class ContourRun:
 def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
                reach_mm: float) -> np.ndarray:
     """A pose outside the object at a random point of its outline: the whisker leans
-    ``tilt_deg`` back from the surface's inward normal there, its tip ``standoff_mm`` short."""
-    points = outline.points()
+    ``tilt_deg`` back from the surface's inward normal there, its tip ``standoff_mm`` short.
+    On an open outline (the wall) the point is drawn evenly along its first 10-60 mm: the
+    follower keeps the object on its left, so it then travels past every feature of it."""
+    points = outline.points() if outline.closed else outline.dense(1.0)[10:60]
     index = int(rng.integers(len(points)))
     tangent = points[(index + 1) % len(points)] - points[index - 1]
     inward = np.array([-tangent[1], tangent[0]]) / np.linalg.norm(tangent)  # counter-clockwise

@@ -12,12 +12,12 @@ import numpy as np
 
 from whiskercal.artifacts.contour_run import ContourRunFile
 from whiskercal.contour.metrics import contour_metrics
-from whiskercal.twin.outlines import Outline
+from whiskercal.twin.outlines import recorded
 
 
-def outline_of(run: ContourRunFile) -> Outline:
+def outline_of(run: ContourRunFile):
     """The run's object, as recorded."""
-    return Outline(run.shape, np.asarray(run.core_mm, float), run.radius_mm)
+    return recorded(run.shape, run.core_mm, run.radius_mm)
 
 
 def followed(run: ContourRunFile) -> np.ndarray:
@@ -26,8 +26,11 @@ def followed(run: ContourRunFile) -> np.ndarray:
     return (run.columns["phase"] == "follow") & np.isfinite(estimate[:, 0])
 
 
-def time_to_go_round_s(run: ContourRunFile) -> float:
-    """Robot time (s) until the contacts have swept 360° about the object's centre (NaN: never)."""
+def time_to_go_round_s(run: ContourRunFile) -> float | None:
+    """Robot time (s) until the contacts have swept 360° about the object's centre (NaN: never;
+    None for an open outline, the wall, which has no round)."""
+    if not outline_of(run).closed:
+        return None
     mask = followed(run)
     if mask.sum() < 2:
         return float("nan")

@@ -22,11 +22,12 @@ from whiskercal.report.html import Section, figure, key_values, paragraph, rende
 def draw(run: ContourRunFile, path: Path) -> Path:
     """The outline, the contacts coloured by their distance to it, slips marked."""
     plt = pyplot()
-    outline = outline_of(run).points()
+    shape = outline_of(run)
+    outline = np.vstack([shape.points(), shape.points()[:1]]) if shape.closed else shape.points()
     mask, columns = followed(run), run.columns
     points = columns["estimate_mm"][mask]
     fig, ax = plt.subplots(figsize=(7, 7))
-    ax.plot(*np.vstack([outline, outline[:1]]).T, color="k", lw=1, label="true outline")
+    ax.plot(*outline.T, color="k", lw=1, label="true outline")
     if len(points):
         errors = distances_mm(points, outline_of(run).dense())[0]
         shown = ax.scatter(*points.T, c=errors, s=3, cmap="viridis", vmin=0, vmax=max(1.0, float(np.percentile(errors, 99))))

@@ -9,6 +9,13 @@ the suspension's pose into z (µT from rest, with the sensor's noise), and the c
 likewise (``axial_uT``: a real magnetometer streams all three axes, and a calibration with a
 (Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
 frame. Everything runs in-process, as fast as the solver goes.
+
+An open wall (``outlines.WallOutline``) comes as convex pieces. Each period the whisker is solved
+against every piece within its reach + NEAR_MARGIN_MM of the base, and the piece that deflects
+it most is the contact: where one piece pushes, the others lie behind the surface it makes.
+Right in a concave corner the whisker can press on two pieces at once; that is not modelled
+(the other piece may then cut into the wire), nor, as for every object here, a piece met from
+the whisker's -y side (docs/contour.md, "The wall").
 """
 
 from __future__ import annotations
@@ -70,8 +77,10 @@ class MobileSensor:
         self.physics = TwinPhysics(sensor)
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
-        if mu_kinetic and isinstance(self._obstacle, Circle):
-            raise UsageError("friction is modelled on polygon edges only, not on the cylinder")
+        if mu_kinetic and isinstance(self._obstacle, (Circle, tuple)):
+            raise UsageError("friction is modelled on polygon edges only, not on the cylinder "
+                             "or the wall")
+        self._pieces_previous: dict[int, object] = {}  # the wall's warm starts, by piece
         self.mu_kinetic = float(mu_kinetic)
         self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
         self._pose = np.asarray(pose, float).copy()
@@ -112,10 +121,13 @@ class MobileSensor:
         """Move for ``dt_s`` s under the last command, then measure."""
         self._pose[:2] += self._velocity * dt_s
         self._pose[2] += self._turn * dt_s
-        obstacle, first = self._seen_from_sensor()
-        count = len(getattr(self._obstacle, "vertices_mm", ()))
-        equilibrium = self.physics.solve_shape(obstacle, _reindexed(self._previous, -first, count))
-        equilibrium = _reindexed(equilibrium, first, count)
+        if isinstance(self._obstacle, tuple):
+            equilibrium = self._solve_pieces()
+        else:
+            obstacle, first = self._seen_from_sensor()
+            count = len(getattr(self._obstacle, "vertices_mm", ()))
+            equilibrium = self.physics.solve_shape(obstacle, _reindexed(self._previous, -first, count))
+            equilibrium = _reindexed(equilibrium, first, count)
         self._previous = equilibrium
         field = self.physics.field_uT(equilibrium)
         z = float(field[1]) - self._rest_y + float(self._rng.normal(0.0, self._noise_uT))
@@ -124,6 +136,21 @@ class MobileSensor:
         self._tips = (self._tips[1], tip if equilibrium.kind == "tip" else None)
         self._dt_s = dt_s
         return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial)
+
+    def _solve_pieces(self):
+        """The equilibrium against the piece of the wall that deflects the whisker most (see the
+        module's docstring); each piece warm-starts from its own last solve."""
+        turn, origin = rotation(-self._pose[2]), self._pose[:2]
+        best, solved = self.physics.free(), {}
+        for index, piece in enumerate(self._obstacle):
+            if _distance_mm(piece.vertices_mm, origin) > self._keep_mm:
+                continue
+            seen = Polygon((piece.vertices_mm - origin) @ turn.T)
+            solved[index] = self.physics.solve_shape(seen, self._pieces_previous.get(index))
+            if abs(solved[index].root_rotation_rad) > abs(best.root_rotation_rad):
+                best = solved[index]
+        self._pieces_previous = solved
+        return best
 
     def _sliding_mm_s(self) -> tuple[float, float]:
         """The object's surface velocity past the tip (sensor frame, mm/s), from the tip's motion
@@ -188,6 +215,13 @@ class MobileSensor:
 
 NEAR_MARGIN_MM = 40.0
 NEAR_REUSE_MM = 2.0
+
+
+def _distance_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> float:
+    """Distance from ``point_mm`` to the nearest edge of the closed polygon ``vertices_mm``."""
+    edge = np.roll(vertices_mm, -1, axis=0) - vertices_mm
+    share = np.clip(((point_mm - vertices_mm) * edge).sum(axis=1) / (edge * edge).sum(axis=1), 0.0, 1.0)
+    return float(np.min(np.linalg.norm(vertices_mm + share[:, None] * edge - point_mm, axis=1)))
 
 
 def _reindexed(equilibrium, shift: int, count: int):

@@ -1,9 +1,14 @@
-"""The contour scenes' objects: extruded convex shapes seen from above, in the world frame (mm).
+"""The contour scenes' objects, seen from above, in the world frame (mm): extruded convex shapes
+and an open wall.
 
 Each is a convex core (a point or a convex polygon) grown by a corner radius, as the paper's
 objects are: a cylinder (Ø 160 mm), a square prism with rounded corners (160 mm wide, 40 mm
 radius) and an octagonal prism (70 mm sides, 30 mm corner radius). The whisker meets them through
 the twin's frictionless shape contact (``physics.obstacles.Circle`` / ``Polygon``).
+
+The wall (:class:`WallOutline`) is open and not convex: a straight wall 300 mm long with a 20 mm
+step out half-way (its top edge rounded, 3 mm), ending in a 90° concave corner where a second
+wall, 150 mm long, turns toward the robot. The twin meets it as convex pieces (``obstacle()``).
 """
 
 from __future__ import annotations
@@ -16,7 +21,9 @@ import numpy as np
 from whiskercal.errors import UsageError
 from whiskercal.twin.physics.obstacles import Circle, Polygon
 
-SHAPES = ("cylinder", "rounded-rect", "octagon")
+SHAPES = ("cylinder", "rounded-rect", "octagon")  # the closed convex objects
+WALL = "wall"
+SCENES = SHAPES + (WALL,)
 _ARC_STEP_RAD = math.radians(3.0)  # corner arcs as polygon edges 3° apart (0.014 mm sag at 40 mm)
 
 
@@ -27,6 +34,7 @@ class Outline:
     name: str
     core_mm: np.ndarray
     radius_mm: float
+    closed = True  # the outline goes round the object
 
     def obstacle(self):
         """The object as the twin's contact solver takes it (world frame, mm)."""
@@ -78,8 +86,11 @@ def _regular(sides: int, apothem_mm: float) -> np.ndarray:
     return apothem_mm / math.cos(math.pi / sides) * np.column_stack([np.cos(angles), np.sin(angles)])
 
 
-def outline(name: str, center_mm=(0.0, 0.0), rotation_rad: float = 0.0) -> Outline:
-    """One of :data:`SHAPES`, centred at ``center_mm`` and turned by ``rotation_rad``."""
+def outline(name: str, center_mm=(0.0, 0.0), rotation_rad: float = 0.0):
+    """One of :data:`SCENES`, centred at ``center_mm`` and turned by ``rotation_rad`` (the wall
+    stands where it is built, its concave corner at the origin)."""
+    if name == WALL:
+        return WallOutline(WALL, WALL_CORNERS_MM.copy(), WALL_EDGE_RADIUS_MM)
     if name == "cylinder":
         core, radius = np.zeros((1, 2)), 80.0
     elif name == "rounded-rect":  # 160 mm wide, corners of 40 mm radius
@@ -88,7 +99,81 @@ def outline(name: str, center_mm=(0.0, 0.0), rotation_rad: float = 0.0) -> Outli
         apothem = 70.0 / (2 * math.tan(math.pi / 8))
         core, radius = _regular(8, apothem - 30.0), 30.0
     else:
-        raise UsageError(f"unknown shape {name!r}; use one of {', '.join(SHAPES)}")
+        raise UsageError(f"unknown shape {name!r}; use one of {', '.join(SCENES)}")
     turn = np.array([[math.cos(rotation_rad), -math.sin(rotation_rad)],
                      [math.sin(rotation_rad), math.cos(rotation_rad)]])
     return Outline(name, core @ turn.T + np.asarray(center_mm, float), radius)
+
+
+def recorded(name: str, core_mm, radius_mm: float):
+    """An outline as a contour run records it (its name, core and radius)."""
+    kind = WallOutline if name == WALL else Outline
+    return kind(name, np.asarray(core_mm, float), float(radius_mm))
+
+
+# The wall's surface, the solid on the left walking along it: the step's top (y = 20 mm), the step
+# down at x = 150 mm, the wall (y = 0) to the concave corner at the origin, the second wall (x = 0).
+WALL_CORNERS_MM = np.array([[300.0, 20.0], [150.0, 20.0], [150.0, 0.0], [0.0, 0.0], [0.0, 150.0]])
+WALL_EDGE_RADIUS_MM = 3.0
+_WALL_DEPTH_MM = 60.0    # how thick the pieces are behind the surface (deeper than any whisker)
+_WALL_BEYOND_MM = 100.0  # the pieces go on past the outline's open ends: the wall does not stop
+
+
+@dataclass(frozen=True)
+class WallOutline:
+    """An open outline through ``core_mm`` (its corners, the solid on the left), its convex
+    corners rounded by ``radius_mm``, its concave ones sharp."""
+
+    name: str
+    core_mm: np.ndarray
+    radius_mm: float
+    closed = False
+
+    def obstacle(self) -> tuple[Polygon, ...]:
+        """The wall as convex pieces (the step, the wall before it, the second wall): the twin
+        solves the whisker against one piece at a time (``twin.mobile``)."""
+        (x_end, y_step), (x_step, _), _, _, (_, y_end) = self.core_mm
+        depth, beyond, radius = _WALL_DEPTH_MM, _WALL_BEYOND_MM, self.radius_mm
+        angles = np.linspace(math.pi / 2, math.pi, 31)
+        edge = np.array([x_step + radius, y_step - radius]) + radius * np.column_stack(
+            [np.cos(angles), np.sin(angles)])
+        step = np.vstack([[[x_step, -depth], [x_end + beyond, -depth], [x_end + beyond, y_step]], edge])
+        low = np.array([[0.0, -depth], [x_step, -depth], [x_step, 0.0], [0.0, 0.0]])
+        side = np.array([[-depth, -depth], [0.0, -depth], [0.0, y_end + beyond], [-depth, y_end + beyond]])
+        return Polygon(step), Polygon(low), Polygon(side)
+
+    def points(self, step_rad: float = math.radians(0.5)) -> np.ndarray:
+        """The outline as points (n, 2) from its first corner to its last, convex corners as
+        arcs every ``step_rad``."""
+        core, parts = self.core_mm, [self.core_mm[:1]]
+        for before, vertex, after in zip(core[:-2], core[1:-1], core[2:]):
+            first, second = _outward(before, vertex), _outward(vertex, after)
+            turn = math.remainder(math.atan2(second[1], second[0]) - math.atan2(first[1], first[0]), 2 * math.pi)
+            if turn <= 0:  # concave: the corner stays sharp
+                parts.append(vertex[None])
+                continue
+            centre = vertex + np.linalg.solve(np.array([first, second]), [-self.radius_mm] * 2)
+            start = math.atan2(first[1], first[0])
+            angles = start + np.linspace(0.0, turn, max(2, int(math.ceil(turn / step_rad)) + 1))
+            parts.append(centre + self.radius_mm * np.column_stack([np.cos(angles), np.sin(angles)]))
+        parts.append(core[-1:])
+        return np.vstack(parts)
+
+    def dense(self, spacing_mm: float = 0.05) -> np.ndarray:
+        """Points along the outline, end to end, no more than ``spacing_mm`` apart."""
+        line, pieces = self.points(), []
+        for a, b in zip(line[:-1], line[1:]):
+            count = max(1, int(math.ceil(np.linalg.norm(b - a) / spacing_mm)))
+            pieces.append(a + (b - a) * (np.arange(count)[:, None] / count))
+        return np.vstack(pieces + [line[-1:]])
+
+    @property
+    def perimeter_mm(self) -> float:
+        """Length of the outline from end to end, mm."""
+        return float(np.sum(np.linalg.norm(np.diff(self.points(), axis=0), axis=1)))
+
+
+def _outward(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Unit outward normal (to the right walking from a to b: the solid is on the left)."""
+    edge = (b - a) / np.linalg.norm(b - a)
+    return np.array([edge[1], -edge[0]])

@@ -17,9 +17,10 @@ def command() -> None:
 
 
 @command.command("run")
-@click.option("--shape", type=click.Choice(["cylinder", "rounded-rect", "octagon"]), required=True,
+@click.option("--shape", type=click.Choice(["cylinder", "rounded-rect", "octagon", "wall"]), required=True,
               help="The object: a Ø160 mm cylinder, a 160 mm square prism with 40 mm corners, or "
-                   "an octagonal prism (70 mm sides, 30 mm corners).")
+                   "an octagonal prism (70 mm sides, 30 mm corners), or an open wall with a "
+                   "20 mm step and a concave corner.")
 @click.option("--artifact", type=click.Path(dir_okay=False), required=True,
               help="Calibration artifact (CAL.h5) of the twin's sensor, with a target; one from "
                    "`fit --field-table` places the contacts from the Y and Z axes (docs/contour.md).")

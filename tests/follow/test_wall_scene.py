@@ -1,0 +1,62 @@
+"""The open wall scene: its outline's geometry, and the moving-base twin's contact against its
+pieces, which on the straight part is the contact against a half-plane."""
+
+import math
+
+import numpy as np
+import pytest
+
+from whiskercal.contour.metrics import coverage, distances_mm
+from whiskercal.twin.mobile import MobileSensor, rotation
+from whiskercal.twin.outlines import outline, recorded
+from whiskercal.twin.params import DEFAULT_SENSOR
+from whiskercal.twin.physics.obstacles import Polygon
+from whiskercal.twin.physics.sensor import TwinPhysics
+
+
+@pytest.mark.parametrize("point, expected_mm", [
+    ((75.0, 5.0), 5.0),                            # above the wall (y = 0)
+    ((145.0, 10.0), 5.0),                          # in front of the step's face (x = 150)
+    ((140.0, 30.0), math.hypot(13, 13) - 3.0),     # off the step's rounded top edge (r = 3 mm)
+    ((225.0, 32.0), 12.0),                         # above the step's top (y = 20)
+    ((20.0, 100.0), 20.0),                         # beside the second wall (x = 0)
+    ((200.0, 63.0), 43.0)])                        # on where a closing chord would run
+def test_the_wall_outline_measures_distances_to_its_surface(point, expected_mm):
+    distance, _ = distances_mm(np.array([point]), outline("wall").dense())
+    assert distance[0] == pytest.approx(expected_mm, abs=0.05)
+
+
+def test_the_wall_is_open_and_as_long_as_its_parts():
+    wall = outline("wall")
+    assert not wall.closed and outline("octagon").closed
+    assert wall.perimeter_mm == pytest.approx((150 - 3) + (20 - 3) + 150 + 150 + 1.5 * math.pi, abs=1e-3)
+    again = recorded("wall", wall.core_mm, wall.radius_mm)  # as a run file gives it back
+    np.testing.assert_array_equal(again.dense(), wall.dense())
+    straight = np.column_stack([np.linspace(0, 150, 400), np.zeros(400)])  # the wall before the step
+    assert coverage(straight, wall.dense()) == pytest.approx(150 / wall.perimeter_mm, abs=0.01)
+
+
+def test_a_whisker_pressed_on_the_straight_wall_meets_a_half_plane():
+    heading = math.radians(-110.0)  # leaning 20° back from the wall's inward normal (-y)
+    pose = np.array([75.0, 62.0, heading])  # the undeflected tip ~8 mm past the surface
+    robot = MobileSensor(DEFAULT_SENSOR, outline("wall"), pose, seed=3)
+    sample = robot.step(0.0)
+    half_plane = np.array([[-1e4, -1e4], [1e4, -1e4], [1e4, 0.0], [-1e4, 0.0]])  # y <= 0, world
+    seen = Polygon((half_plane - pose[:2]) @ rotation(-heading).T)
+    truth = TwinPhysics(DEFAULT_SENSOR).solve_shape(seen, None)
+    assert sample.kind == truth.kind == "tip"
+    assert sample.contact_mm[1] == pytest.approx(0.0, abs=1e-6)
+    np.testing.assert_allclose(sample.tip_mm, robot.to_world(truth.tip_mm), atol=1e-6)
+
+
+def test_a_wall_run_starts_at_the_step_top_facing_it():
+    from whiskercal.contour.run import start_pose
+
+    wall = outline("wall")
+    for seed in range(5):
+        x, y, heading = start_pose(wall, 20.0, 5.0, np.random.default_rng(seed), 75.0)
+        # the outline point the whisker aims at, reach + standoff (80 mm) from the base
+        aimed = np.array([x, y]) + 80.0 * np.array([math.cos(heading), math.sin(heading)])
+        assert 240.0 <= aimed[0] <= 290.0  # 10-60 mm along the step's top from x = 300 mm
+        assert aimed[1] == pytest.approx(20.0, abs=1e-6)
+        assert heading == pytest.approx(math.radians(-110.0))  # 20° back from the normal (-y)
