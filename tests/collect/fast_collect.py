@@ -23,3 +23,12 @@ FAST = FAST_MOTION + """
 [sensor]
 rate_hz = 100
 """
+# A band of a few dozen points (45.5..56.5 mm, -40..-42 deg) for tests that run the grid often.
+SMALL_BAND = """
+[grid]
+reach_min_mm = 45.5
+reach_max_mm = 56.5
+angle_min_near_deg = -40.0
+angle_min_far_deg = -42.0
+expected_points = 0
+"""

@@ -28,17 +28,10 @@ from whiskercal.collect.plan import build_plan
 from whiskercal.collect.run import collect
 from whiskercal.errors import DeviceError
 
-from fast_collect import FAST
+from fast_collect import FAST, SMALL_BAND
 
 # A band of a few dozen points for the tests that run the grid more than once.
-SMALL = FAST + """
-[grid]
-reach_min_mm = 45.5
-reach_max_mm = 56.5
-angle_min_near_deg = -40.0
-angle_min_far_deg = -42.0
-expected_points = 0
-"""
+SMALL = FAST + SMALL_BAND
 # The default grid with FAST spends about 38..129 s of simulated time on its points.
 MID_GRID_S = 60.0
 

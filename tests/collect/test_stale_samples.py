@@ -26,15 +26,11 @@ from whiskercal.rig.stage import StageClient
 from whiskercal.study.truth import match_rows
 from whiskercal.twin.devices import simport
 
+from fast_collect import SMALL_BAND, SWEEP_OFF
+
 VISIBLE_BYTES = 4095  # what Linux's tty layer lets a reader see at once
 STALL_S = 2.0  # simulated s: longer than a step down a column, so the stage arrives meanwhile
-CONFIG = """
-[grid]
-reach_min_mm = 45.5
-reach_max_mm = 56.5
-angle_min_near_deg = -40.0
-angle_min_far_deg = -42.0
-expected_points = 0
+CONFIG = SMALL_BAND + SWEEP_OFF + """
 [motion]
 travel_feed_mm_min = 3000.0
 # 2.5 mm/s: a 3 mm step down a column takes 1.3 s, about 400 frames (7.6 kB) at 300 Hz

@@ -14,19 +14,13 @@ from whiskercal.collect.run import collect
 from whiskercal.collect.sweep import sweep_points
 from whiskercal.fit.run import level_set_points
 
-from fast_collect import FAST_DWELL
+from fast_collect import FAST_DWELL, SMALL_BAND
 
 ON = "[sweep]\nenabled = true\n"
 # a few dozen grid points and a three-ray sweep: a run of seconds on the twin
-SMALL_WITH_SWEEP = FAST_DWELL + """
+SMALL_WITH_SWEEP = FAST_DWELL + SMALL_BAND + """
 [sensor]
 rate_hz = 100
-[grid]
-reach_min_mm = 45.5
-reach_max_mm = 56.5
-angle_min_near_deg = -40.0
-angle_min_far_deg = -42.0
-expected_points = 0
 [sweep]
 enabled = true
 angles = 3

@@ -10,17 +10,23 @@ from whiskercal.cli import cli
 from whiskercal.contour import read_contour_run
 
 
-def test_a_short_cylinder_run_follows_the_surface_at_the_target(tmp_path):
-    run = tmp_path / "run.h5"
-    result = CliRunner().invoke(cli, ["-q", "contour", "run", "--shape", "cylinder", "--artifact",
-                                      str(calibration_path()), "--duration", "20", "--seed", "1",
-                                      "--out", str(run), "--json"], catch_exceptions=False)
+def _run_and_report(tmp_path, shape: str, duration_s: int):
+    """``contour run`` on the twin (seed 1) then ``contour report``: the run file and the summary."""
+    run = tmp_path / f"{shape}.h5"
+    result = CliRunner().invoke(cli, ["-q", "contour", "run", "--shape", shape, "--artifact",
+                                      str(calibration_path()), "--duration", str(duration_s),
+                                      "--seed", "1", "--out", str(run), "--json"],
+                                catch_exceptions=False)
     assert result.exit_code == 0, result.output
-    record = read_contour_run(run)
-    assert record.complete and len(record.columns["t_s"]) == 20 * 300
     report = CliRunner().invoke(cli, ["contour", "report", str(run), "--out", str(tmp_path / "rep"),
                                       "--json"], catch_exceptions=False)
-    summary = json.loads(report.output)
+    return run, json.loads(report.output)
+
+
+def test_a_short_cylinder_run_follows_the_surface_at_the_target(tmp_path):
+    run, summary = _run_and_report(tmp_path, "cylinder", 20)
+    record = read_contour_run(run)
+    assert record.complete and len(record.columns["t_s"]) == 20 * 300
     # against the twin's true outline, no alignment: sub-0.27 mm, all tip contacts, no loss
     assert summary["mean_error_mm"] < 0.27 and summary["tip_contact_share"] == 1.0
     assert summary["contacts_lost"] == 0 and summary["contacts"] > 4000
@@ -44,14 +50,7 @@ def test_an_artifact_without_a_target_is_refused_with_one_line(tmp_path):
 
 
 def test_a_short_wall_run_reports_an_open_outline(tmp_path):
-    run = tmp_path / "wall.h5"
-    result = CliRunner().invoke(cli, ["-q", "contour", "run", "--shape", "wall", "--artifact",
-                                      str(calibration_path()), "--duration", "10", "--seed", "1",
-                                      "--out", str(run), "--json"], catch_exceptions=False)
-    assert result.exit_code == 0, result.output
-    report = CliRunner().invoke(cli, ["contour", "report", str(run), "--out", str(tmp_path / "rep"),
-                                      "--json"], catch_exceptions=False)
-    summary = json.loads(report.output)
+    _, summary = _run_and_report(tmp_path, "wall", 10)
     assert summary["shape"] == "wall" and summary["time_to_go_round_s"] is None
     # the first 10 s press on and follow the step's top (y = 20 mm): on it, against the truth
     assert summary["contacts"] > 1500 and summary["mean_error_mm"] < 0.35

@@ -97,10 +97,6 @@ class MobileSensor:
         # edges farther than this from the base cannot meet the whisker (mm; see _near_part)
         self._keep_mm = float(sensor.whisker.reach_mm) + NEAR_MARGIN_MM
         self._near = None  # (base position, first edge, count) of the last near run
-        if isinstance(self._obstacle, Polygon):
-            vertices = self._obstacle.vertices_mm
-            edge = np.roll(vertices, -1, axis=0) - vertices
-            self._edges = vertices, edge, (edge * edge).sum(axis=1)
 
     # -- the Robot interface -----------------------------------------------------------------
     def pose(self) -> np.ndarray:
@@ -143,7 +139,7 @@ class MobileSensor:
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
         best, solved = self.physics.free(), {}
         for index, piece in enumerate(self._obstacle):
-            if _distance_mm(piece.vertices_mm, origin) > self._keep_mm:
+            if _edge_distances_mm(piece.vertices_mm, origin).min() > self._keep_mm:
                 continue
             seen = Polygon((piece.vertices_mm - origin) @ turn.T)
             solved[index] = self.physics.solve_shape(seen, self._pieces_previous.get(index))
@@ -205,10 +201,7 @@ class MobileSensor:
         """First index and number of the edges within ``_keep_mm`` + NEAR_REUSE_MM of
         ``origin`` (so that the run still holds while the base stays within NEAR_REUSE_MM of
         it); (None, 0) when they are not one run."""
-        vertices, edge, length2 = self._edges
-        share = np.clip(((origin - vertices) * edge).sum(axis=1) / length2, 0.0, 1.0)
-        nearest = vertices + share[:, None] * edge - origin
-        near = (nearest * nearest).sum(axis=1) <= (self._keep_mm + NEAR_REUSE_MM) ** 2
+        near = _edge_distances_mm(self._obstacle.vertices_mm, origin) <= self._keep_mm + NEAR_REUSE_MM
         starts = np.flatnonzero(near & ~np.roll(near, 1))
         return (int(starts[0]), int(near.sum())) if len(starts) == 1 else (None, 0)
 
@@ -217,11 +210,11 @@ NEAR_MARGIN_MM = 40.0
 NEAR_REUSE_MM = 2.0
 
 
-def _distance_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> float:
-    """Distance from ``point_mm`` to the nearest edge of the closed polygon ``vertices_mm``."""
+def _edge_distances_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> np.ndarray:
+    """Distance from ``point_mm`` to each edge of the closed polygon ``vertices_mm`` (mm)."""
     edge = np.roll(vertices_mm, -1, axis=0) - vertices_mm
     share = np.clip(((point_mm - vertices_mm) * edge).sum(axis=1) / (edge * edge).sum(axis=1), 0.0, 1.0)
-    return float(np.min(np.linalg.norm(vertices_mm + share[:, None] * edge - point_mm, axis=1)))
+    return np.linalg.norm(vertices_mm + share[:, None] * edge - point_mm, axis=1)
 
 
 def _reindexed(equilibrium, shift: int, count: int):
