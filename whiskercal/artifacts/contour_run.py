@@ -3,7 +3,8 @@
 One HDF5 file: root attributes (provenance; the shape, its outline core and corner radius, the
 target, the seed, whether the run went its full duration) and a ``samples`` group with one dataset
 per column (time, z, the chip's Z axis (from 1.1), the estimated contact, the twin's true tip and contact, the robot's pose, the
-controller's phase, the contact kind, slips, the controller's time per sample). A run is written
+controller's phase, the contact kind, slips, the controller's time per sample, the twin's true
+slip events (from 1.2)). A run is written
 once, atomically: a run stopped by Ctrl-C is written with what it has and ``complete`` false.
 docs/formats.md lists the layout; docs/contour.md the run.
 """
@@ -20,13 +21,13 @@ from whiskercal.artifacts import h5io
 from whiskercal.atomic import atomic_path
 
 SCHEMA = "whiskercal.contour_run"
-SCHEMA_VERSION = "1.1.0"  # 1.1: the Z axis column (axial_uT), optional on reading
+SCHEMA_VERSION = "1.2.0"  # 1.1: the Z axis column (axial_uT); 1.2: twin_slips; optional on reading
 SUPPORTED_MAJOR = 1
 
 UNITS = {"t_s": "s", "z_uT": "µT", "axial_uT": "µT", "estimate_mm": "mm", "true_tip_mm": "mm",
          "true_contact_mm": "mm", "pose": "mm, mm, rad", "slip": "1", "phase": "1", "kind": "1",
-         "control_s": "s"}
-OPTIONAL = ("axial_uT",)  # absent from runs written before 1.1
+         "control_s": "s", "twin_slips": "1"}
+OPTIONAL = ("axial_uT", "twin_slips")  # absent from runs written before 1.1, 1.2
 
 
 @dataclass

@@ -32,13 +32,15 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                    speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
                    on_progress: Callable[[float], None] | None = None,
                    stop_requested: Callable[[], bool] | None = None,
-                   mu_kinetic: float = 0.0) -> ContourRunFile:
+                   mu_kinetic: float = 0.0, mu_static: float | None = None) -> ContourRunFile:
     """Run the loop on the twin against ``shape`` with the calibration ``artifact``; the run,
     in memory.
 
     ``sensor`` is the twin's build (default: the default sensor); the artifact must be calibrated
     on the same build. ``target_z_uT`` overrides the artifact's deflection target (which
     ``whiskercal optimal-depth report`` writes); ``speed_mm_s`` the total speed of the config.
+    ``mu_static`` (with ``mu_kinetic``): Coulomb stick-slip at the tip; ``mu_kinetic`` alone:
+    sliding friction on a polygon's edges, without sticking.
     """
     import dataclasses
 
@@ -61,11 +63,32 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     if speed_mm_s is not None:
         config = dataclasses.replace(config, total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
+    mu_kinetic, friction = _friction(shape, mu_kinetic, mu_static)
     shape_outline = outline(shape)
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
                       config, duration_s, seed, on_progress, stop_requested,
-                      number(mu_kinetic, "--mu-kinetic", low=0.0, high=2.0))
+                      0.0 if friction else mu_kinetic, friction)
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
                           float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
                           run.columns, {"follow": run.config, "artifact": str(artifact),
-                                        "mu_kinetic": float(mu_kinetic)})
+                                        "mu_kinetic": float(mu_kinetic),
+                                        "mu_static": None if friction is None else friction.mu_static})
+
+
+def _friction(shape: str, mu_kinetic, mu_static):
+    """The checked coefficients: (mu_kinetic, a ``Coulomb`` for stick-slip or None)."""
+    from whiskercal.checks import number
+    from whiskercal.twin.physics.coulomb import Coulomb
+
+    mu_kinetic = number(mu_kinetic, "--mu-kinetic", low=0.0, high=2.0)
+    if mu_static is None:
+        if mu_kinetic and shape == "cylinder":
+            raise UsageError("--mu-kinetic alone (sliding without sticking) is modelled on the "
+                             "polygons only: give --mu-static too for stick-slip on the cylinder")
+        return mu_kinetic, None
+    mu_static = number(mu_static, "--mu-static", low=0.0, high=2.0)
+    if mu_static < mu_kinetic:
+        raise UsageError(f"--mu-static ({mu_static:g}) must be at least --mu-kinetic ({mu_kinetic:g})")
+    if shape == "wall":
+        raise UsageError("friction is not modelled on the wall: leave out --mu-static and --mu-kinetic")
+    return mu_kinetic, Coulomb(mu_static, mu_kinetic)

@@ -3,8 +3,8 @@
 ``run_contour`` starts the sensor outside the object, pointing at it, and runs the loop for a
 duration of robot time (or until stopped), recording every sample: time, z and the chip's Z
 axis (fed to the tracker, which uses it when the calibration carries a (Y, Z) table), the
-estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind and
-slips. The estimate is never aligned to the truth; docs/contour.md has the metrics.
+estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind,
+the slips the follower detected and the twin's true slip events (with stick-slip friction). The estimate is never aligned to the truth; docs/contour.md has the metrics.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from whiskercal.twin.mobile import MobileSensor
 from whiskercal.twin.outlines import Outline
 
 COLUMNS = ("t_s", "z_uT", "axial_uT", "estimate_mm", "true_tip_mm", "true_contact_mm", "pose", "slip",
-           "phase", "kind", "control_s")
+           "phase", "kind", "control_s", "twin_slips")
 
 
 @dataclass
@@ -56,13 +56,14 @@ def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
 def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: FollowConfig,
                 duration_s: float, seed: int = 0, on_progress: Callable[[float], None] | None = None,
                 stop_requested: Callable[[], bool] | None = None,
-                mu_kinetic: float = 0.0) -> ContourRun:
+                mu_kinetic: float = 0.0, friction=None) -> ContourRun:
     """Run the loop for ``duration_s`` s of robot time, or until stopped (a partial run);
-    ``mu_kinetic``: sliding friction on a polygon's edges (``twin.mobile``)."""
+    ``mu_kinetic``: sliding friction on a polygon's edges; ``friction``: a ``Coulomb``,
+    stick-slip at the tip (``twin.mobile``)."""
     rng = np.random.default_rng(seed)
     reach_mm = sensor.whisker.reach_mm
     robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng, reach_mm),
-                         seed=seed, mu_kinetic=mu_kinetic)
+                         seed=seed, mu_kinetic=mu_kinetic, friction=friction)
     follower = Follower(tracker, target_z_uT, config, reach_mm)
     run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
     rows: dict[str, list] = {name: [] for name in COLUMNS}
@@ -93,5 +94,6 @@ def _record(rows, t_s: float, sample, step, pose, control_s: float) -> None:
                         ("estimate_mm", step.contact_mm),
                         ("true_tip_mm", sample.tip_mm), ("true_contact_mm", sample.contact_mm),
                         ("pose", pose), ("slip", step.slip), ("phase", step.phase),
-                        ("kind", sample.kind), ("control_s", control_s)):
+                        ("kind", sample.kind), ("control_s", control_s),
+                        ("twin_slips", sample.slips)):
         rows[name].append(value)

@@ -47,6 +47,7 @@ def summarize(run: ContourRunFile) -> dict:
     duration = float(columns["t_s"][-1]) if len(columns["t_s"]) else 0.0
     return {"shape": run.shape, "sensor_id": run.sensor_id, "target_z_uT": run.target_z_uT,
             **metrics, "slips": int(np.sum(columns["slip"])),
+            "twin_slips": int(np.sum(columns["twin_slips"])) if "twin_slips" in columns else None,
             "contacts_lost": int(np.sum((columns["phase"][1:] == "back-off") & (columns["phase"][:-1] == "follow"))),
             "gave_up": bool(np.any(columns["phase"] == "gave-up")),
             "time_to_go_round_s": time_to_go_round_s(run), "duration_s": duration,

@@ -4,8 +4,9 @@ The robot holds the sensor's base frame at a pose (x, y mm; heading rad: the dir
 undeflected whisker) in the world frame; it takes a velocity command (world frame, mm/s) and a
 heading rate (rad/s), each limited as a robot's would be, and integrates them over each control
 period. Each period the object is seen from the sensor, the twin solves the whisker against it
-(its frictionless shape contact: tip, shaft or tangential), and the magnet and magnetometer turn
-the suspension's pose into z (µT from rest, with the sensor's noise), and the chip's Z axis
+(its shape contact: tip, shaft or tangential; frictionless, or with the plane's Coulomb
+stick-slip at the tip, ``friction``, whose stuck point it carries from period to period in the
+world frame), and the magnet and magnetometer turn the suspension's pose into z (µT from rest, with the sensor's noise), and the chip's Z axis
 likewise (``axial_uT``: a real magnetometer streams all three axes, and a calibration with a
 (Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
 frame. Everything runs in-process, as fast as the solver goes.
@@ -27,7 +28,9 @@ import numpy as np
 
 from whiskercal.errors import UsageError
 from whiskercal.twin.outlines import Outline
+from whiskercal.twin.physics.coulomb import Coulomb
 from whiskercal.twin.physics.obstacles import Circle, Polygon
+from whiskercal.twin.physics.shape_friction import Stick
 from whiskercal.twin.physics.sensor import TwinPhysics
 
 
@@ -42,13 +45,15 @@ class RobotLimits:
 @dataclass(frozen=True)
 class MobileSample:
     """One control period's measurement (Y axis ``z_uT`` and Z axis ``axial_uT``, each µT from
-    its reading at rest, with noise) and the twin's truth (world frame, mm)."""
+    its reading at rest, with noise) and the twin's truth (world frame, mm; ``slips``: the tip's
+    slip events in the period, with stick-slip friction)."""
 
     z_uT: float
     kind: str
     tip_mm: np.ndarray
     contact_mm: np.ndarray
     axial_uT: float = float("nan")
+    slips: int = 0
 
 
 def rotation(angle_rad: float) -> np.ndarray:
@@ -70,16 +75,27 @@ class MobileSensor:
         Start pose (x mm, y mm, heading rad) of the sensor's base frame.
     seed
         Seeds the magnetometer noise.
+    mu_kinetic
+        Sliding friction without sticking on a polygon's edges (``Polygon.friction_along``).
+    friction
+        Coulomb stick-slip at the tip (``physics.shape_friction``), on the convex objects.
     """
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
-                 limits: RobotLimits = RobotLimits(), mu_kinetic: float = 0.0) -> None:
+                 limits: RobotLimits = RobotLimits(), mu_kinetic: float = 0.0,
+                 friction: Coulomb | None = None) -> None:
         self.physics = TwinPhysics(sensor)
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
-        if mu_kinetic and isinstance(self._obstacle, (Circle, tuple)):
-            raise UsageError("friction is modelled on polygon edges only, not on the cylinder "
-                             "or the wall")
+        if (mu_kinetic or friction) and isinstance(self._obstacle, tuple):
+            raise UsageError("friction is not modelled on the wall")
+        if mu_kinetic and friction:
+            raise UsageError("give either sliding friction (mu_kinetic) or stick-slip, not both")
+        if mu_kinetic and isinstance(self._obstacle, Circle):
+            raise UsageError("sliding friction alone is modelled on polygon edges only; the "
+                             "cylinder takes stick-slip (--mu-static)")
+        self.friction = friction
+        self._stick_world = None  # (anchor in the world, mm; friction ratio) while the tip sticks
         self._pieces_previous: dict[int, object] = {}  # the wall's warm starts, by piece
         self.mu_kinetic = float(mu_kinetic)
         self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
@@ -122,7 +138,11 @@ class MobileSensor:
         else:
             obstacle, first = self._seen_from_sensor()
             count = len(getattr(self._obstacle, "vertices_mm", ()))
-            equilibrium = self.physics.solve_shape(obstacle, _reindexed(self._previous, -first, count))
+            previous = _reindexed(self._previous, -first, count)
+            if self.friction is None:
+                equilibrium = self.physics.solve_shape(obstacle, previous)
+            else:
+                equilibrium = self._solve_sticking(obstacle, previous)
             equilibrium = _reindexed(equilibrium, first, count)
         self._previous = equilibrium
         field = self.physics.field_uT(equilibrium)
@@ -131,7 +151,21 @@ class MobileSensor:
         tip = self.to_world(equilibrium.tip_mm)
         self._tips = (self._tips[1], tip if equilibrium.kind == "tip" else None)
         self._dt_s = dt_s
-        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial)
+        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial,
+                            equilibrium.slips)
+
+    def _solve_sticking(self, obstacle, previous):
+        """The stick-slip solve, its stuck point carried in the world frame (the object stands
+        still in it; the sensor's frame moves each period)."""
+        turn, origin = rotation(-self._pose[2]), self._pose[:2]
+        stick = None
+        if self._stick_world is not None:
+            anchor, ratio = self._stick_world
+            stick = Stick(turn @ (anchor - origin), ratio)
+        equilibrium, stick = self.physics.solve_shape_sticking(obstacle, self.friction, previous,
+                                                               stick)
+        self._stick_world = None if stick is None else (self.to_world(stick.anchor_mm), stick.ratio)
+        return equilibrium
 
     def _solve_pieces(self):
         """The equilibrium against the piece of the wall that deflects the whisker most (see the

@@ -34,16 +34,20 @@ def command() -> None:
               help="Total speed (tangential and normal), mm/s [default: 8].")
 @click.option("--duration", "duration_s", type=float, default=120.0, show_default=True,
               help="Robot time to run, s.")
+@click.option("--mu-static", "mu_static", type=float, default=None,
+              help="Static friction at the tip: Coulomb stick-slip on the object (the plane "
+                   "study's model), sliding at --mu-kinetic; at least --mu-kinetic; not on the "
+                   "wall [default: none].")
 @click.option("--mu-kinetic", "mu_kinetic", type=float, default=0.0, show_default=True,
-              help="Kinetic friction on the polygons' edges while the tip slides (no sticking; "
-                   "not on the cylinder); 0: frictionless.")
+              help="Kinetic friction at the tip while it slides; alone (no --mu-static), sliding "
+                   "friction without sticking on the polygons' edges; 0: frictionless.")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seeds the start pose and the magnetometer noise.")
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="The run file (HDF5).")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
 @pass_app
 def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, speed_mm_s,
-                duration_s, mu_kinetic, seed, out, as_json) -> None:
+                duration_s, mu_static, mu_kinetic, seed, out, as_json) -> None:
     """Run the loop around SHAPE and record every sample (Ctrl-C keeps a readable partial run)."""
     from whiskercal.atomic import refuse_input_as_output
     from whiskercal.cli.progress import progress_bar
@@ -60,6 +64,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
         record = contour_to_file(shape, artifact, out, sensor=sensor, target_z_uT=target_uT,
                                  config=load_follow_config(config_path), speed_mm_s=speed_mm_s,
                                  duration_s=duration_s, seed=seed, mu_kinetic=mu_kinetic,
+                                 mu_static=mu_static,
                                  on_progress=shown if bar else None)
     _print(summarize(record), as_json)
     if not record.complete:

@@ -25,7 +25,7 @@ from numba import njit
 # Contact-kind codes of the nondimensional systems.
 CANTILEVER = 0     # given force at the tip; unknown M                         (1 unknown)
 SHAFT_CIRCLE = 1   # frictionless shaft tangent to a circle (radius 0: a corner) (4 unknowns)
-TIP_CIRCLE = 2     # tip on a circle, force along the circle's normal            (3 unknowns)
+TIP_CIRCLE = 2     # tip on a circle with tangential force = mu_signed·normal  (3 unknowns)
 TIP_POINT = 3      # tip held at a point (sticking, or a polygon's corner)      (3 unknowns)
 TIP_LINE = 4       # tip on a line with tangential force = mu_signed·normal      (3 unknowns)
 TANGENT_LINE = 5   # shaft tangent to a line at s_c, lying along it to the tip    (4 unknowns)
@@ -106,9 +106,12 @@ def _circle_rows(kind, x, y, th, fx, fy, p, r, d_res, explicit):
         dist = max(math.sqrt(dx * dx + dy * dy), 1e-300)
         r[1] = dist - p[P_RADIUS]
         d_res[1, 0], d_res[1, 1] = dx / dist, dy / dist
-        r[2] = dx * fy - dy * fx
-        d_res[2, 0], d_res[2, 1] = fy, -fx
-        explicit[2, 1], explicit[2, 2] = -dy, dx
+        # tangential force minus mu_signed times the normal force, both times the distance
+        # (the tangent is the outward normal turned +90°, as on a line); mu 0: frictionless
+        mu = p[P_MU]
+        r[2] = dx * fy - dy * fx - mu * (dx * fx + dy * fy)
+        d_res[2, 0], d_res[2, 1] = fy - mu * fx, -fx - mu * fy
+        explicit[2, 1], explicit[2, 2] = -dy - mu * dx, dx - mu * dy
 
 
 @njit(cache=True)

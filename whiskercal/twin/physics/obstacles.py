@@ -14,21 +14,15 @@ from functools import cached_property
 import numpy as np
 
 from whiskercal.errors import UsageError
+from whiskercal.twin.physics.coulomb import (DEFAULT_MU_KINETIC, DEFAULT_MU_STATIC,
+                                             DEFAULT_SLIP_REBOUND, Coulomb)
 
-# PLA against a nitinol wire's end: dry polymer-on-metal friction is 0.2-0.4; the static and
-# kinetic values were then tuned with the study sweep in docs/twin.md ("Mechanics").
-DEFAULT_MU_STATIC = 0.30
-DEFAULT_MU_KINETIC = 0.22
 SLIDE_DEADBAND_MM_S = 0.5  # a polygon's surface slower past the tip than this: no friction
 # The study's plane: its normal tilted about 20° from the whisker axis (reference/README.md).
 DEFAULT_PLANE_TILT_RAD = math.radians(20.0)
 # The study's stage moves the plane toward -tangent (the tip is dragged toward +y): with it the
 # defaults slip into tangential contact at 45 mm (docs/twin.md, "Mechanics").
 STUDY_MOTION_SIGN = -1
-# A slip overshoots the kinetic equilibrium almost as far as an undamped spring-mass would: the
-# nitinol wire and the spiral suspension damp the tip's swing little (damping ratio ~0.03 gives
-# exp(-pi*0.03) = 0.91 of the overshoot); `Plane.slip_rebound`, docs/twin.md.
-DEFAULT_SLIP_REBOUND = 0.9
 
 
 def finite_point(name: str, value) -> np.ndarray:
@@ -77,10 +71,7 @@ class Plane:
         +1 when the stage moves the surface toward +tangent, -1 otherwise; a solve without
         history assumes steady sliding in this direction.
     slip_rebound : float
-        How far a slip overshoots the kinetic equilibrium, 0..1: the tip comes to rest where
-        |F_t|/F_n = mu_k - slip_rebound·(mu_s - mu_k) (`rest_ratio`). 0 is a slip that stops
-        as soon as kinetic friction balances (fully damped); 1 the undamped spring-mass, whose
-        first stop lies as far below mu_k·F_n as the breakaway lay above it.
+        How far a slip overshoots the kinetic equilibrium, 0..1 (`Coulomb.slip_rebound`).
     """
 
     point_mm: np.ndarray
@@ -95,18 +86,18 @@ class Plane:
         object.__setattr__(self, "point_mm", finite_point("plane point_mm", self.point_mm))
         finite_number("plane normal_rad", self.normal_rad)
         finite_number("plane slide_mm", self.slide_mm)
-        finite_number("mu_kinetic", self.mu_kinetic, 0.0)
-        if finite_number("mu_static", self.mu_static, 0.0) < self.mu_kinetic:
-            raise UsageError("mu_static must be at least mu_kinetic.")
+        self.coulomb  # checks the friction coefficients
         _check_side(self.motion_sign)
-        if not 0.0 <= finite_number("slip_rebound", self.slip_rebound) <= 1.0:
-            raise UsageError(f"slip_rebound must lie in 0..1, got {self.slip_rebound!r}.")
+
+    @cached_property
+    def coulomb(self) -> Coulomb:
+        """The tip's friction against this surface (the model every stick-slip contact shares)."""
+        return Coulomb(self.mu_static, self.mu_kinetic, self.slip_rebound)
 
     @property
     def rest_ratio(self) -> float:
-        """|F_t|/F_n where a slipping tip comes to rest and sticks again (see `slip_rebound`)."""
-        overshoot = self.slip_rebound * (self.mu_static - self.mu_kinetic)
-        return max(self.mu_kinetic - overshoot, -self.mu_static)
+        """|F_t|/F_n where a slipping tip comes to rest and sticks again (`Coulomb.rest_ratio`)."""
+        return self.coulomb.rest_ratio
 
     @cached_property
     def normal(self) -> np.ndarray:

@@ -1,7 +1,8 @@
 """The sliding plane: Coulomb friction at the tip, quasi-static stick-slip, tangential contact.
 
-Displacement-controlled continuation: each call moves the plane to its new pose and starts from
-`previous`. A sticking tip stays glued to its point of the moving surface (`anchor_mm`) while
+The friction model (parameters, slip rule) is `physics.coulomb`'s, shared with the contour
+scenes' objects. Displacement-controlled continuation: each call moves the plane to its new pose
+and starts from `previous`. A sticking tip stays glued to its point of the moving surface (`anchor_mm`) while
 the needed tangential force stays inside the static cone |F_t| <= mu_s·F_n; when it would leave,
 the tip slides with |F_t| = mu_k·F_n opposing the slip and sticks again at the new point. When
 the bent shaft reaches the surface before the tip does, the contact becomes tangential (the
@@ -18,14 +19,13 @@ import numpy as np
 
 from whiskercal.errors import UsageError
 from whiskercal.twin.physics import elastica as el
+from whiskercal.twin.physics.coulomb import slips_within_step
 from whiskercal.twin.physics.contacts import (PATH_STEP, base_params, check_whisker, free,
                                       make_equilibrium, solve_kind)
 from whiskercal.twin.physics.obstacles import Plane
 from whiskercal.twin.physics.whisker import Equilibrium
 
 PENETRATION_TOL = 1e-9   # in L: how far a node may sit behind the surface before it counts
-# Below this gap between mu_s and the rest ratio the tip cannot re-stick: it slides steadily.
-STEADY_SLIDE_RATIO = 1e-9
 SHAPE_NODES = 48
 
 
@@ -99,27 +99,6 @@ def _friction_ratio(force, plane: Plane) -> float:
     return float(force @ plane.tangent) / normal if normal > 0.0 else 0.0
 
 
-def slips_within_step(ratio_start: float, ratio_stuck: float, plane: Plane
-                      ) -> tuple[float, int]:
-    """Friction ratio F_t/F_n at the end of a step that overloads the static cone, and the
-    number of slip events in the step.
-
-    While stuck, the ratio grows almost linearly with the plane's motion over one small step,
-    from `ratio_start` (the previous state) to `ratio_stuck` (the stuck solve at the new pose,
-    beyond ±mu_s). It breaks loose where the line crosses the cone's edge, the tip slides and
-    comes to rest at the rest ratio (`Plane.rest_ratio`), sticks there, and the rest of the
-    step's motion loads it again; every further period of mu_s - rest ratio is one more slip.
-    The count is therefore independent of how finely the path is stepped.
-    """
-    sign = math.copysign(1.0, ratio_stuck)
-    growth = sign * (ratio_stuck - ratio_start)
-    before = max(0.0, plane.mu_static - sign * ratio_start)   # load left before breakaway
-    after = max(0.0, growth - before)                         # load applied after it
-    period = plane.mu_static - plane.rest_ratio
-    extra = int(after // period)
-    return sign * (plane.rest_ratio + after - extra * period), 1 + extra
-
-
 def _stuck_solve(previous: Equilibrium, p: np.ndarray) -> tuple[np.ndarray, bool]:
     """The tip held at the previous anchor, from the last step's trend when there is one."""
     start = previous.solution[1][:3]
@@ -150,7 +129,7 @@ def _stick_or_slip(whisker, plane: Plane, previous: Equilibrium):
         normal, tangential = _forces(z, plane)
         if normal > 0.0 and abs(tangential) <= plane.mu_static * normal:
             return _settle(whisker, plane, el.TIP_POINT, z, p), False, 0
-        if normal > 0.0 and plane.mu_static - plane.rest_ratio > STEADY_SLIDE_RATIO:
+        if normal > 0.0 and plane.coulomb.sticks:
             start = _friction_ratio(np.asarray(previous.force_n), plane)
             ratio, slips = slips_within_step(start, tangential / normal, plane)
             return _tip_slide(whisker, plane, z, ratio), False, slips

@@ -21,6 +21,9 @@ class SensorPhysics(Protocol):
     def solve_shape(self, shape, previous):
         """The equilibrium against a ``Circle`` or ``Polygon``, warm-started from ``previous``."""
 
+    def solve_shape_sticking(self, shape, friction, previous, stick):
+        """Against a ``Circle`` or ``Polygon`` with stick-slip at the tip: (equilibrium, stick)."""
+
     def solve_plane(self, plane, previous):
         """The equilibrium against a sliding ``Plane``, continuing ``previous``'s stick-slip."""
 
@@ -44,6 +47,13 @@ class TwinPhysics:
     def solve_shape(self, shape, previous):
         """Equilibrium against a ``Circle`` or convex ``Polygon``, warm-started from ``previous``."""
         return self._mechanics.solve_shape(self.sensor.whisker, shape, previous)
+
+    def solve_shape_sticking(self, shape, friction, previous, stick):
+        """Against a ``Circle`` or convex ``Polygon`` with the ``Coulomb`` ``friction``'s
+        stick-slip at the tip, from ``previous`` stuck at ``stick``: (equilibrium, stick now)."""
+        from whiskercal.twin.physics.shape_friction import solve_shape_sticking
+
+        return solve_shape_sticking(self.sensor.whisker, shape, friction, previous, stick)
 
     def solve_plane(self, plane, previous):
         """Equilibrium against a sliding ``Plane``, from ``previous`` along the path."""

@@ -107,8 +107,9 @@ class Equilibrium:
         True when the contact is sliding now, on the kinetic edge of the friction cone
         (tangential contact, the history-free approach, or a plane with mu_s = mu_k).
     slips : int
-        Plane contacts only: slip events since the previous state (the tip broke loose at
-        mu_s, slid and stuck again); the state itself sticks.
+        Stick-slip contacts (the plane; an object with `physics.shape_friction`): slip events
+        since the previous state (the tip broke loose at mu_s, slid and stuck again); the state
+        itself sticks.
     whisker : WhiskerParams
         The whisker this equilibrium belongs to.
     anchor_mm : float
