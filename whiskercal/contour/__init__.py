@@ -51,6 +51,7 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     from whiskercal.twin.outlines import outline
     from whiskercal.twin.params import DEFAULT_SENSOR
 
+    mu_kinetic, friction = _friction(shape, mu_kinetic, mu_static)  # before the artifact loads
     sensor = sensor or DEFAULT_SENSOR
     calibration = runtime.load(artifact)
     target = calibration.target_z_uT if target_z_uT is None else number(target_z_uT, "--target-uT")
@@ -63,7 +64,6 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     if speed_mm_s is not None:
         config = dataclasses.replace(config, total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
-    mu_kinetic, friction = _friction(shape, mu_kinetic, mu_static)
     shape_outline = outline(shape)
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
                       config, duration_s, seed, on_progress, stop_requested,
@@ -81,6 +81,8 @@ def _friction(shape: str, mu_kinetic, mu_static):
     from whiskercal.twin.physics.coulomb import Coulomb
 
     mu_kinetic = number(mu_kinetic, "--mu-kinetic", low=0.0, high=2.0)
+    if shape == "wall" and (mu_kinetic or mu_static is not None):
+        raise UsageError("friction is not modelled on the wall: leave out --mu-static and --mu-kinetic")
     if mu_static is None:
         if mu_kinetic and shape == "cylinder":
             raise UsageError("--mu-kinetic alone (sliding without sticking) is modelled on the "
@@ -89,6 +91,4 @@ def _friction(shape: str, mu_kinetic, mu_static):
     mu_static = number(mu_static, "--mu-static", low=0.0, high=2.0)
     if mu_static < mu_kinetic:
         raise UsageError(f"--mu-static ({mu_static:g}) must be at least --mu-kinetic ({mu_kinetic:g})")
-    if shape == "wall":
-        raise UsageError("friction is not modelled on the wall: leave out --mu-static and --mu-kinetic")
     return mu_kinetic, Coulomb(mu_static, mu_kinetic)
