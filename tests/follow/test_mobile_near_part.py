@@ -38,26 +38,3 @@ def test_the_near_edges_give_the_same_contact_as_the_whole_outline():
     np.testing.assert_array_equal(z_culled, z_whole)
     first, vertices = culled._near_part(culled.pose()[:2])
     assert len(vertices) < 0.5 * len(shape.obstacle().vertices_mm)  # and did leave edges out
-
-
-def test_kinetic_friction_on_an_edge_drags_the_tip_the_way_the_surface_slides():
-    from whiskercal.twin.physics.obstacles import SLIDE_DEADBAND_MM_S, Polygon
-
-    square = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
-    # edge 0 runs along +x with its outward normal -y: its tangent (the normal turned +90 deg) is +x
-    assert Polygon(square, mu_kinetic=0.3, sliding_mm_s=(5.0, 0.0)).friction_along(0) == 0.3
-    assert Polygon(square, mu_kinetic=0.3, sliding_mm_s=(-5.0, 0.0)).friction_along(0) == -0.3
-    # sliding across the edge, or slower than the deadband, or no friction: none
-    assert Polygon(square, mu_kinetic=0.3, sliding_mm_s=(0.0, 5.0)).friction_along(0) == 0.0
-    slow = 0.5 * SLIDE_DEADBAND_MM_S
-    assert Polygon(square, mu_kinetic=0.3, sliding_mm_s=(slow, 0.0)).friction_along(0) == 0.0
-    assert Polygon(square, sliding_mm_s=(5.0, 0.0)).friction_along(0) == 0.0
-
-
-def test_friction_on_the_cylinder_is_refused_in_one_line():
-    import pytest
-
-    from whiskercal.errors import UsageError
-
-    with pytest.raises(UsageError, match="polygon edges only"):
-        MobileSensor(DEFAULT_SENSOR, outline("cylinder"), [-200.0, 0.0, 0.0], mu_kinetic=0.2)

@@ -40,7 +40,7 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     on the same build. ``target_z_uT`` overrides the artifact's deflection target (which
     ``whiskercal optimal-depth report`` writes); ``speed_mm_s`` the total speed of the config.
     ``mu_static`` (with ``mu_kinetic``): Coulomb stick-slip at the tip; ``mu_kinetic`` alone:
-    sliding friction on a polygon's edges, without sticking.
+    mu_s = mu_k, the tip sticking inside the cone and sliding on its edge, no stick-slip.
     """
     import dataclasses
 
@@ -66,8 +66,7 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     positive(duration_s, "--duration", unit="s")
     shape_outline = outline(shape)
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
-                      config, duration_s, seed, on_progress, stop_requested,
-                      0.0 if friction else mu_kinetic, friction)
+                      config, duration_s, seed, on_progress, stop_requested, friction)
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
                           float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
                           run.columns, {"follow": run.config, "artifact": str(artifact),
@@ -76,18 +75,15 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
 
 
 def _friction(shape: str, mu_kinetic, mu_static):
-    """The checked coefficients: (mu_kinetic, a ``Coulomb`` for stick-slip or None)."""
+    """The checked coefficients: (mu_kinetic, a ``Coulomb`` or None: frictionless)."""
     from whiskercal.checks import number
     from whiskercal.twin.physics.coulomb import Coulomb
 
     mu_kinetic = number(mu_kinetic, "--mu-kinetic", low=0.0, high=2.0)
     if shape == "wall" and (mu_kinetic or mu_static is not None):
         raise UsageError("friction is not modelled on the wall: leave out --mu-static and --mu-kinetic")
-    if mu_static is None:
-        if mu_kinetic and shape == "cylinder":
-            raise UsageError("--mu-kinetic alone (sliding without sticking) is modelled on the "
-                             "polygons only: give --mu-static too for stick-slip on the cylinder")
-        return mu_kinetic, None
+    if mu_static is None:  # no stick-slip: mu_s = mu_k, or frictionless
+        return mu_kinetic, Coulomb(mu_kinetic, mu_kinetic) if mu_kinetic else None
     mu_static = number(mu_static, "--mu-static", low=0.0, high=2.0)
     if mu_static < mu_kinetic:
         raise UsageError(f"--mu-static ({mu_static:g}) must be at least --mu-kinetic ({mu_kinetic:g})")

@@ -56,14 +56,13 @@ def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
 def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: FollowConfig,
                 duration_s: float, seed: int = 0, on_progress: Callable[[float], None] | None = None,
                 stop_requested: Callable[[], bool] | None = None,
-                mu_kinetic: float = 0.0, friction=None) -> ContourRun:
+                friction=None) -> ContourRun:
     """Run the loop for ``duration_s`` s of robot time, or until stopped (a partial run);
-    ``mu_kinetic``: sliding friction on a polygon's edges; ``friction``: a ``Coulomb``,
-    stick-slip at the tip (``twin.mobile``)."""
+    ``friction``: a ``Coulomb``, friction at the tip (``twin.mobile``), None: frictionless."""
     rng = np.random.default_rng(seed)
     reach_mm = sensor.whisker.reach_mm
     robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng, reach_mm),
-                         seed=seed, mu_kinetic=mu_kinetic, friction=friction)
+                         seed=seed, friction=friction)
     follower = Follower(tracker, target_z_uT, config, reach_mm)
     run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
     rows: dict[str, list] = {name: [] for name in COLUMNS}

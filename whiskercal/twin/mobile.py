@@ -75,30 +75,22 @@ class MobileSensor:
         Start pose (x mm, y mm, heading rad) of the sensor's base frame.
     seed
         Seeds the magnetometer noise.
-    mu_kinetic
-        Sliding friction without sticking on a polygon's edges (``Polygon.friction_along``).
     friction
-        Coulomb stick-slip at the tip (``physics.shape_friction``), on the convex objects.
+        Coulomb friction at the tip (``physics.shape_friction``: stick-slip, or with mu_s = mu_k
+        sticking inside the cone and sliding on its edge), on the convex objects; None:
+        frictionless.
     """
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
-                 limits: RobotLimits = RobotLimits(), mu_kinetic: float = 0.0,
-                 friction: Coulomb | None = None) -> None:
+                 limits: RobotLimits = RobotLimits(), friction: Coulomb | None = None) -> None:
         self.physics = TwinPhysics(sensor)
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
-        if (mu_kinetic or friction) and isinstance(self._obstacle, tuple):
+        if friction is not None and isinstance(self._obstacle, tuple):
             raise UsageError("friction is not modelled on the wall")
-        if mu_kinetic and friction:
-            raise UsageError("give either sliding friction (mu_kinetic) or stick-slip, not both")
-        if mu_kinetic and isinstance(self._obstacle, Circle):
-            raise UsageError("sliding friction alone is modelled on polygon edges only; the "
-                             "cylinder takes stick-slip (--mu-static)")
         self.friction = friction
         self._stick_world = None  # (anchor in the world, mm; friction ratio) while the tip sticks
         self._pieces_previous: dict[int, object] = {}  # the wall's warm starts, by piece
-        self.mu_kinetic = float(mu_kinetic)
-        self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
         self._pose = np.asarray(pose, float).copy()
         self._velocity, self._turn = np.zeros(2), 0.0
         self._noise_uT = float(sensor.magnetometer.noise_uT_rms[1])
@@ -109,7 +101,7 @@ class MobileSensor:
         # the Z axis's noise from its own stream, so that the Y stream (and every run recorded
         # before the Z axis was) stays the same for a seed
         self._axial_rng = np.random.default_rng([seed, 2])
-        self._previous, self._dt_s = None, 0.0
+        self._previous = None
         # edges farther than this from the base cannot meet the whisker (mm; see _near_part)
         self._keep_mm = float(sensor.whisker.reach_mm) + NEAR_MARGIN_MM
         self._near = None  # (base position, first edge, count) of the last near run
@@ -149,8 +141,6 @@ class MobileSensor:
         z = float(field[1]) - self._rest_y + float(self._rng.normal(0.0, self._noise_uT))
         axial = float(field[2]) - self._rest_z + float(self._axial_rng.normal(0.0, self._axial_noise_uT))
         tip = self.to_world(equilibrium.tip_mm)
-        self._tips = (self._tips[1], tip if equilibrium.kind == "tip" else None)
-        self._dt_s = dt_s
         return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial,
                             equilibrium.slips)
 
@@ -182,15 +172,6 @@ class MobileSensor:
         self._pieces_previous = solved
         return best
 
-    def _sliding_mm_s(self) -> tuple[float, float]:
-        """The object's surface velocity past the tip (sensor frame, mm/s), from the tip's motion
-        over the last step (the object stands still in the world); zero without two tips."""
-        before, last = self._tips
-        if before is None or last is None or not self._dt_s:
-            return (0.0, 0.0)
-        moving = rotation(-self._pose[2]) @ (before - last) / self._dt_s
-        return (float(moving[0]), float(moving[1]))
-
     def to_world(self, point_mm) -> np.ndarray:
         """A point of the sensor's base frame in the world frame."""
         return rotation(self._pose[2]) @ np.asarray(point_mm, float) + self._pose[:2]
@@ -204,9 +185,6 @@ class MobileSensor:
         if isinstance(self._obstacle, Circle):
             return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin)), 0
         first, vertices = self._near_part(origin)
-        if self.mu_kinetic:
-            return Polygon((vertices - origin) @ turn.T, mu_kinetic=self.mu_kinetic,
-                           sliding_mm_s=self._sliding_mm_s()), first
         return Polygon((vertices - origin) @ turn.T), first
 
     def _near_part(self, origin: np.ndarray) -> tuple[int, np.ndarray]:

@@ -39,8 +39,8 @@ def command() -> None:
                    "study's model), sliding at --mu-kinetic; at least --mu-kinetic; not on the "
                    "wall [default: none].")
 @click.option("--mu-kinetic", "mu_kinetic", type=float, default=0.0, show_default=True,
-              help="Kinetic friction at the tip while it slides; alone (no --mu-static), sliding "
-                   "friction without sticking on the polygons' edges; 0: frictionless.")
+              help="Kinetic friction at the tip while it slides; alone (no --mu-static), "
+                   "static friction equal to it (no stick-slip); 0: frictionless.")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seeds the start pose and the magnetometer noise.")
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="The run file (HDF5).")

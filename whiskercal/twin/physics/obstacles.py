@@ -17,7 +17,6 @@ from whiskercal.errors import UsageError
 from whiskercal.twin.physics.coulomb import (DEFAULT_MU_KINETIC, DEFAULT_MU_STATIC,
                                              DEFAULT_SLIP_REBOUND, Coulomb)
 
-SLIDE_DEADBAND_MM_S = 0.5  # a polygon's surface slower past the tip than this: no friction
 # The study's plane: its normal tilted about 20° from the whisker axis (reference/README.md).
 DEFAULT_PLANE_TILT_RAD = math.radians(20.0)
 # The study's stage moves the plane toward -tangent (the tip is dragged toward +y): with it the
@@ -155,19 +154,11 @@ class Circle:
 
 @dataclass(frozen=True)
 class Polygon:
-    """A convex polygon obstacle; vertices in counter-clockwise order (mm).
-
-    Frictionless unless ``mu_kinetic`` > 0 and the surface slides past the tip: then a tip on an
-    edge feels kinetic friction, mu_kinetic times the normal force, dragging it along
-    ``sliding_mm_s`` (the surface's velocity relative to the tip, same frame) when that
-    velocity's component along the edge exceeds ``SLIDE_DEADBAND_MM_S``. There is no static
-    friction (no sticking): a model of steady sliding only.
-    """
+    """A convex polygon obstacle; vertices in counter-clockwise order (mm). Frictionless (the
+    tip's stick-slip on it is `physics.shape_friction`'s)."""
 
     vertices_mm: np.ndarray
     side: int = 1
-    mu_kinetic: float = 0.0
-    sliding_mm_s: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         vertices = np.asarray(self.vertices_mm, dtype=float)
@@ -182,17 +173,6 @@ class Polygon:
             raise UsageError("polygon vertices must be convex and counter-clockwise.")
         object.__setattr__(self, "vertices_mm", vertices)
         _check_side(self.side)
-        finite_number("polygon mu_kinetic", self.mu_kinetic, 0.0)
-        finite_point("polygon sliding_mm_s", self.sliding_mm_s)
-
-    def friction_along(self, index: int) -> float:
-        """Signed kinetic friction ratio F_t/F_n on a tip sliding on edge ``index`` (the
-        tangential direction is the edge's normal turned +90°), 0 when it does not slide."""
-        if self.mu_kinetic == 0.0:
-            return 0.0
-        normal = self.outward_normals[index]
-        along = -normal[1] * self.sliding_mm_s[0] + normal[0] * self.sliding_mm_s[1]
-        return math.copysign(self.mu_kinetic, along) if abs(along) > SLIDE_DEADBAND_MM_S else 0.0
 
     @cached_property
     def outward_normals(self) -> np.ndarray:

@@ -36,7 +36,6 @@ def _params(whisker, polygon: Polygon, code: int, index: int) -> np.ndarray:
         normal = polygon.outward_normals[index]
         p[el.P_NX], p[el.P_NY] = normal
         p[el.P_OFFSET] = normal @ vertices[index] / whisker.length_mm
-        p[el.P_MU] = polygon.friction_along(index)
     else:
         p[el.P_AX], p[el.P_AY] = vertices[index] / whisker.length_mm
     return p
