@@ -100,6 +100,9 @@ CASES = [
     ("contour run --shape cylinder --artifact nosuch.h5 --out c.h5", 4, "no such file"),
     ("contour run --shape cylinder --artifact raw.h5 --out c.h5", 4, "not a whiskercal.calibration"),
     ("contour run --shape cylinder --artifact cal.h5 --out cal.h5", 2, "never overwritten"),
+    ("contour run --shape octagon --artifact cal.h5 --out c.h5 --mu-static 0.1 --mu-kinetic 0.2", 2,
+     "must be at least --mu-kinetic"),
+    ("contour run --shape octagon --artifact cal.h5 --out c.h5 --mu-static inf", 2, "--mu-static must be"),
     ("contour report raw.h5 --out rep", 4, "not a whiskercal.contour_run file"),
     ("contour report trunc_raw.h5 --out rep", 4, "truncated"),
 ] + [(" ".join(COLLECT + extra.split()), code, words) for extra, code, words in [
