@@ -153,6 +153,8 @@ def _stick_or_slip(whisker, obstacle, friction: Coulomb, previous: Equilibrium, 
         return None
     code, z_new, p_new, index = slid
     tip = np.asarray(el.end_state(code, z_new, p_new, el.DEFAULT_STEPS)[3:]) * whisker.length_mm
+    if code == el.TIP_POINT:  # stopped on a corner: its force is wherever the corner holds it
+        slid_ratio = friction_ratio(z_new[1:3], surface_normal(obstacle, tip))[1]
     return _reported(whisker, code, z_new, p_new, index, tip, slid_ratio, slips, not friction.sticks)
 
 
