@@ -4,7 +4,8 @@
 duration of robot time (or until stopped), recording every sample: time, z and the chip's Z
 axis (fed to the tracker, which uses it when the calibration carries a (Y, Z) table), the
 estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind,
-the slips the follower detected and the twin's true slip events (with stick-slip friction). The estimate is never aligned to the truth; docs/contour.md has the metrics.
+the slips the follower detected and the twin's true slip events (with stick-slip friction).
+The estimate is never aligned to the truth; docs/contour.md has the metrics.
 """
 
 from __future__ import annotations

@@ -6,9 +6,9 @@ heading rate (rad/s), each limited as a robot's would be, and integrates them ov
 period. Each period the object is seen from the sensor, the twin solves the whisker against it
 (its shape contact: tip, shaft or tangential; frictionless, or with the plane's Coulomb
 stick-slip at the tip, ``friction``, whose stuck point it carries from period to period in the
-world frame), and the magnet and magnetometer turn the suspension's pose into z (µT from rest, with the sensor's noise), and the chip's Z axis
-likewise (``axial_uT``: a real magnetometer streams all three axes, and a calibration with a
-(Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
+world frame), and the magnet and magnetometer turn the suspension's pose into z (µT from rest,
+with the sensor's noise), and the chip's Z axis likewise (``axial_uT``: a real magnetometer
+streams all three axes, and a calibration with a (Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
 frame. Everything runs in-process, as fast as the solver goes.
 
 An open wall (``outlines.WallOutline``) comes as convex pieces. Each period the whisker is solved
