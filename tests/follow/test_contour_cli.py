@@ -66,6 +66,12 @@ def test_a_short_stick_slip_run_records_the_twins_slips(tmp_path):
     slips = record.columns["twin_slips"]
     # the tip sticks and slips while the sensor follows: many slip events, on the surface
     assert summary["twin_slips"] == int(slips.sum()) > 100 and 0 < np.mean(slips > 0) < 1
+    # between slips the tip stays glued to its point of the object, which stands still in the world
+    tips, kinds = record.columns["true_tip_mm"], record.columns["kind"]
+    held = (slips[1:] == 0) & (kinds[1:] == "tip") & (kinds[:-1] == "tip")
+    moved = np.linalg.norm(np.diff(tips, axis=0), axis=1)
+    assert held.sum() > 1000 and moved[held].max() < 1e-6
+    assert np.median(moved[(slips[1:] > 0) & (kinds[:-1] == "tip")]) > 0.01  # and slides when it slips
     assert summary["tip_contact_share"] == 1.0 and summary["contacts_lost"] == 0
     assert summary["mean_error_mm"] < 0.6  # 0.41 mm measured: the friction offset, docs/contour.md
 
