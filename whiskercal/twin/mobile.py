@@ -28,6 +28,7 @@ import numpy as np
 from whiskercal.errors import UsageError
 from whiskercal.twin.outlines import Outline
 from whiskercal.twin.physics.obstacles import Circle, Polygon
+from whiskercal.twin.physics.polygon import entry_side
 from whiskercal.twin.physics.sensor import TwinPhysics
 
 
@@ -74,13 +75,13 @@ class MobileSensor:
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
                  limits: RobotLimits = RobotLimits(), mu_kinetic: float = 0.0) -> None:
-        self.physics = TwinPhysics(sensor)
+        self.physics, self.sensor = TwinPhysics(sensor), sensor
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
         if mu_kinetic and isinstance(self._obstacle, (Circle, tuple)):
             raise UsageError("friction is modelled on polygon edges only, not on the cylinder "
                              "or the wall")
-        self._pieces_previous: dict[int, object] = {}  # the wall's warm starts, by piece
+        self._pieces_previous: dict[int, tuple] = {}  # the wall's warm starts and sides, by piece
         self.mu_kinetic = float(mu_kinetic)
         self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
         self._pose = np.asarray(pose, float).copy()
@@ -141,10 +142,17 @@ class MobileSensor:
         for index, piece in enumerate(self._obstacle):
             if _edge_distances_mm(piece.vertices_mm, origin).min() > self._keep_mm:
                 continue
-            seen = Polygon((piece.vertices_mm - origin) @ turn.T)
-            solved[index] = self.physics.solve_shape(seen, self._pieces_previous.get(index))
-            if abs(solved[index].root_rotation_rad) > abs(best.root_rotation_rad):
-                best = solved[index]
+            seen = (piece.vertices_mm - origin) @ turn.T
+            previous, side = self._pieces_previous.get(index, (None, 1))
+            if previous is None or not previous.in_contact:
+                # a piece newly in the wire's way (or one the wire has slipped past) meets it
+                # from the side it reaches least deep: the wall ahead of the tip in a concave
+                # corner, or an edge the whisker has swung past, pushes from the -y side
+                previous, side = None, entry_side(self.sensor.whisker, Polygon(seen))
+            equilibrium = self.physics.solve_shape(Polygon(seen, side=side), previous)
+            solved[index] = (equilibrium, side)
+            if abs(equilibrium.root_rotation_rad) > abs(best.root_rotation_rad):
+                best = equilibrium
         self._pieces_previous = solved
         return best
 

@@ -120,6 +120,24 @@ def _first_touch(whisker, polygon: Polygon):
     return -lowest[index], (el.SHAFT_CIRCLE, index, np.array([0.0, 0.0, 0.0, arc]))
 
 
+def entry_side(whisker, polygon: Polygon) -> int:
+    """The side (+1: the whisker's +y side, pushing it toward -y; -1 the other) from which
+    ``polygon`` reaches the undeflected wire least deep: the shift along y that clears the wire
+    is smaller from it. A piece that comes newly into the wire's way (the next wall ahead of the
+    tip in a concave corner, an edge the wire has swung past) has come from that side."""
+    vertices = polygon.vertices_mm
+    low, high = whisker.root_offset_mm, whisker.reach_mm
+    following = np.roll(vertices, -1, axis=0)
+    heights = list(vertices[(vertices[:, 0] >= low) & (vertices[:, 0] <= high), 1])
+    for x in (low, high):  # where the polygon's edges cross the ends of the wire's span
+        crossing = (vertices[:, 0] - x) * (following[:, 0] - x) < 0.0
+        share = (x - vertices[crossing, 0]) / (following[crossing, 0] - vertices[crossing, 0])
+        heights.extend(vertices[crossing, 1] + share * (following[crossing, 1] - vertices[crossing, 1]))
+    if not heights:
+        return 1
+    return 1 if -min(heights) <= max(heights) else -1
+
+
 def _edge_index_at(vertices, x):
     following = np.roll(vertices, -1, axis=0)
     return [i for i in range(len(vertices))
