@@ -99,3 +99,23 @@ def test_the_wall_met_from_the_whiskers_minus_y_side_pushes_it_back_not_through(
     assert sample.tip_mm[0] == pytest.approx(0.0, abs=1e-6)  # on the surface, not inside it
     np.testing.assert_allclose(sample.tip_mm, robot.to_world(truth.tip_mm), atol=1e-6)
     assert sample.z_uT * robot.step(0.0).z_uT > 0  # held: the same contact next period
+
+
+@pytest.mark.parametrize("heading_deg, tip_mm, velocity_mm_s, corner_mm", [
+    (-110.0, (15.0, -5.0), (-8.0, 0.0), (0.0, 0.0)),    # along the wall into the corner at the origin
+    (-20.0, (153.0, 8.0), (0.0, -8.0), (150.0, 0.0))])  # down the step's face into its foot
+def test_a_tip_driven_into_a_concave_corner_is_held_there(heading_deg, tip_mm, velocity_mm_s, corner_mm):
+    heading = math.radians(heading_deg)
+    base = np.array(tip_mm) - 78.0 * np.array([math.cos(heading), math.sin(heading)])
+    robot = MobileSensor(DEFAULT_SENSOR, outline("wall"), [*base, heading], seed=1)
+    robot.command(np.array(velocity_mm_s), 0.0)
+    pieces = outline("wall").obstacle()
+    z = []
+    for _ in range(300):  # 1 s at 8 mm/s: the tip reaches the corner after 0.1-0.6 s
+        sample = robot.step(1 / 300)
+        z.append(sample.z_uT)
+        wire = np.array([robot.to_world(point) for point in robot._previous.shape_mm(32)[1:]])
+        assert not any(piece.crosses_polyline(wire, 1e-3) for piece in pieces)  # never inside
+    assert sample.kind == "tip"
+    np.testing.assert_allclose(sample.tip_mm, corner_mm, atol=1e-6)  # held, not slid past
+    assert z[0] < -500 and z[-1] > 500  # the base moves on: the whisker is bent the other way

@@ -28,7 +28,7 @@ import numpy as np
 from whiskercal.errors import UsageError
 from whiskercal.twin.outlines import Outline
 from whiskercal.twin.physics.obstacles import Circle, Polygon
-from whiskercal.twin.physics.polygon import entry_side
+from whiskercal.twin.physics.polygon import entry_side, solve_at_vertex
 from whiskercal.twin.physics.sensor import TwinPhysics
 
 
@@ -81,7 +81,9 @@ class MobileSensor:
         if mu_kinetic and isinstance(self._obstacle, (Circle, tuple)):
             raise UsageError("friction is modelled on polygon edges only, not on the cylinder "
                              "or the wall")
-        self._pieces_previous: dict[int, tuple] = {}  # the wall's warm starts and sides, by piece
+        self._corners = outline.corner_pieces() if isinstance(self._obstacle, tuple) else {}
+        self._pieces_previous: dict[int, tuple] = {}
+        self._last_tip = None  # the wall's last tip in contact (world, mm)  # the wall's warm starts and sides, by piece
         self.mu_kinetic = float(mu_kinetic)
         self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
         self._pose = np.asarray(pose, float).copy()
@@ -135,26 +137,43 @@ class MobileSensor:
         return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial)
 
     def _solve_pieces(self):
-        """The equilibrium against the piece of the wall that deflects the whisker most (see the
-        module's docstring); each piece warm-starts from its own last solve."""
+        """The equilibrium against the wall's pieces (see the module's docstring); each piece
+        warm-starts from its own last solve, from the side it met the wire."""
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
-        best, solved = self.physics.free(), {}
+        seen, solved = {}, {}
         for index, piece in enumerate(self._obstacle):
-            if _edge_distances_mm(piece.vertices_mm, origin).min() > self._keep_mm:
-                continue
-            seen = (piece.vertices_mm - origin) @ turn.T
+            if _edge_distances_mm(piece.vertices_mm, origin).min() <= self._keep_mm:
+                seen[index] = (piece.vertices_mm - origin) @ turn.T
+        whisker = self.sensor.whisker
+        for index, vertices in seen.items():
             previous, side = self._pieces_previous.get(index, (None, 1))
+            if index in self._corners:
+                solved[index] = (self._held(vertices, self._corners[index], previous), 1)
+                continue
             if previous is None or not previous.in_contact:
                 # a piece newly in the wire's way (or one the wire has slipped past) meets it
                 # from the side it reaches least deep: the wall ahead of the tip in a concave
                 # corner, or an edge the whisker has swung past, pushes from the -y side
-                previous, side = None, entry_side(self.sensor.whisker, Polygon(seen))
-            equilibrium = self.physics.solve_shape(Polygon(seen, side=side), previous)
-            solved[index] = (equilibrium, side)
-            if abs(equilibrium.root_rotation_rad) > abs(best.root_rotation_rad):
-                best = equilibrium
-        self._pieces_previous = solved
-        return best
+                previous, side = None, entry_side(whisker, Polygon(vertices))
+            solved[index] = (self.physics.solve_shape(Polygon(vertices, side=side), previous), side)
+        pieces = {index: Polygon(vertices) for index, vertices in seen.items()}
+        kept, valid = _kept(solved, pieces, self.physics.free())
+        # a piece whose own solution cuts into another is not the contact: it starts afresh
+        # (from the side it then meets the wire) rather than carry that state on
+        self._pieces_previous = {index: solved[index] if index in valid else (None, 1) for index in solved}
+        self._last_tip = None if not kept.in_contact else self.to_world(kept.tip_mm)
+        return kept
+
+    def _held(self, vertices: np.ndarray, corner: int, previous):
+        """A concave corner's piece: the tip held on its corner vertex, tried while it was held
+        or when the last tip came within HOLD_NEAR_MM of the corner (free otherwise: the
+        corner's square has no other contact the solid can have)."""
+        held_before = previous is not None and previous.in_contact
+        if not held_before and (self._last_tip is None or np.linalg.norm(
+                self.to_world(vertices[corner]) - self._last_tip) > HOLD_NEAR_MM):
+            return self.physics.free()
+        return solve_at_vertex(self.sensor.whisker, Polygon(vertices), corner,
+                               previous if held_before else None)
 
     def _sliding_mm_s(self) -> tuple[float, float]:
         """The object's surface velocity past the tip (sensor frame, mm/s), from the tip's motion
@@ -223,6 +242,35 @@ def _edge_distances_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> np.ndar
     edge = np.roll(vertices_mm, -1, axis=0) - vertices_mm
     share = np.clip(((point_mm - vertices_mm) * edge).sum(axis=1) / (edge * edge).sum(axis=1), 0.0, 1.0)
     return np.linalg.norm(vertices_mm + share[:, None] * edge - point_mm, axis=1)
+
+
+def _kept(solved: dict, pieces: dict, free):
+    """Of each piece's solution, the one that deflects the whisker most among those whose wire
+    stays out of every other piece (one piece's contact is then the solid's), and the pieces
+    whose solution does. In a concave corner the walls' own solutions cut into each other and
+    the corner's square (the tip held on its vertex, pushed by both walls) is kept. When every
+    solution cuts into another piece, the one that deflects most is kept (as near as one
+    contact at a time comes)."""
+    best, best_any, valid = free, free, set()
+    for index, (equilibrium, _) in solved.items():
+        if not equilibrium.in_contact:
+            valid.add(index)
+            continue
+        if abs(equilibrium.root_rotation_rad) > abs(best_any.root_rotation_rad):
+            best_any = equilibrium
+        wire = equilibrium.shape_mm(WIRE_NODES)[1:]
+        if any(piece.crosses_polyline(wire, OVERLAP_TOL_MM)
+               for other, piece in pieces.items() if other != index):
+            continue
+        valid.add(index)
+        if abs(equilibrium.root_rotation_rad) > abs(best.root_rotation_rad):
+            best = equilibrium
+    return (best if best.in_contact else best_any), valid
+
+
+WIRE_NODES = 64
+OVERLAP_TOL_MM = 1e-3  # a wire lying on another piece's surface (a corner's square) is out of it
+HOLD_NEAR_MM = 1.0  # a tip this near a concave corner may be held in it
 
 
 def _reindexed(equilibrium, shift: int, count: int):
