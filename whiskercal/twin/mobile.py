@@ -247,25 +247,22 @@ def _edge_distances_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> np.ndar
 def _kept(solved: dict, pieces: dict, free):
     """Of each piece's solution, the one that deflects the whisker most among those whose wire
     stays out of every other piece (one piece's contact is then the solid's), and the pieces
-    whose solution does. In a concave corner the walls' own solutions cut into each other and
-    the corner's square (the tip held on its vertex, pushed by both walls) is kept. When every
-    solution cuts into another piece, the one that deflects most is kept (as near as one
-    contact at a time comes)."""
-    best, best_any, valid = free, free, set()
-    for index, (equilibrium, _) in solved.items():
-        if not equilibrium.in_contact:
-            valid.add(index)
-            continue
-        if abs(equilibrium.root_rotation_rad) > abs(best_any.root_rotation_rad):
-            best_any = equilibrium
-        wire = equilibrium.shape_mm(WIRE_NODES)[1:]
-        if any(piece.crosses_polyline(wire, OVERLAP_TOL_MM)
-               for other, piece in pieces.items() if other != index):
-            continue
-        valid.add(index)
-        if abs(equilibrium.root_rotation_rad) > abs(best.root_rotation_rad):
-            best = equilibrium
-    return (best if best.in_contact else best_any), valid
+    whose solution is not known to cut into another. In a concave corner the walls' own
+    solutions cut into each other and the corner's square (the tip held on its vertex, pushed
+    by both walls) is kept. When every solution cuts into another piece, the one that deflects
+    most is kept (as near as one contact at a time comes)."""
+    touching = sorted((index for index, (equilibrium, _) in solved.items() if equilibrium.in_contact),
+                      key=lambda index: -abs(solved[index][0].root_rotation_rad))
+    valid = set(solved)
+    for index in touching:  # most deflected first: the first whose wire is clear is the contact
+        wire = solved[index][0].shape_mm(WIRE_NODES)[1:]
+        low, high = wire.min(axis=0), wire.max(axis=0)
+        if not any(piece.crosses_polyline(wire, OVERLAP_TOL_MM) for other, piece in pieces.items()
+                   if other != index and np.all(piece.vertices_mm.min(axis=0) <= high)
+                   and np.all(piece.vertices_mm.max(axis=0) >= low)):
+            return solved[index][0], valid
+        valid.discard(index)
+    return (solved[touching[0]][0] if touching else free), valid
 
 
 WIRE_NODES = 64
