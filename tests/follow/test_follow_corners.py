@@ -77,8 +77,9 @@ def test_a_heading_that_lags_the_surface_slows_the_tangential_speed_until_it_sto
         follower._integral, follower._last_error = 0.0, None
         velocity, turn = follower._action(-5000.0, np.array([0.0, -80.0, target - math.radians(lag_deg)]))
         speeds.append(float(velocity @ follower.tangent))
-        if lag_deg:
-            assert turn == config.turn_max_rad_s  # turning toward the surface's heading
+        if lag_deg:  # turning toward the surface's heading; faster once it stands still
+            limit = config.turn_max_rad_s if lag_deg < config.stop_heading_deg else config.edge_turn_max_rad_s
+            assert turn == pytest.approx(limit)
     assert speeds[0] == pytest.approx(config.total_speed_mm_s) == pytest.approx(speeds[1])
     assert speeds[2] == pytest.approx(speeds[0] * (45.0 - 30.0) / (45.0 - 20.0))
     assert speeds[3] == speeds[4] == 0.0
@@ -215,14 +216,16 @@ def _following_along_x(tracker_at):
     return follower, robot, config
 
 
-def test_a_tip_held_while_the_sensor_moves_along_turns_the_surface_away_from_the_object():
+@pytest.mark.parametrize("z_uT, turned_deg", [(-3000.0, 135.0), (-5000.0, -135.0)])
+def test_a_tip_held_while_the_sensor_moves_along_turns_the_surface(z_uT, turned_deg):
     follower, robot, config = _following_along_x(lambda robot: HeldAt(robot, (1.0, 0.0)))
     for _ in range(int(0.5 * config.rate_hz)):  # 8 mm/s along: 1.5 mm in 0.19 s
-        follower.update(-5000.0, robot)
+        follower.update(z_uT, robot)
         robot.step(1.0 / config.rate_hz)
-    # turned clockwise (away from the object on the left) by 45°, once: the sensor then only
-    # turns about the held tip while its heading catches up
-    assert math.degrees(math.atan2(follower.tangent[1], follower.tangent[0])) == pytest.approx(135.0)
+    # the deflection falling (a surface ahead): turned clockwise, away from the object on the
+    # left; kept (the tip on an edge): counter-clockwise, toward it; by 45°, once: the sensor
+    # then only turns about the held tip while its heading catches up
+    assert math.degrees(math.atan2(follower.tangent[1], follower.tangent[0])) == pytest.approx(turned_deg)
     np.testing.assert_allclose(np.array(follower.keys), [[1.0, 0.0]], atol=1e-9)
 
 

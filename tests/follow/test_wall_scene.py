@@ -119,3 +119,11 @@ def test_a_tip_driven_into_a_concave_corner_is_held_there(heading_deg, tip_mm, v
     assert sample.kind == "tip"
     np.testing.assert_allclose(sample.tip_mm, corner_mm, atol=1e-6)  # held, not slid past
     assert z[0] < -500 and z[-1] > 500  # the base moves on: the whisker is bent the other way
+
+
+def test_a_sensor_driven_into_the_wall_is_a_collision_not_a_contact():
+    heading = math.radians(-110.0)
+    robot = MobileSensor(DEFAULT_SENSOR, outline("wall"), np.array([75.0, -5.0, heading]), seed=3)
+    assert robot.step(0.0).kind == "collision"  # the base 5 mm inside the wall before the step
+    robot = MobileSensor(DEFAULT_SENSOR, outline("wall"), np.array([75.0, 62.0, heading]), seed=3)
+    assert robot.step(0.0).kind == "tip"

@@ -43,7 +43,9 @@ class FollowConfig:
     toward the object there: an edge), the line it comes in along turns toward the object about
     that key point by ``search_turn_deg`` and it searches again, up to ``search_turns`` times
     before it gives up. edge_turn_deg: a step between key points that turns toward the object
-    by more than this is an edge: the surface's direction takes it at once.
+    by more than this is an edge: the surface's direction takes it at once. edge_turn_max_rad_s:
+    the turn rate allowed while the heading lags past ``stop_heading_deg`` (the sensor then
+    stands still, turning about the contact: past an edge, or a concave corner).
     """
 
     rate_hz: float = 300.0
@@ -75,7 +77,8 @@ class FollowConfig:
     stall_share: float = 0.3
     corner_turn_deg: float = 45.0
     search_turn_deg: float = 45.0
-    edge_turn_deg: float = 30.0
+    edge_turn_deg: float = 20.0
+    edge_turn_max_rad_s: float = 0.3
     search_turns: int = 4
 
     def __post_init__(self) -> None:

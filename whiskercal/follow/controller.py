@@ -111,7 +111,10 @@ class Follower:
         self._key_point(contact, pose)
         velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
         if phase == "follow" and self._held_ahead(contact, float(velocity @ self.tangent)):
-            self._turn_at_corner(contact)
+            # held with the deflection kept: on an edge (the surface bends toward the object);
+            # held as the deflection falls: against a surface ahead (a concave corner)
+            kept = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
+            self._turn_at_corner(contact, toward_object=kept)
             velocity, turn = self._action(z_uT, pose, moving=True)
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
         arm = pose[:2] - contact
@@ -202,11 +205,13 @@ class Follower:
             return False
         return float((contact - before) @ self.tangent) < config.stall_share * (self._travel - travel)
 
-    def _turn_at_corner(self, contact: np.ndarray) -> None:
-        """A surface ahead holds the tip: the surface turns away from the object there. Turn its
-        direction by ``corner_turn_deg`` and start the key points afresh from the corner (the
-        catch-up rule then holds the sensor still while it turns, about the contact)."""
-        self.tangent = _unit(_angle(self.tangent) - math.radians(self.config.corner_turn_deg))
+    def _turn_at_corner(self, contact: np.ndarray, toward_object: bool = False) -> None:
+        """The tip is held: the surface turns there, away from the object (a surface ahead, a
+        concave corner) or toward it (an edge). Turn its direction by ``corner_turn_deg`` and
+        start the key points afresh from the corner (the catch-up rule then holds the sensor
+        still while it turns, about the contact)."""
+        sign = 1.0 if toward_object else -1.0
+        self.tangent = _unit(_angle(self.tangent) + sign * math.radians(self.config.corner_turn_deg))
         self.keys.clear()
         self.keys.append(contact)
         self._bend_mm = math.inf
@@ -281,8 +286,11 @@ class Follower:
         # and slower while the heading lags, so that it catches up before the tip leaves a corner
         tangential = min(tangential, config.turn_max_rad_s * self._bend_mm)
         tangential *= _catch_up_share(abs(error_heading), config) if moving else 0.0
-        turn = float(np.clip(config.heading_gain_per_s * error_heading, -config.turn_max_rad_s,
-                             config.turn_max_rad_s))
+        # standing still past an edge (the lag past the stop), the sensor may turn faster: the
+        # tip stays put, and the whisker must come round before its shaft wraps the edge
+        limit = (config.turn_max_rad_s if abs(error_heading) < math.radians(config.stop_heading_deg)
+                 else config.edge_turn_max_rad_s)
+        turn = float(np.clip(config.heading_gain_per_s * error_heading, -limit, limit))
         return tangential * self.tangent + normal * inward, turn
 
     def _bend_radius_mm(self) -> float:

@@ -10,12 +10,15 @@ likewise (``axial_uT``: a real magnetometer streams all three axes, and a calibr
 (Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
 frame. Everything runs in-process, as fast as the solver goes.
 
-An open wall (``outlines.WallOutline``) comes as convex pieces. Each period the whisker is solved
-against every piece within its reach + NEAR_MARGIN_MM of the base, and the piece that deflects
-it most is the contact: where one piece pushes, the others lie behind the surface it makes.
-Right in a concave corner the whisker can press on two pieces at once; that is not modelled
-(the other piece may then cut into the wire), nor, as for every object here, a piece met from
-the whisker's -y side (docs/contour.md, "The wall").
+An open wall (``outlines.WallOutline``) comes as overlapping convex pieces, one a square behind
+each concave corner. Each period the whisker is solved against every piece within its reach +
+NEAR_MARGIN_MM of the base, each from the side it met the wire (a piece newly in the wire's way
+from the side it reaches least deep: the next wall of a concave corner, or an edge the whisker
+has swung past, push from its -y side), a corner's square only as the tip held on the corner;
+the contact is the most deflecting solution whose wire stays out of every other piece. When
+none does, or the sensor's base is inside the wall, the sample's kind is "collision" (a contour
+run stops there). Not modelled: two contacts at once other than a tip held in a concave corner
+(docs/contour.md, "The wall").
 """
 
 from __future__ import annotations
@@ -83,7 +86,10 @@ class MobileSensor:
                              "or the wall")
         self._corners = outline.corner_pieces() if isinstance(self._obstacle, tuple) else {}
         self._pieces_previous: dict[int, tuple] = {}
-        self._last_tip = None  # the wall's last tip in contact (world, mm)  # the wall's warm starts and sides, by piece
+        self._last_tip = None  # the wall's last tip in contact (world, mm)
+        # the sensor was driven into the wall, or its wire could not be kept out of it (kind
+        # "collision"): a contour run stops there
+        self.collided = False  # the wall's warm starts and sides, by piece
         self.mu_kinetic = float(mu_kinetic)
         self._tips = (None, None)  # the true tip (world, mm) of the last two samples in contact
         self._pose = np.asarray(pose, float).copy()
@@ -128,13 +134,14 @@ class MobileSensor:
             equilibrium = self.physics.solve_shape(obstacle, _reindexed(self._previous, -first, count))
             equilibrium = _reindexed(equilibrium, first, count)
         self._previous = equilibrium
+        kind = "collision" if self.collided else equilibrium.kind
         field = self.physics.field_uT(equilibrium)
         z = float(field[1]) - self._rest_y + float(self._rng.normal(0.0, self._noise_uT))
         axial = float(field[2]) - self._rest_z + float(self._axial_rng.normal(0.0, self._axial_noise_uT))
         tip = self.to_world(equilibrium.tip_mm)
         self._tips = (self._tips[1], tip if equilibrium.kind == "tip" else None)
         self._dt_s = dt_s
-        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial)
+        return MobileSample(z, kind, tip, self.to_world(equilibrium.contact_mm), axial)
 
     def _solve_pieces(self):
         """The equilibrium against the wall's pieces (see the module's docstring); each piece
@@ -157,10 +164,12 @@ class MobileSensor:
                 previous, side = None, entry_side(whisker, Polygon(vertices))
             solved[index] = (self.physics.solve_shape(Polygon(vertices, side=side), previous), side)
         pieces = {index: Polygon(vertices) for index, vertices in seen.items()}
-        kept, valid = _kept(solved, pieces, self.physics.free())
-        # a piece whose own solution cuts into another is not the contact: it starts afresh
-        # (from the side it then meets the wire) rather than carry that state on
-        self._pieces_previous = {index: solved[index] if index in valid else (None, 1) for index in solved}
+        kept, clear = _kept(solved, pieces, self.physics.free())
+        self._pieces_previous = solved
+        # the sensor's base (its centre of rotation and clamp) driven into the solid, or no
+        # single contact that keeps the wire out of it: what the twin models ends there
+        stub = np.array([[0.0, 0.0], [whisker.root_offset_mm, 0.0]])
+        self.collided = not clear or any(piece.reaches(stub) for piece in pieces.values())
         self._last_tip = None if not kept.in_contact else self.to_world(kept.tip_mm)
         return kept
 
@@ -246,26 +255,23 @@ def _edge_distances_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> np.ndar
 
 def _kept(solved: dict, pieces: dict, free):
     """Of each piece's solution, the one that deflects the whisker most among those whose wire
-    stays out of every other piece (one piece's contact is then the solid's), and the pieces
-    whose solution is not known to cut into another. In a concave corner the walls' own
-    solutions cut into each other and the corner's square (the tip held on its vertex, pushed
-    by both walls) is kept. When every solution cuts into another piece, the one that deflects
-    most is kept (as near as one contact at a time comes)."""
+    stays out of every other piece: one piece's contact is then the solid's. In a concave corner
+    the walls' own solutions cut into each other and the corner's square (the tip held on its
+    vertex, pushed by both walls) is kept. When every solution cuts into another piece, the one
+    that deflects most is kept, and flagged (False: no contact keeps the wire out of the solid)."""
     touching = sorted((index for index, (equilibrium, _) in solved.items() if equilibrium.in_contact),
                       key=lambda index: -abs(solved[index][0].root_rotation_rad))
-    valid = set(solved)
     for index in touching:  # most deflected first: the first whose wire is clear is the contact
         wire = solved[index][0].shape_mm(WIRE_NODES)[1:]
         low, high = wire.min(axis=0), wire.max(axis=0)
         if not any(piece.crosses_polyline(wire, OVERLAP_TOL_MM) for other, piece in pieces.items()
                    if other != index and np.all(piece.vertices_mm.min(axis=0) <= high)
                    and np.all(piece.vertices_mm.max(axis=0) >= low)):
-            return solved[index][0], valid
-        valid.discard(index)
-    return (solved[touching[0]][0] if touching else free), valid
+            return solved[index][0], True
+    return (solved[touching[0]][0], False) if touching else (free, True)
 
 
-WIRE_NODES = 64
+WIRE_NODES = 24  # points along the wire checked against the other pieces
 OVERLAP_TOL_MM = 1e-3  # a wire lying on another piece's surface (a corner's square) is out of it
 HOLD_NEAR_MM = 1.0  # a tip this near a concave corner may be held in it
 
