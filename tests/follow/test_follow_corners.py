@@ -250,3 +250,16 @@ def test_a_step_between_key_points_that_turns_sharply_toward_the_object_is_an_ed
     follower._samples = follower.config.key_every - 1
     follower._key_point(np.array([0.0, -0.2]), robot.pose())  # 6° off: scatter, not an edge
     assert len(follower.keys) == 6 and follower.tangent[1] > -math.sin(math.radians(10.0)) - 1e-9
+
+
+def test_following_at_the_target_without_a_new_key_point_turns_toward_the_object():
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot, (1.0, 0.0)))
+    follower.config = config = FollowConfig(stall_travel_mm=1e3)  # the held-tip rule kept out
+    angles = []
+    for _ in range(int(1.9 * config.rate_hz)):  # the contact stays put on an edge, z at target
+        follower.update(-5000.0, robot)
+        robot.step(1.0 / config.rate_hz)
+        angles.append(round(math.degrees(math.atan2(follower.tangent[1], follower.tangent[0]))))
+    # after 1 s, counter-clockwise by 45° (toward the object below); not again within the next
+    # second (the time is counted afresh)
+    assert angles[int(0.9 * config.rate_hz)] == 180 and set(angles[int(1.1 * config.rate_hz):]) == {-135}

@@ -79,6 +79,7 @@ class FollowConfig:
     search_turn_deg: float = 45.0
     edge_turn_deg: float = 20.0
     edge_turn_max_rad_s: float = 0.3
+    dwell_s: float = 1.0
     search_turns: int = 4
 
     def __post_init__(self) -> None:

@@ -72,6 +72,7 @@ class Follower:
         self._travel, self._progress = 0.0, deque()
         self._search_turned = 0  # turns of the search line about the last key point so far
         self._far_side = False  # the last sample felt the object on the whisker's far side
+        self._dwell = 0  # samples following since the last key point
 
     def update(self, z_uT: float, robot: Robot, axial_uT: float | None = None) -> Step:
         """Feed one z sample (µT from rest) and, when the magnetometer streams it, the chip's Z
@@ -110,11 +111,19 @@ class Follower:
         self.pressed |= abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
         self._key_point(contact, pose)
         velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
+        kept = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
+        # counted only while the heading keeps up: turning about the contact adds no key point
+        lag = abs(_wrap(self._target_heading() - pose[2]))
+        self._dwell = self._dwell + 1 if phase == "follow" and lag < math.radians(self.config.stop_heading_deg) else 0
         if phase == "follow" and self._held_ahead(contact, float(velocity @ self.tangent)):
             # held with the deflection kept: on an edge (the surface bends toward the object);
             # held as the deflection falls: against a surface ahead (a concave corner)
-            kept = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
             self._turn_at_corner(contact, toward_object=kept)
+            velocity, turn = self._action(z_uT, pose, moving=True)
+        elif kept and self._dwell > self.config.dwell_s * self.config.rate_hz:
+            # no new key point for that long while following at the target: the contact stays
+            # on an edge while the sensor turns about it; the surface bends toward the object
+            self._turn_at_corner(contact, toward_object=True)
             velocity, turn = self._action(z_uT, pose, moving=True)
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
         arm = pose[:2] - contact
@@ -216,6 +225,7 @@ class Follower:
         self.keys.append(contact)
         self._bend_mm = math.inf
         self._progress.clear()
+        self._dwell = 0
 
     def _key_point(self, contact: np.ndarray, pose: np.ndarray) -> None:
         self._samples += 1
@@ -226,9 +236,10 @@ class Follower:
         if self.keys and np.linalg.norm(contact - self.keys[-1]) < self.config.key_spacing_mm:
             return
         self.keys.append(contact)
+        self._dwell = 0
         self._bend_mm = self._bend_radius_mm()
-        if len(self.keys) >= 2 and self._round_an_edge():
-            return
+        if self.pressed and len(self.keys) >= 3 and self._round_an_edge():
+            return  # (not on the first key points: the first direction is only the approach's)
         if len(self.keys) >= 2:  # a chord until the spline has its key points
             self.tangent = self._turned_toward(self._surface_direction())
 
