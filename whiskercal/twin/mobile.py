@@ -182,7 +182,7 @@ class MobileSensor:
                 self.to_world(vertices[corner]) - self._last_tip) > HOLD_NEAR_MM):
             return self.physics.free()
         return solve_at_vertex(self.sensor.whisker, Polygon(vertices), corner,
-                               previous if held_before else None)
+                               previous if held_before else self._previous)
 
     def _sliding_mm_s(self) -> tuple[float, float]:
         """The object's surface velocity past the tip (sensor frame, mm/s), from the tip's motion

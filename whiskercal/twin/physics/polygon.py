@@ -141,14 +141,15 @@ def entry_side(whisker, polygon: Polygon) -> int:
 def solve_at_vertex(whisker, polygon: Polygon, index: int, previous: Equilibrium | None = None
                     ) -> Equilibrium:
     """The whisker's tip held on vertex ``index`` (the force anywhere in the vertex's cone of
-    normals), warm-started from ``previous`` when that was held there too; free when no such
+    normals), warm-started from ``previous`` (held there, or the tip on a wall reaching it: the
+    moment and force are the same unknowns); free when no such
     state is physical. For a piece whose vertex stands for a concave corner of a larger solid,
     where a tip that reaches the corner is held between its two walls (the piece's own
     edges are inside the solid, so this is its only contact the solid can have)."""
     check_whisker(whisker)
     start = np.zeros(3)
-    if previous is not None and len(previous.solution) > 3 and previous.solution[0] == el.TIP_POINT:
-        start = previous.solution[1]
+    if previous is not None and len(previous.solution) >= 2:  # a held tip, or the tip on a wall
+        start = np.asarray(previous.solution[1][:3], float)   # of it: the same three unknowns
     p = _params(whisker, polygon, el.TIP_POINT, index)
     z, ok = solve_kind(el.TIP_POINT, start, p)
     if not (ok and _physical(whisker, polygon, el.TIP_POINT, index, z, p)):
