@@ -77,15 +77,16 @@ def test_a_heading_that_lags_the_surface_slows_the_tangential_speed_until_it_sto
         follower._integral, follower._last_error = 0.0, None
         velocity, turn = follower._action(-5000.0, np.array([0.0, -80.0, target - math.radians(lag_deg)]))
         speeds.append(float(velocity @ follower.tangent))
-        if lag_deg:
-            assert turn == config.turn_max_rad_s  # turning toward the surface's heading
+        if lag_deg:  # turning toward the surface's heading; faster once it stands still
+            limit = config.turn_max_rad_s if lag_deg < config.stop_heading_deg else config.edge_turn_max_rad_s
+            assert turn == pytest.approx(limit)
     assert speeds[0] == pytest.approx(config.total_speed_mm_s) == pytest.approx(speeds[1])
     assert speeds[2] == pytest.approx(speeds[0] * (45.0 - 30.0) / (45.0 - 20.0))
     assert speeds[3] == speeds[4] == 0.0
 
 
 def test_after_losing_contact_it_backs_off_then_comes_in_along_the_last_key_points_normal():
-    config = FollowConfig()
+    config = FollowConfig(search_turns=0)  # the first search line only (turns: below)
     follower = _follower_that_lost_contact(config)
     # the whisker had swung 40 deg past the heading the surface asks for (70 deg)
     robot = KinematicRobot([10.0 - 78.0 * math.cos(0.5), -78.0 * math.sin(0.5), 0.5])
@@ -132,7 +133,7 @@ def test_a_tip_missing_for_a_few_samples_holds_still_and_does_not_count_as_lost(
 
 
 def test_a_search_that_passes_the_last_key_point_without_a_contact_stops_for_good():
-    config = FollowConfig()
+    config = FollowConfig(search_turns=0)  # no turns about the key point (below)
     follower = _follower_that_lost_contact(config)
     robot = KinematicRobot([10.0 - 78.0 * math.cos(1.2), -78.0 * math.sin(1.2), 1.2])
     dt, phases = 1.0 / config.rate_hz, []
@@ -163,3 +164,102 @@ def test_backing_off_goes_on_for_its_whole_time_even_if_the_wire_still_touches()
     robot = KinematicRobot([0.0, -80.0, follower._target_heading()])
     phases = [follower.update(-5000.0, robot).phase for _ in range(31)]
     assert phases[:30] == ["back-off"] * 30 and phases[30] != "back-off"
+
+
+def test_a_search_that_finds_nothing_turns_toward_the_object_about_the_last_key_point():
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)  # followed the x axis, the object above it
+    robot = KinematicRobot([10.0 - 78.0 * math.cos(1.2), -78.0 * math.sin(1.2), 1.2])
+    dt, lines = 1.0 / config.rate_hz, []
+    for _ in range(int(90 * config.rate_hz)):  # no object: nothing is ever found
+        step = follower.update(0.0, robot)
+        if step.phase == "search" and not step.turn_rad_s and np.any(step.velocity_mm_s):
+            lines.append((robot.pose(), step.velocity_mm_s))  # coming in along the whisker
+        robot.step(dt)
+    assert follower.gave_up
+    headings = sorted({round(math.degrees(pose[2])) for pose, _ in lines})
+    # the surface's direction turned by 45° toward the object (counter-clockwise) each time
+    assert headings == [70, 115, 160, 205, 250]
+    for pose, velocity in lines:  # each line runs through the last key point (10, 0)
+        along = np.array([math.cos(pose[2]), math.sin(pose[2])])
+        tip = pose[:2] + 78.0 * along
+        assert abs((tip - [10.0, 0.0]) @ np.array([-along[1], along[0]])) < 0.6
+        np.testing.assert_allclose(velocity, config.approach_speed_mm_s * along, atol=0.2)  # within 2°
+
+
+class HeldAt:
+    """A tracker whose tip stays at one world point (a tip held in a concave corner) or, with
+    ``world_mm`` None, at one point of the whisker frame (a tip that moves with the sensor)."""
+
+    def __init__(self, robot, world_mm=None):
+        self.robot, self.world_mm = robot, world_mm
+
+    def update(self, z_uT):
+        if self.world_mm is None:
+            tip = np.array([78.0, 0.0])
+        else:
+            x, y, heading = self.robot.pose()
+            c, s = math.cos(heading), math.sin(heading)
+            tip = np.array([[c, s], [-s, c]]) @ (np.asarray(self.world_mm) - [x, y])
+        return TrackerState(True, tip, tip)
+
+
+def _following_along_x(tracker_at):
+    """A follower following the x axis toward -x, the object below (y < 0), at its target."""
+    config = FollowConfig()
+    heading = math.radians(-110.0)  # leaning 20° back from the inward normal (-y)
+    robot = KinematicRobot([26.7, 73.3, heading])  # the free tip near the origin
+    follower = Follower(tracker_at(robot), -5000.0, config, reach_mm=78.0)
+    follower.contacted, follower._touching, follower.pressed = True, True, True
+    follower.keys.extend(np.column_stack([12.0 - np.arange(6) * 2.0, np.zeros(6)]))
+    follower.tangent = np.array([-1.0, 0.0])
+    return follower, robot, config
+
+
+@pytest.mark.parametrize("z_uT, turned_deg", [(-3000.0, 135.0), (-5000.0, -135.0)])
+def test_a_tip_held_while_the_sensor_moves_along_turns_the_surface(z_uT, turned_deg):
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot, (1.0, 0.0)))
+    for _ in range(int(0.5 * config.rate_hz)):  # 8 mm/s along: 1.5 mm in 0.19 s
+        follower.update(z_uT, robot)
+        robot.step(1.0 / config.rate_hz)
+    # the deflection falling (a surface ahead): turned clockwise, away from the object on the
+    # left; kept (the tip on an edge): counter-clockwise, toward it; by 45°, once: the sensor
+    # then only turns about the held tip while its heading catches up
+    assert math.degrees(math.atan2(follower.tangent[1], follower.tangent[0])) == pytest.approx(turned_deg)
+    np.testing.assert_allclose(np.array(follower.keys), [[1.0, 0.0]], atol=1e-9)
+
+
+def test_a_tip_that_moves_along_with_the_sensor_is_not_held():
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot))
+    for _ in range(int(2 * config.rate_hz)):
+        follower.update(-5000.0, robot)
+        robot.step(1.0 / config.rate_hz)
+    assert abs(math.degrees(math.atan2(follower.tangent[1], follower.tangent[0]))) > 170.0  # still -x
+    assert robot.pose()[0] < 26.7 - 10.0  # and it moved along
+
+
+def test_a_step_between_key_points_that_turns_sharply_toward_the_object_is_an_edge():
+    follower, robot, _ = _following_along_x(lambda robot: HeldAt(robot))
+    follower._samples = follower.config.key_every - 1  # the next contact is a key point
+    follower._key_point(np.array([0.5, -1.5]), robot.pose())  # down past the edge at x = 2 mm
+    np.testing.assert_allclose(follower.tangent, np.array([-1.5, -1.5]) / math.hypot(1.5, 1.5))
+    assert len(follower.keys) == 2
+    follower.keys.clear()
+    follower.keys.extend(np.column_stack([12.0 - np.arange(6) * 2.0, np.zeros(6)]))
+    follower.tangent = np.array([-1.0, 0.0])
+    follower._samples = follower.config.key_every - 1
+    follower._key_point(np.array([0.0, -0.2]), robot.pose())  # 6° off: scatter, not an edge
+    assert len(follower.keys) == 6 and follower.tangent[1] > -math.sin(math.radians(10.0)) - 1e-9
+
+
+def test_following_at_the_target_without_a_new_key_point_turns_toward_the_object():
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot, (1.0, 0.0)))
+    follower.config = config = FollowConfig(stall_travel_mm=1e3)  # the held-tip rule kept out
+    angles = []
+    for _ in range(int(1.9 * config.rate_hz)):  # the contact stays put on an edge, z at target
+        follower.update(-5000.0, robot)
+        robot.step(1.0 / config.rate_hz)
+        angles.append(round(math.degrees(math.atan2(follower.tangent[1], follower.tangent[0]))))
+    # after 1 s, counter-clockwise by 45° (toward the object below); not again within the next
+    # second (the time is counted afresh)
+    assert angles[int(0.9 * config.rate_hz)] == 180 and set(angles[int(1.1 * config.rate_hz):]) == {-135}

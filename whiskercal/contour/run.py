@@ -77,6 +77,8 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
             tic = time.perf_counter()
             step = follower.update(sample.z_uT, robot, sample.axial_uT)
             _record(rows, index * dt, sample, step, robot.pose(), time.perf_counter() - tic)
+            if sample.kind == "collision":  # driven into the wall: a real run would end here
+                break
             sample = robot.step(dt)
             if on_progress is not None and index % int(config.rate_hz) == 0:
                 on_progress(index * dt)

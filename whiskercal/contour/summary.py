@@ -50,6 +50,7 @@ def summarize(run: ContourRunFile) -> dict:
             "twin_slips": int(np.sum(columns["twin_slips"])) if "twin_slips" in columns else None,
             "contacts_lost": int(np.sum((columns["phase"][1:] == "back-off") & (columns["phase"][:-1] == "follow"))),
             "gave_up": bool(np.any(columns["phase"] == "gave-up")),
+            "collided": bool(np.any(columns["kind"] == "collision")),
             "time_to_go_round_s": time_to_go_round_s(run), "duration_s": duration,
             "follow_share": float(np.mean(mask)) if len(mask) else 0.0,
             "z_mean_follow_uT": float(np.mean(columns["z_uT"][mask])) if mask.any() else float("nan"),

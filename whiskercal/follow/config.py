@@ -35,6 +35,17 @@ class FollowConfig:
     slow_heading_deg, stop_heading_deg: when the whisker's heading lags the one the surface asks
     for by more than the first, the tangential speed falls, reaching zero at the second (it then
     only turns, about the contact), so that the lag cannot grow in a bend.
+    stall_travel_mm, stall_share: a surface ahead of the tip (a concave corner) holds the tip: when
+    the contact has moved along the surface less than ``stall_share`` of the last
+    ``stall_travel_mm`` the tangential command asked for, the surface's direction turns away from
+    the object by ``corner_turn_deg`` (and again if it stays held). search_turn_deg,
+    search_turns: when a search passes the last key point without a contact (the surface bent
+    toward the object there: an edge), the line it comes in along turns toward the object about
+    that key point by ``search_turn_deg`` and it searches again, up to ``search_turns`` times
+    before it gives up. edge_turn_deg: a step between key points that turns toward the object
+    by more than this is an edge: the surface's direction takes it at once. edge_turn_max_rad_s:
+    the turn rate allowed while the heading lags past ``stop_heading_deg`` (the sensor then
+    stands still, turning about the contact: past an edge, or a concave corner).
     """
 
     rate_hz: float = 300.0
@@ -62,6 +73,14 @@ class FollowConfig:
     key_turn_max_deg: float = 10.0
     slow_heading_deg: float = 20.0
     stop_heading_deg: float = 45.0
+    stall_travel_mm: float = 1.5
+    stall_share: float = 0.3
+    corner_turn_deg: float = 45.0
+    search_turn_deg: float = 45.0
+    edge_turn_deg: float = 20.0
+    edge_turn_max_rad_s: float = 0.3
+    dwell_s: float = 1.0
+    search_turns: int = 4
 
     def __post_init__(self) -> None:
         for item in fields(self):
@@ -79,7 +98,7 @@ class FollowConfig:
 
 
 _MAY_BE_ZERO = {"kp_mm_s_per_uT", "ki_mm_s2_per_uT", "kd_mm_per_uT", "tilt_deg", "key_noise_mm",
-                "search_standoff_mm", "lost_after_s"}
+                "search_standoff_mm", "lost_after_s", "search_turns"}
 
 
 def load_follow_config(path: str | Path | None = None) -> FollowConfig:

@@ -68,6 +68,11 @@ class Follower:
         self._backing, self._touching, self._lined_up = 0, False, False
         self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
         self._missing, self._grace = 0, int(round(config.lost_after_s * config.rate_hz))
+        # (tangential travel commanded so far, mm; the contact then): for a tip held ahead
+        self._travel, self._progress = 0.0, deque()
+        self._search_turned = 0  # turns of the search line about the last key point so far
+        self._far_side = False  # the last sample felt the object on the whisker's far side
+        self._dwell = 0  # samples following since the last key point
 
     def update(self, z_uT: float, robot: Robot, axial_uT: float | None = None) -> Step:
         """Feed one z sample (µT from rest) and, when the magnetometer streams it, the chip's Z
@@ -80,8 +85,10 @@ class Follower:
         self.contacted |= state.contact
         slip = self._slip(z_uT, state.raw_tip_mm)
         tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
-        if z_uT * self.target_z_uT < 0 and state.contact:  # bent the other way: the object is on
-            tip = None                                     # the whisker's far side, no tip to trust
+        # bent the other way: the object is on the whisker's far side, no tip to trust
+        self._far_side = bool(z_uT * self.target_z_uT < 0 and state.contact)
+        if self._far_side:
+            tip = None
         if self.gave_up:  # for good: a person must look at why the surface was not found
             robot.command(np.zeros(2), 0.0)
             return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
@@ -95,7 +102,7 @@ class Follower:
             return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, np.zeros(2), 0.0)
         if not self.contacted or tip is None:
             return self._find_contact(robot, pose, slip)
-        self._missing = 0
+        self._missing, self._search_turned = 0, 0
         contact = _rotation(pose[2]) @ tip + pose[:2]
         self._touching = True
         # first reach the target deflection, then move along; while pressing, the tip slides
@@ -104,6 +111,20 @@ class Follower:
         self.pressed |= abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
         self._key_point(contact, pose)
         velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
+        kept = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
+        # counted only while the heading keeps up: turning about the contact adds no key point
+        lag = abs(_wrap(self._target_heading() - pose[2]))
+        self._dwell = self._dwell + 1 if phase == "follow" and lag < math.radians(self.config.stop_heading_deg) else 0
+        if phase == "follow" and self._held_ahead(contact, float(velocity @ self.tangent)):
+            # held with the deflection kept: on an edge (the surface bends toward the object);
+            # held as the deflection falls: against a surface ahead (a concave corner)
+            self._turn_at_corner(contact, toward_object=kept)
+            velocity, turn = self._action(z_uT, pose, moving=True)
+        elif kept and self._dwell > self.config.dwell_s * self.config.rate_hz:
+            # no new key point for that long while following at the target: the contact stays
+            # on an edge while the sensor turns about it; the surface bends toward the object
+            self._turn_at_corner(contact, toward_object=True)
+            velocity, turn = self._action(z_uT, pose, moving=True)
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
         arm = pose[:2] - contact
         velocity = velocity + turn * np.array([-arm[1], arm[0]])
@@ -116,9 +137,16 @@ class Follower:
         slipped off an edge or past a corner) first back off, so that the wire clears the object,
         then line up with the last key point and come in again (``_search``), and press to the
         target before moving along."""
-        if self._touching:  # contact just lost (while pressing or following)
+        if self._touching or (self._far_side and self._backing == 0 and self.contacted and self.keys):
+            # contact just lost (while pressing or following), or a search met the object on
+            # the whisker's far side: back off; in the second case, and when the contact was
+            # lost to the far side, the surface goes on ahead of the tip (a concave corner):
+            # it turns away from the object about the last key point
+            if self._far_side and self.keys and self.tangent is not None:
+                self._turn_at_corner(self.keys[-1])
             self.pressed, self._backing = False, int(self.config.backoff_s * self.config.rate_hz)
             self._lined_up = False
+            self._progress.clear()
         self._touching = False
         self._integral = 0.0
         if self._backing > 0:  # straight back along the whisker: the wire leaves the object
@@ -154,7 +182,14 @@ class Follower:
                               and abs(error_heading) < math.radians(2.0))
         if self._lined_up:
             if (free_tip - self.keys[-1]) @ along > config.search_standoff_mm:
-                self.gave_up = True  # the surface is not where it was felt: stop, do not push on
+                if self._search_turned >= config.search_turns:
+                    self.gave_up = True  # the surface is not where it was felt: stop, do not push on
+                    return np.zeros(2), 0.0
+                # past an edge the surface bends toward the object: look for it there, about
+                # the last key point, rather than straight on
+                self._search_turned += 1
+                self.tangent = _unit(_angle(self.tangent) + math.radians(config.search_turn_deg))
+                self._lined_up = False
                 return np.zeros(2), 0.0
             return config.approach_speed_mm_s * along, 0.0
         offset = start - free_tip
@@ -165,6 +200,33 @@ class Follower:
         arm = pose[:2] - free_tip  # turn about the free tip
         return tip_velocity + turn * np.array([-arm[1], arm[0]]), turn
 
+    def _held_ahead(self, contact: np.ndarray, tangential_mm_s: float) -> bool:
+        """Is the tip held while the sensor moves along (a surface ahead of it: a concave
+        corner)? True when the contact has gone less than ``stall_share`` of the last
+        ``stall_travel_mm`` of tangential motion commanded along the surface."""
+        config = self.config
+        self._travel += max(tangential_mm_s, 0.0) / config.rate_hz
+        self._progress.append((self._travel, contact))
+        while len(self._progress) > 1 and self._travel - self._progress[1][0] >= config.stall_travel_mm:
+            self._progress.popleft()
+        travel, before = self._progress[0]
+        if self._travel - travel < config.stall_travel_mm:
+            return False
+        return float((contact - before) @ self.tangent) < config.stall_share * (self._travel - travel)
+
+    def _turn_at_corner(self, contact: np.ndarray, toward_object: bool = False) -> None:
+        """The tip is held: the surface turns there, away from the object (a surface ahead, a
+        concave corner) or toward it (an edge). Turn its direction by ``corner_turn_deg`` and
+        start the key points afresh from the corner (the catch-up rule then holds the sensor
+        still while it turns, about the contact)."""
+        sign = 1.0 if toward_object else -1.0
+        self.tangent = _unit(_angle(self.tangent) + sign * math.radians(self.config.corner_turn_deg))
+        self.keys.clear()
+        self.keys.append(contact)
+        self._bend_mm = math.inf
+        self._progress.clear()
+        self._dwell = 0
+
     def _key_point(self, contact: np.ndarray, pose: np.ndarray) -> None:
         self._samples += 1
         if self.tangent is None:  # before any key point: along the surface seen at first contact
@@ -174,9 +236,28 @@ class Follower:
         if self.keys and np.linalg.norm(contact - self.keys[-1]) < self.config.key_spacing_mm:
             return
         self.keys.append(contact)
+        self._dwell = 0
         self._bend_mm = self._bend_radius_mm()
+        if self.pressed and len(self.keys) >= 3 and self._round_an_edge():
+            return  # (not on the first key points: the first direction is only the approach's)
         if len(self.keys) >= 2:  # a chord until the spline has its key points
             self.tangent = self._turned_toward(self._surface_direction())
+
+    def _round_an_edge(self) -> bool:
+        """Past a short convex bend (an edge) the last step between key points turns toward the
+        object by more than ``edge_turn_deg``, far more than the key points' scatter turns it
+        (a few degrees) or a bend of the paper's radii does: the surface's direction becomes that
+        step at once, and the key points start from it (the catch-up rule holds the sensor,
+        turning about the contact, until its heading follows)."""
+        step = self.keys[-1] - self.keys[-2]
+        if _wrap(_angle(step) - _angle(self.tangent)) <= math.radians(self.config.edge_turn_deg):
+            return False
+        self.tangent = step / float(np.linalg.norm(step))
+        last_two = list(self.keys)[-2:]
+        self.keys.clear()
+        self.keys.extend(last_two)
+        self._bend_mm = math.inf
+        return True
 
     def _surface_direction(self) -> np.ndarray:
         """The step the surface takes next: from the spline's end to its extrapolation (the
@@ -216,8 +297,11 @@ class Follower:
         # and slower while the heading lags, so that it catches up before the tip leaves a corner
         tangential = min(tangential, config.turn_max_rad_s * self._bend_mm)
         tangential *= _catch_up_share(abs(error_heading), config) if moving else 0.0
-        turn = float(np.clip(config.heading_gain_per_s * error_heading, -config.turn_max_rad_s,
-                             config.turn_max_rad_s))
+        # standing still past an edge (the lag past the stop), the sensor may turn faster: the
+        # tip stays put, and the whisker must come round before its shaft wraps the edge
+        limit = (config.turn_max_rad_s if abs(error_heading) < math.radians(config.stop_heading_deg)
+                 else config.edge_turn_max_rad_s)
+        turn = float(np.clip(config.heading_gain_per_s * error_heading, -limit, limit))
         return tangential * self.tangent + normal * inward, turn
 
     def _bend_radius_mm(self) -> float:
@@ -256,6 +340,10 @@ class Follower:
         if dropped:
             self._recent_z.clear()
         return bool(dropped or jumped)
+
+
+def _angle(direction: np.ndarray) -> float:
+    return math.atan2(direction[1], direction[0])
 
 
 def _wrap(angle: float) -> float:

@@ -11,12 +11,15 @@ with the sensor's noise), and the chip's Z axis likewise (``axial_uT``: a real m
 streams all three axes, and a calibration with a (Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
 frame. Everything runs in-process, as fast as the solver goes.
 
-An open wall (``outlines.WallOutline``) comes as convex pieces. Each period the whisker is solved
-against every piece within its reach + NEAR_MARGIN_MM of the base, and the piece that deflects
-it most is the contact: where one piece pushes, the others lie behind the surface it makes.
-Right in a concave corner the whisker can press on two pieces at once; that is not modelled
-(the other piece may then cut into the wire), nor, as for every object here, a piece met from
-the whisker's -y side (docs/contour.md, "The wall").
+An open wall (``outlines.WallOutline``) comes as overlapping convex pieces, one a square behind
+each concave corner. Each period the whisker is solved against every piece within its reach +
+NEAR_MARGIN_MM of the base, each from the side it met the wire (a piece newly in the wire's way
+from the side it reaches least deep: the next wall of a concave corner, or an edge the whisker
+has swung past, push from its -y side), a corner's square only as the tip held on the corner;
+the contact is the most deflecting solution whose wire stays out of every other piece. When
+none does, or the sensor's base is inside the wall, the sample's kind is "collision" (a contour
+run stops there). Not modelled: two contacts at once other than a tip held in a concave corner
+(docs/contour.md, "The wall").
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from whiskercal.errors import UsageError
 from whiskercal.twin.outlines import Outline
 from whiskercal.twin.physics.coulomb import Coulomb
 from whiskercal.twin.physics.obstacles import Circle, Polygon
+from whiskercal.twin.physics.polygon import entry_side, solve_at_vertex
 from whiskercal.twin.physics.shape_friction import Stick
 from whiskercal.twin.physics.sensor import TwinPhysics
 
@@ -83,14 +87,19 @@ class MobileSensor:
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
                  limits: RobotLimits = RobotLimits(), friction: Coulomb | None = None) -> None:
-        self.physics = TwinPhysics(sensor)
+        self.physics, self.sensor = TwinPhysics(sensor), sensor
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
         if friction is not None and isinstance(self._obstacle, tuple):
             raise UsageError("friction is not modelled on the wall")
         self.friction = friction
         self._stick_world = None  # (anchor in the world, mm; friction ratio) while the tip sticks
-        self._pieces_previous: dict[int, object] = {}  # the wall's warm starts, by piece
+        self._corners = outline.corner_pieces() if isinstance(self._obstacle, tuple) else {}
+        self._pieces_previous: dict[int, tuple] = {}  # the wall's warm starts and sides, by piece
+        self._last_tip = None  # the wall's last tip in contact (world, mm)
+        # the sensor was driven into the wall, or its wire could not be kept out of it (kind
+        # "collision"): a contour run stops there
+        self.collided = False
         self._pose = np.asarray(pose, float).copy()
         self._velocity, self._turn = np.zeros(2), 0.0
         self._noise_uT = float(sensor.magnetometer.noise_uT_rms[1])
@@ -137,11 +146,12 @@ class MobileSensor:
                 equilibrium = self._solve_sticking(obstacle, previous)
             equilibrium = _reindexed(equilibrium, first, count)
         self._previous = equilibrium
+        kind = "collision" if self.collided else equilibrium.kind
         field = self.physics.field_uT(equilibrium)
         z = float(field[1]) - self._rest_y + float(self._rng.normal(0.0, self._noise_uT))
         axial = float(field[2]) - self._rest_z + float(self._axial_rng.normal(0.0, self._axial_noise_uT))
         tip = self.to_world(equilibrium.tip_mm)
-        return MobileSample(z, equilibrium.kind, tip, self.to_world(equilibrium.contact_mm), axial,
+        return MobileSample(z, kind, tip, self.to_world(equilibrium.contact_mm), axial,
                             equilibrium.slips)
 
     def _solve_sticking(self, obstacle, previous):
@@ -158,19 +168,45 @@ class MobileSensor:
         return equilibrium
 
     def _solve_pieces(self):
-        """The equilibrium against the piece of the wall that deflects the whisker most (see the
-        module's docstring); each piece warm-starts from its own last solve."""
+        """The equilibrium against the wall's pieces (see the module's docstring); each piece
+        warm-starts from its own last solve, from the side it met the wire."""
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
-        best, solved = self.physics.free(), {}
+        seen, solved = {}, {}
         for index, piece in enumerate(self._obstacle):
-            if _edge_distances_mm(piece.vertices_mm, origin).min() > self._keep_mm:
+            if _edge_distances_mm(piece.vertices_mm, origin).min() <= self._keep_mm:
+                seen[index] = (piece.vertices_mm - origin) @ turn.T
+        whisker = self.sensor.whisker
+        for index, vertices in seen.items():
+            previous, side = self._pieces_previous.get(index, (None, 1))
+            if index in self._corners:
+                solved[index] = (self._held(vertices, self._corners[index], previous), 1)
                 continue
-            seen = Polygon((piece.vertices_mm - origin) @ turn.T)
-            solved[index] = self.physics.solve_shape(seen, self._pieces_previous.get(index))
-            if abs(solved[index].root_rotation_rad) > abs(best.root_rotation_rad):
-                best = solved[index]
+            if previous is None or not previous.in_contact:
+                # a piece newly in the wire's way (or one the wire has slipped past) meets it
+                # from the side it reaches least deep: the wall ahead of the tip in a concave
+                # corner, or an edge the whisker has swung past, pushes from the -y side
+                previous, side = None, entry_side(whisker, Polygon(vertices))
+            solved[index] = (self.physics.solve_shape(Polygon(vertices, side=side), previous), side)
+        pieces = {index: Polygon(vertices) for index, vertices in seen.items()}
+        kept, clear = _kept(solved, pieces, self.physics.free())
         self._pieces_previous = solved
-        return best
+        # the sensor's base (its centre of rotation and clamp) driven into the solid, or no
+        # single contact that keeps the wire out of it: what the twin models ends there
+        stub = np.array([[0.0, 0.0], [whisker.root_offset_mm, 0.0]])
+        self.collided = not clear or any(piece.reaches(stub) for piece in pieces.values())
+        self._last_tip = None if not kept.in_contact else self.to_world(kept.tip_mm)
+        return kept
+
+    def _held(self, vertices: np.ndarray, corner: int, previous):
+        """A concave corner's piece: the tip held on its corner vertex, tried while it was held
+        or when the last tip came within HOLD_NEAR_MM of the corner (free otherwise: the
+        corner's square has no other contact the solid can have)."""
+        held_before = previous is not None and previous.in_contact
+        if not held_before and (self._last_tip is None or np.linalg.norm(
+                self.to_world(vertices[corner]) - self._last_tip) > HOLD_NEAR_MM):
+            return self.physics.free()
+        return solve_at_vertex(self.sensor.whisker, Polygon(vertices), corner,
+                               previous if held_before else self._previous)
 
     def to_world(self, point_mm) -> np.ndarray:
         """A point of the sensor's base frame in the world frame."""
@@ -227,6 +263,29 @@ def _edge_distances_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> np.ndar
     edge = np.roll(vertices_mm, -1, axis=0) - vertices_mm
     share = np.clip(((point_mm - vertices_mm) * edge).sum(axis=1) / (edge * edge).sum(axis=1), 0.0, 1.0)
     return np.linalg.norm(vertices_mm + share[:, None] * edge - point_mm, axis=1)
+
+
+def _kept(solved: dict, pieces: dict, free):
+    """Of each piece's solution, the one that deflects the whisker most among those whose wire
+    stays out of every other piece: one piece's contact is then the solid's. In a concave corner
+    the walls' own solutions cut into each other and the corner's square (the tip held on its
+    vertex, pushed by both walls) is kept. When every solution cuts into another piece, the one
+    that deflects most is kept, and flagged (False: no contact keeps the wire out of the solid)."""
+    touching = sorted((index for index, (equilibrium, _) in solved.items() if equilibrium.in_contact),
+                      key=lambda index: -abs(solved[index][0].root_rotation_rad))
+    for index in touching:  # most deflected first: the first whose wire is clear is the contact
+        wire = solved[index][0].shape_mm(WIRE_NODES)[1:]
+        low, high = wire.min(axis=0), wire.max(axis=0)
+        if not any(piece.crosses_polyline(wire, OVERLAP_TOL_MM) for other, piece in pieces.items()
+                   if other != index and np.all(piece.vertices_mm.min(axis=0) <= high)
+                   and np.all(piece.vertices_mm.max(axis=0) >= low)):
+            return solved[index][0], True
+    return (solved[touching[0]][0], False) if touching else (free, True)
+
+
+WIRE_NODES = 24  # points along the wire checked against the other pieces
+OVERLAP_TOL_MM = 1e-3  # a wire lying on another piece's surface (a corner's square) is out of it
+HOLD_NEAR_MM = 1.0  # a tip this near a concave corner may be held in it
 
 
 def _reindexed(equilibrium, shift: int, count: int):

@@ -8,7 +8,8 @@ the twin's frictionless shape contact (``physics.obstacles.Circle`` / ``Polygon`
 
 The wall (:class:`WallOutline`) is open and not convex: a straight wall 300 mm long with a 20 mm
 step out half-way (its top edge rounded, 3 mm), ending in a 90° concave corner where a second
-wall, 150 mm long, turns toward the robot. The twin meets it as convex pieces (``obstacle()``).
+wall, 150 mm long, turns toward the robot. The twin meets it as overlapping convex pieces
+(``obstacle()``).
 """
 
 from __future__ import annotations
@@ -130,8 +131,12 @@ class WallOutline:
     closed = False
 
     def obstacle(self) -> tuple[Polygon, ...]:
-        """The wall as convex pieces (the step, the wall before it, the second wall): the twin
-        solves the whisker against one piece at a time (``twin.mobile``)."""
+        """The wall as overlapping convex pieces whose union is the solid: the step, the wall
+        before it, the second wall, and one square behind each concave corner (the step's foot,
+        the corner at the origin). A corner's square has the corner as its vertex, with the two
+        walls' normals on either side: a tip held in the corner, pushed by both walls at once,
+        is its tip-on-vertex contact. The twin solves the whisker against one piece at a time
+        and keeps a solution whose wire stays out of every other piece (``twin.mobile``)."""
         (x_end, y_step), (x_step, _), _, _, (_, y_end) = self.core_mm
         depth, beyond, radius = _WALL_DEPTH_MM, _WALL_BEYOND_MM, self.radius_mm
         angles = np.linspace(math.pi / 2, math.pi, 31)
@@ -140,7 +145,14 @@ class WallOutline:
         step = np.vstack([[[x_step, -depth], [x_end + beyond, -depth], [x_end + beyond, y_step]], edge])
         low = np.array([[0.0, -depth], [x_step, -depth], [x_step, 0.0], [0.0, 0.0]])
         side = np.array([[-depth, -depth], [0.0, -depth], [0.0, y_end + beyond], [-depth, y_end + beyond]])
-        return Polygon(step), Polygon(low), Polygon(side)
+        foot = np.array([[x_step, -depth], [x_step + depth, -depth], [x_step + depth, 0.0], [x_step, 0.0]])
+        corner = np.array([[-depth, -depth], [0.0, -depth], [0.0, 0.0], [-depth, 0.0]])
+        return tuple(Polygon(piece) for piece in (step, low, side, foot, corner))
+
+    def corner_pieces(self) -> dict[int, int]:
+        """Which pieces of ``obstacle()`` stand for a concave corner: piece index -> the index of
+        its vertex at the corner."""
+        return {3: 3, 4: 2}
 
     def points(self, step_rad: float = math.radians(0.5)) -> np.ndarray:
         """The outline as points (n, 2) from its first corner to its last, convex corners as

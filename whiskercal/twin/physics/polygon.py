@@ -119,6 +119,44 @@ def _first_touch(whisker, polygon: Polygon):
     return -lowest[index], (el.SHAFT_CIRCLE, index, np.array([0.0, 0.0, 0.0, arc]))
 
 
+def entry_side(whisker, polygon: Polygon) -> int:
+    """The side (+1: the whisker's +y side, pushing it toward -y; -1 the other) from which
+    ``polygon`` reaches the undeflected wire least deep: the shift along y that clears the wire
+    is smaller from it. A piece that comes newly into the wire's way (the next wall ahead of the
+    tip in a concave corner, an edge the wire has swung past) has come from that side."""
+    vertices = polygon.vertices_mm
+    low, high = whisker.root_offset_mm, whisker.reach_mm
+    following = np.roll(vertices, -1, axis=0)
+    heights = list(vertices[(vertices[:, 0] >= low) & (vertices[:, 0] <= high), 1])
+    for x in (low, high):  # where the polygon's edges cross the ends of the wire's span
+        crossing = (vertices[:, 0] - x) * (following[:, 0] - x) < 0.0
+        share = (x - vertices[crossing, 0]) / (following[crossing, 0] - vertices[crossing, 0])
+        heights.extend(vertices[crossing, 1] + share * (following[crossing, 1] - vertices[crossing, 1]))
+    if not heights:
+        return 1
+    return 1 if -min(heights) <= max(heights) else -1
+
+
+def solve_at_vertex(whisker, polygon: Polygon, index: int, previous: Equilibrium | None = None
+                    ) -> Equilibrium:
+    """The whisker's tip held on vertex ``index`` (the force anywhere in the vertex's cone of
+    normals), warm-started from ``previous`` (held there, or the tip on a wall reaching it: the
+    moment and force are the same unknowns); free when no such
+    state is physical. For a piece whose vertex stands for a concave corner of a larger solid,
+    where a tip that reaches the corner is held between its two walls (the piece's own
+    edges are inside the solid, so this is its only contact the solid can have)."""
+    check_whisker(whisker)
+    start = np.zeros(3)
+    if previous is not None and len(previous.solution) >= 2:  # a held tip, or the tip on a wall
+        start = np.asarray(previous.solution[1][:3], float)   # of it: the same three unknowns
+    p = _params(whisker, polygon, el.TIP_POINT, index)
+    z, ok = solve_kind(el.TIP_POINT, start, p)
+    if not (ok and _physical(whisker, polygon, el.TIP_POINT, index, z, p)):
+        return free(whisker)
+    eq = make_equilibrium(whisker, "tip", el.TIP_POINT, z, p)
+    return replace(eq, solution=eq.solution + (int(index),))
+
+
 def _edge_index_at(vertices, x):
     following = np.roll(vertices, -1, axis=0)
     return [i for i in range(len(vertices))
