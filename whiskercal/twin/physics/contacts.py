@@ -94,7 +94,7 @@ def circle_params(whisker, center_mm, radius_mm: float, side: int) -> np.ndarray
     return p
 
 
-def _circle_state_ok(code: int, z, p) -> bool:
+def circle_state_ok(code: int, z, p) -> bool:
     """Is a converged circle contact physical: pushing, on the wire, not cutting into it?"""
     x, y, th, tip_x, tip_y = el.end_state(code, z, p, el.DEFAULT_STEPS)
     force = z[1:3]
@@ -110,7 +110,7 @@ def _circle_step(code: int, z, p) -> tuple[int, np.ndarray | None]:
     """Solve one pose of a circle from the state (code, z); switch shaft <-> tip as needed."""
     for _ in range(2):
         z_new, ok = solve_kind(code, z, p)
-        if ok and _circle_state_ok(code, z_new, p):
+        if ok and circle_state_ok(code, z_new, p):
             return code, z_new
         if code == el.SHAFT_CIRCLE and ok and z_new[3] > 1.0:
             code, z = el.TIP_CIRCLE, z_new[:3]
@@ -134,7 +134,7 @@ def _touch_y(whisker, center_x: float, radius: float, side: int) -> float | None
     return side * math.sqrt(radius ** 2 - (center_x - reach) ** 2)
 
 
-def _swept_into_wire(whisker, circle: Circle) -> bool:
+def swept_into_wire(whisker, circle: Circle) -> bool:
     """Has the circle, coming from its side, passed the height where it first touches the
     undeflected wire?"""
     x, y = circle.center_mm
@@ -206,7 +206,7 @@ def solve_circle(whisker: WhiskerParams, circle: Circle, previous: Equilibrium |
     check_whisker(whisker)
     if not isinstance(circle, Circle):
         raise UsageError(f"expected a Circle, got {type(circle).__name__}.")
-    if not _swept_into_wire(whisker, circle):
+    if not swept_into_wire(whisker, circle):
         return free(whisker)  # frictionless: with nothing in the way the wire springs back
     if previous is not None and previous.slipped_past:
         return previous

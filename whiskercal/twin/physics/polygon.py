@@ -27,7 +27,7 @@ DEPTH_TOL_L = 1e-6      # how far (in L) the wire may cut into the polygon: roun
 # A candidate is (code, index): a corner on the shaft, the tip on an edge, the tip on a corner.
 
 
-def _params(whisker, polygon: Polygon, code: int, index: int) -> np.ndarray:
+def polygon_params(whisker, polygon: Polygon, code: int, index: int) -> np.ndarray:
     vertices = polygon.vertices_mm
     if code == el.SHAFT_CIRCLE:
         return circle_params(whisker, vertices[index], 0.0, polygon.side)
@@ -51,7 +51,7 @@ def _candidates(polygon: Polygon, near: int):
             yield el.TIP_POINT, index
 
 
-def _physical(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
+def physical_state(whisker, polygon: Polygon, code: int, index: int, z, p) -> bool:
     """Pushing force, contact where it claims to be, and no part of the wire inside."""
     moment, fx, fy, arc = el.unpack(code, z, p)
     force = np.array([fx, fy])
@@ -84,11 +84,11 @@ def _solve_pose(whisker, polygon: Polygon, state):
     # candidate of a many-edged polygon would cost more than solving it
     order = itertools.chain([(code, index)], (c for c in _candidates(polygon, index) if c != (code, index)))
     for cand_code, cand_index in order:
-        p = _params(whisker, polygon, cand_code, cand_index)
+        p = polygon_params(whisker, polygon, cand_code, cand_index)
         start = np.append(z[:3], z[3] if len(z) > 3 else 0.999) \
             if cand_code == el.SHAFT_CIRCLE else z[:3]
         z_new, ok = solve_kind(cand_code, start, p)
-        if ok and _physical(whisker, polygon, cand_code, cand_index, z_new, p):
+        if ok and physical_state(whisker, polygon, cand_code, cand_index, z_new, p):
             return cand_code, cand_index, z_new
     return None
 
@@ -149,9 +149,9 @@ def solve_at_vertex(whisker, polygon: Polygon, index: int, previous: Equilibrium
     start = np.zeros(3)
     if previous is not None and len(previous.solution) >= 2:  # a held tip, or the tip on a wall
         start = np.asarray(previous.solution[1][:3], float)   # of it: the same three unknowns
-    p = _params(whisker, polygon, el.TIP_POINT, index)
+    p = polygon_params(whisker, polygon, el.TIP_POINT, index)
     z, ok = solve_kind(el.TIP_POINT, start, p)
-    if not (ok and _physical(whisker, polygon, el.TIP_POINT, index, z, p)):
+    if not (ok and physical_state(whisker, polygon, el.TIP_POINT, index, z, p)):
         return free(whisker)
     eq = make_equilibrium(whisker, "tip", el.TIP_POINT, z, p)
     return replace(eq, solution=eq.solution + (int(index),))
@@ -204,7 +204,7 @@ def _path(whisker, polygon: Polygon):
 
 
 @functools.lru_cache(maxsize=8)
-def _undeflected(whisker) -> np.ndarray:
+def undeflected_polyline(whisker) -> np.ndarray:
     """The straight whisker's segment from its clamp to its tip (mm), per build (read-only)."""
     line = free(whisker).shape_mm(2)[1:]
     line.setflags(write=False)
@@ -219,7 +219,7 @@ def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
     touches the undeflected whisker. Returns kind "shaft", "tip" or "free".
     """
     check_whisker(whisker)
-    if not polygon.crosses_polyline(_undeflected(whisker), 0.0):
+    if not polygon.crosses_polyline(undeflected_polyline(whisker), 0.0):
         return free(whisker)  # frictionless: with nothing in the way the wire springs back
     if previous is not None and previous.slipped_past:
         return previous
@@ -232,6 +232,6 @@ def solve_polygon(whisker, polygon: Polygon, previous: Equilibrium | None = None
     if state is None:
         return free(whisker, slipped_past=True)
     code, index, z = state
-    p = _params(whisker, polygon, code, index)
+    p = polygon_params(whisker, polygon, code, index)
     eq = make_equilibrium(whisker, "shaft" if code == el.SHAFT_CIRCLE else "tip", code, z, p)
     return replace(eq, solution=eq.solution + (index,))  # the corner/edge, for warm starts

@@ -18,13 +18,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from whiskercal.twin.physics import elastica as el
-from whiskercal.twin.physics.contacts import (_circle_state_ok, _swept_into_wire, base_params,
-                                              circle_params, make_equilibrium, solve_circle,
-                                              solve_kind)
+from whiskercal.twin.physics.contacts import (base_params, circle_params, circle_state_ok,
+                                              make_equilibrium, solve_circle, solve_kind,
+                                              swept_into_wire)
 from whiskercal.twin.physics.coulomb import Coulomb, slips_within_step
 from whiskercal.twin.physics.obstacles import Circle, Polygon
-from whiskercal.twin.physics.polygon import (DEPTH_TOL_L, SHAPE_NODES, _params, _physical,
-                                             _undeflected, solve_polygon)
+from whiskercal.twin.physics.polygon import (DEPTH_TOL_L, SHAPE_NODES, physical_state,
+                                             polygon_params, solve_polygon,
+                                             undeflected_polyline)
 from whiskercal.twin.physics.whisker import Equilibrium
 
 
@@ -100,8 +101,8 @@ def _reaches(whisker, obstacle) -> bool:
     """Does the object still stand where the undeflected wire would be? (Else the wire is free,
     as in the frictionless solves.)"""
     if isinstance(obstacle, Circle):
-        return _swept_into_wire(whisker, obstacle)
-    return obstacle.crosses_polyline(_undeflected(whisker), 0.0)
+        return swept_into_wire(whisker, obstacle)
+    return obstacle.crosses_polyline(undeflected_polyline(whisker), 0.0)
 
 
 def _frictionless(whisker, obstacle, previous):
@@ -162,7 +163,7 @@ def _outside(whisker, obstacle, code: int, z, p) -> bool:
     """Is the wire of a tip state outside the object (touching it at the tip only)?"""
     if isinstance(obstacle, Circle):
         circle = circle_params(whisker, obstacle.center_mm, obstacle.radius_mm, obstacle.side)
-        return _circle_state_ok(el.TIP_CIRCLE, z, circle)
+        return circle_state_ok(el.TIP_CIRCLE, z, circle)
     points = el.shape(code, z, p, el.DEFAULT_STEPS, SHAPE_NODES)[1:] * whisker.length_mm
     return not obstacle.crosses_polyline(points, DEPTH_TOL_L * whisker.length_mm)
 
@@ -175,18 +176,18 @@ def _slide(whisker, obstacle, z, ratio: float, index):
         p = circle_params(whisker, obstacle.center_mm, obstacle.radius_mm, obstacle.side)
         p[el.P_MU] = ratio
         z_new, ok = solve_kind(el.TIP_CIRCLE, z, p)
-        return (el.TIP_CIRCLE, z_new, p, None) if ok and _circle_state_ok(el.TIP_CIRCLE, z_new, p) \
+        return (el.TIP_CIRCLE, z_new, p, None) if ok and circle_state_ok(el.TIP_CIRCLE, z_new, p) \
             else None
     count = len(obstacle.vertices_mm)
     candidates = [(el.TIP_LINE, index), (el.TIP_LINE, (index + 1) % count),
                   (el.TIP_LINE, (index - 1) % count), (el.TIP_POINT, (index + 1) % count),
                   (el.TIP_POINT, index)]
     for code, edge in candidates:
-        p = _params(whisker, obstacle, code, edge)
+        p = polygon_params(whisker, obstacle, code, edge)
         if code == el.TIP_LINE:
             p[el.P_MU] = ratio
         z_new, ok = solve_kind(code, z, p)
-        if ok and _physical(whisker, obstacle, code, edge, z_new, p):
+        if ok and physical_state(whisker, obstacle, code, edge, z_new, p):
             return code, z_new, p, edge
     return None
 
