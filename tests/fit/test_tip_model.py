@@ -1,16 +1,21 @@
-"""``fit --tip-model``: the mechanics-informed model on the recorded grid, against the twin's truth."""
+"""``fit --tip-model``: the mechanics-informed model on the recorded grid, against the twin's truth;
+and what ``fit`` ships without options (the tip model ``auto`` chooses and the (Y, Z) table)."""
 
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from whiskercal.artifacts.calibration import read_calibration
 from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.cli import cli
 from whiskercal.fit import FitOptions, fit
 
-RECORDED = Path(__file__).resolve().parents[2] / "data" / "twin-paper-75mm" / "raw_grid.h5"
+DATA = Path(__file__).resolve().parents[2] / "data"
+RECORDED = DATA / "twin-paper-75mm" / "raw_grid.h5"
+SHORT = DATA / "twin-short-60mm" / "raw_grid.h5"
 
 
 @pytest.fixture(scope="module")
@@ -20,7 +25,7 @@ def raw():
 
 @pytest.mark.slow
 def test_auto_ships_the_mechanics_on_the_default_grid_within_the_goal(raw):
-    result = fit(raw, FitOptions(tip_model="auto"))
+    result = fit(raw, FitOptions(tip_model="auto", field_table=False))
     assert result.metrics["tip_model"] == "mechanics"
     # issue 13's goal on the default sensor: 0.15 mm RMS (the level set gives 0.44 mm)
     assert result.metrics["lookup_vs_truth_rmse_mm"] <= 0.15
@@ -32,8 +37,8 @@ def test_auto_ships_the_mechanics_on_the_default_grid_within_the_goal(raw):
 
 
 @pytest.mark.slow
-def test_the_default_level_set_estimates_its_error_and_warns_of_it(raw):
-    result = fit(raw)
+def test_the_level_set_estimates_its_error_and_warns_of_it(raw):
+    result = fit(raw, FitOptions(tip_model="level-set", field_table=False))
     assert result.metrics["tip_model"] == "level-set"
     true_rms = result.metrics["lookup_vs_truth_rmse_mm"]
     assert true_rms > 0.3  # the level set's intrinsic error on a frictionless tip contact
@@ -49,10 +54,16 @@ def test_an_unknown_tip_model_is_one_line(tmp_path):
 
 
 @pytest.mark.slow
-def test_fit_json_reports_the_model_and_its_estimate(tmp_path):
-    result = CliRunner().invoke(cli, ["fit", str(RECORDED), "--out", str(tmp_path / "c.h5"),
-                                      "--tip-model", "auto", "--json"])
+def test_fit_without_options_ships_the_mechanics_and_the_field_table(tmp_path):
+    # the default calibration, end to end through the command (twin-short-60mm: the smaller
+    # recorded grid, a 30-40 s fit with the table)
+    out = tmp_path / "c.h5"
+    result = CliRunner().invoke(cli, ["fit", str(SHORT), "--out", str(out), "--json"])
     assert result.exit_code == 0, result.output
     summary = json.loads(result.stdout)
-    assert summary["tip_model"] == "mechanics"
+    assert summary["tip_model"] == "mechanics"  # what auto chose: the grid identifies it
     assert 0 < summary["estimated_tip_error_mm"] <= 0.25
+    assert summary["field_table_written"] is True
+    assert 0 < summary["field_table_estimated_tip_error_mm"] <= 0.25
+    table = read_calibration(out).field_table
+    assert table is not None and np.isfinite(table["tip_mm"]).any()

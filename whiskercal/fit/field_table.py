@@ -1,4 +1,4 @@
-"""``fit --field-table``: the (Y, Z) -> tip table for realistic tip contacts.
+"""The (Y, Z) -> tip table for realistic tip contacts (``fit``'s default; ``--no-field-table``).
 
 One scalar cannot tell a tip pushed square from one pushed with friction or by a slanted surface
 at the same Y; the chip's Z axis can (docs/calibration.md). The mechanics and a multipole magnet
@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from whiskercal.artifacts.raw_grid import baseline_y_at
-from whiskercal.errors import UsageError
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.table_error import estimated_tip_error_mm
 from whiskercal.mechfit.tables import table_load_points, tabulate
@@ -96,15 +95,24 @@ def trust_verdict(estimate_mm: float, residual_ratio) -> tuple[bool, list[str]]:
     return True, []
 
 
+# the joint fit's parameters (3 mechanical, 7 geometric, 4 strengths) need this many contacts
+MIN_CONTACTS = 20
+
+
 def fit_field_table(raw, length_mm: float) -> FieldTableFit:
     """Fit the mechanics and the magnet map to the grid's contacts, and tabulate the tips.
 
-    Raises UsageError when the grid has too few contacts for the fit.
+    A grid with too few contacts for the joint fit gets no table and one warning: the table is
+    on by default, and such a grid may still calibrate the z lookup.
     """
     started = time.perf_counter()
     used = contact_mask(raw.z_uT, raw.z_sem_uT)
-    if used.sum() < 20:
-        raise UsageError(f"a (Y, Z) table needs at least 20 contacts, the grid has {used.sum()}.")
+    if used.sum() < MIN_CONTACTS:
+        return FieldTableFit(None, {"field_table": {"field_table_written": False},
+                                    "field_table_estimated_tip_error_mm": float("nan")},
+                             [f"no (Y, Z) table written: it needs at least {MIN_CONTACTS} "
+                              f"contacts, the grid has {used.sum()}; the runtime uses the "
+                              "z lookup"])
     fields = np.column_stack([raw.z_uT[used], axial_deflection_uT(raw)[used]])
     noise = _noise(raw, used)
     fit = fit_mechanics_magnet(raw.rod_center_mm[used], fields, raw.rod_radius_mm, length_mm,
