@@ -58,6 +58,7 @@ def test_the_recorded_grid_fits_to_its_golden_results(recorded):
     _, result, golden = recorded
     data = result.artifact_data()
     new = {**fit_quantities(data), **lookup_quantities(data)}
+    assert new.pop("fit.field_table_written") is False  # fitted without the table (above)
     wanted = {name: entry["value"] for name, entry in golden["quantities"].items()
               if name.startswith(("fit.", "lookup.")) and name != "fit.field_table_written"}
     classes = {name: golden["quantities"][name]["tolerance"] for name in wanted}
@@ -100,6 +101,31 @@ def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
     # a rigid root gives the suspension model nothing to fit: the fit says its error is unknown
     assert result.metrics["tip_model"] == "level-set"
     assert [w.split(":")[0] for w in result.warnings] == ["the tip error cannot be estimated"]
+
+
+def test_the_default_fit_withholds_a_table_it_cannot_fit_and_still_calibrates(rigid_raw):
+    # a rigid root gives the (Y, Z) model nothing to fit either: no table, one warning, and the
+    # z lookup ships as it would with --no-field-table
+    result = fit(rigid_raw, FitOptions(samples=8))
+    assert result.field_table is None and result.artifact_data().field_table is None
+    assert result.metrics["tip_model"] == "level-set"
+    assert np.isnan(result.metrics["field_table_estimated_tip_error_mm"])
+    withheld = [w for w in result.warnings if w.startswith("no (Y, Z) table written")]
+    assert len(withheld) == 1 and "the (Y, Z) model cannot be fitted" in withheld[0]
+    assert withheld[0].endswith("the runtime uses the z lookup")
+
+
+def test_a_grid_with_too_few_contacts_for_the_table_gets_none(tmp_path):
+    from whiskercal.fit.field_table import MIN_CONTACTS, fit_field_table
+
+    points = paper_grid_mm()[:MIN_CONTACTS - 1]
+    path = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
+                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
+    table = fit_field_table(read_raw_grid(path), 70.0)
+    assert table.table is None and np.isnan(table.metrics["field_table_estimated_tip_error_mm"])
+    assert table.warnings == [f"no (Y, Z) table written: it needs at least {MIN_CONTACTS} "
+                              f"contacts, the grid has {MIN_CONTACTS - 1}; the runtime uses "
+                              "the z lookup"]
 
 
 def test_options_reach_the_model(rigid_raw):
