@@ -9,6 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from whiskercal.cli import cli
+from whiskercal.fit import FitOptions, options_from_args
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 SHORT = "twin-short-60mm"
@@ -26,17 +27,25 @@ def short_copy(tmp_path):
 
 
 def test_regress_passes_on_the_recorded_data():
-    # What CI runs: every stage recomputed on data/ (about 2 minutes on an idle core: the
-    # default fit's (Y, Z) table takes most of it).
+    # What CI runs: every stage recomputed on data/ (fits of 65 + 37 + 20 s on an idle core,
+    # most of it the default fit's (Y, Z) table; twin-long-110mm's pipeline leaves it out).
     result = _regress(DATA, "--json")
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     assert report["ok"] is True
     assert [d["dataset"] for d in report["datasets"]] == ["twin-long-110mm", "twin-paper-75mm", SHORT]
     assert all(d["changes"] == [] and d["quantities"] > 100 for d in report["datasets"])
+    # fit's defaults on the two grids fitted with them: the mechanics' lookup and the (Y, Z) table
+    for name in ("twin-paper-75mm", SHORT):
+        golden = json.loads((DATA / name / "golden.json").read_text(encoding="utf-8"))
+        assert options_from_args(golden["pipeline"]["fit_args"]) == FitOptions()
+        assert golden["quantities"]["fit.tip_model"]["value"] == "mechanics"
+        assert golden["quantities"]["fit.field_table_written"]["value"] is True
 
 
 def test_an_edited_golden_value_is_named_with_how_far_it_moved(short_copy):
+    _without_the_table(short_copy)
+    assert _regress(short_copy, "--update").exit_code == 0  # that pipeline's goldens
     golden_path = short_copy / SHORT / "golden.json"
     document = json.loads(golden_path.read_text(encoding="utf-8"))
     entry = document["quantities"]["study.trial[20mm].filtered_mean_mm"]
