@@ -96,7 +96,8 @@ def trust_verdict(estimate_mm: float, residual_ratio) -> tuple[bool, list[str]]:
     return True, []
 
 
-# the joint fit's parameters (3 mechanical, 7 geometric, 4 strengths) need this many contacts
+# the fewest contacts the joint fit is tried on (it has 14 parameters: 3 mechanical, 7 geometric,
+# 4 strengths, each contact giving two readings)
 MIN_CONTACTS = 20
 
 
