@@ -20,8 +20,8 @@ function below: a z that is not a real number (a string, None, a complex or ragg
 :class:`~whiskercal.errors.UsageError`; NaN and ±inf are numbers, handled by the out-of-range
 policy (and ignored by contact detection).
 
-Two axes: an artifact written with ``whiskercal fit --field-table`` carries a (Y, Z) -> tip
-table (docs/calibration.md). Given the Z axis too (``axial_uT``, µT from its static reading),
+Two axes: an artifact written by ``whiskercal fit`` (unless ``--no-field-table``, or where the
+fit withheld it) carries a (Y, Z) -> tip table (docs/calibration.md). Given the Z axis too (``axial_uT``, µT from its static reading),
 the tracker reads the tip there (bilinear, a few microseconds), which tells a tip pushed with
 friction or by a slanted surface from one pushed square at the same Y; where the table has no
 tip (outside what tip loads reach) it falls back to the z lookup, whose out-of-range policy
@@ -145,7 +145,7 @@ class Calibration:
     target_z_uT : float or None
         The optimal deflection target once the optimal-depth study has written one.
     field_table : FieldTipTable or None
-        The (Y, Z) -> tip table when the artifact carries one (``fit --field-table``).
+        The (Y, Z) -> tip table when the artifact carries one (``fit``'s default).
 
     Raises
     ------

@@ -24,6 +24,12 @@ ROOT = Path(__file__).resolve().parents[2]
 RECORDED = ROOT / "data" / "twin-short-60mm"
 
 
+def _options(**fields) -> FitOptions:
+    """The fit's options without the (Y, Z) table: these tests are about the rest of the fit,
+    and the table adds 30-60 s to a fit (tests/fit/test_tip_model.py tests the default)."""
+    return FitOptions(field_table=False, **fields)
+
+
 @pytest.fixture(scope="module")
 def rigid_raw(tmp_path_factory):
     """An analytic rigid-whisker grid (no twin truth) with a 70 mm trace length recorded."""
@@ -40,7 +46,9 @@ def recorded():
     """The recorded twin grid fitted with its golden file's options, and the golden file."""
     golden = json.loads((RECORDED / "golden.json").read_text(encoding="utf-8"))
     raw = read_raw_grid(RECORDED / "raw_grid.h5")
-    return raw, fit(raw, options_from_args(golden["pipeline"]["fit_args"])), golden
+    # the table enters none of the fit. and lookup. quantities compared here but its own flag
+    fit_args = [*golden["pipeline"]["fit_args"], "--no-field-table"]
+    return raw, fit(raw, options_from_args(fit_args)), golden
 
 
 def test_the_recorded_grid_fits_to_its_golden_results(recorded):
@@ -50,8 +58,9 @@ def test_the_recorded_grid_fits_to_its_golden_results(recorded):
     _, result, golden = recorded
     data = result.artifact_data()
     new = {**fit_quantities(data), **lookup_quantities(data)}
+    assert new.pop("fit.field_table_written") is False  # fitted without the table (above)
     wanted = {name: entry["value"] for name, entry in golden["quantities"].items()
-              if name.startswith(("fit.", "lookup."))}
+              if name.startswith(("fit.", "lookup.")) and name != "fit.field_table_written"}
     classes = {name: golden["quantities"][name]["tolerance"] for name in wanted}
     assert len(wanted) > 40 and compare(wanted, classes, new) == []
 
@@ -83,7 +92,7 @@ def test_write_round_trips_through_the_artifact_reader(recorded, tmp_path):
 
 
 def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
-    result = fit(rigid_raw, FitOptions(samples=8, threshold_uT=250.0))
+    result = fit(rigid_raw, _options(samples=8, threshold_uT=250.0))
     assert result.truth is None and compare_with_twin_truth(rigid_raw, result.calibration) is None
     assert not any(name.startswith(("lookup_vs_truth", "contact_error")) for name in result.metrics)
     assert result.artifact_data().truth is None
@@ -94,8 +103,33 @@ def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
     assert [w.split(":")[0] for w in result.warnings] == ["the tip error cannot be estimated"]
 
 
+def test_the_default_fit_withholds_a_table_it_cannot_fit_and_still_calibrates(rigid_raw):
+    # a rigid root gives the (Y, Z) model nothing to fit either: no table, one warning, and the
+    # z lookup ships as it would with --no-field-table
+    result = fit(rigid_raw, FitOptions(samples=8))
+    assert result.field_table is None and result.artifact_data().field_table is None
+    assert result.metrics["tip_model"] == "level-set"
+    assert np.isnan(result.metrics["field_table_estimated_tip_error_mm"])
+    withheld = [w for w in result.warnings if w.startswith("no (Y, Z) table written")]
+    assert len(withheld) == 1 and "the (Y, Z) model cannot be fitted" in withheld[0]
+    assert withheld[0].endswith("the runtime uses the z lookup")
+
+
+def test_a_grid_with_too_few_contacts_for_the_table_gets_none(tmp_path):
+    from whiskercal.fit.field_table import MIN_CONTACTS, fit_field_table
+
+    points = paper_grid_mm()[:MIN_CONTACTS - 1]
+    path = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
+                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
+    table = fit_field_table(read_raw_grid(path), 70.0)
+    assert table.table is None and np.isnan(table.metrics["field_table_estimated_tip_error_mm"])
+    assert table.warnings == [f"no (Y, Z) table written: it needs at least {MIN_CONTACTS} "
+                              f"contacts, the grid has {MIN_CONTACTS - 1}; the runtime uses "
+                              "the z lookup"]
+
+
 def test_options_reach_the_model(rigid_raw):
-    result = fit(rigid_raw, FitOptions(degree=3, coordinates="cartesian", interpolant="linear",
+    result = fit(rigid_raw, _options(degree=3, coordinates="cartesian", interpolant="linear",
                                        trace_length_mm=68.0, rod_correction=False))
     assert (result.calibration.surface.degree, result.calibration.surface.coordinates) == \
         (3, "cartesian")
@@ -109,15 +143,15 @@ def test_options_reach_the_model(rigid_raw):
 def test_a_grid_short_of_the_tip_is_refused_or_marked(rigid_raw):
     # the grid reaches 65 mm: a 78 mm trace extrapolates about 14 mm past it
     with pytest.raises(ExtrapolationLimitError, match="--allow-extrapolation"):
-        fit(rigid_raw, FitOptions(trace_length_mm=78.0))
-    marked = fit(rigid_raw, FitOptions(trace_length_mm=78.0, allow_extrapolation=True))
+        fit(rigid_raw, _options(trace_length_mm=78.0))
+    marked = fit(rigid_raw, _options(trace_length_mm=78.0, allow_extrapolation=True))
     assert marked.calibration.extrapolated and marked.metrics["extrapolated"] is True
     assert any("stops short of the tip" in warning for warning in marked.warnings)
 
 
 def test_the_model_refuses_a_degree_out_of_range(rigid_raw):
     with pytest.raises(FitError):
-        fit(rigid_raw, FitOptions(degree=9))
+        fit(rigid_raw, _options(degree=9))
 
 
 def test_an_unknown_sensor_needs_a_trace_length(rigid_raw):
@@ -142,12 +176,22 @@ def test_options_from_command_line_words():
     words = ["--degree", "auto", "--samples=12", "--coordinates", "cartesian", "--tracer", "paper",
              "--interpolant", "pchip", "--trace-length-mm", "70", "--entry-radius-mm", "25.5",
              "--max-extension-mm", "12", "--allow-extrapolation", "--no-rod-correction",
-             "--threshold-uT", "250"]
+             "--threshold-uT", "250", "--tip-model", "level-set", "--no-field-table"]
     assert options_from_args(words) == FitOptions(
         degree="auto", samples=12, coordinates="cartesian", tracer="paper", interpolant="pchip",
         trace_length_mm=70.0, entry_radius_mm=25.5, max_extension_mm=12.0,
-        allow_extrapolation=True, rod_correction=False, threshold_uT=250.0)
+        allow_extrapolation=True, rod_correction=False, threshold_uT=250.0,
+        tip_model="level-set", field_table=False)
     assert options_from_args(["--degree", "4", "--degree", "6"]).degree == 6
+    assert options_from_args(["--no-field-table", "--field-table"]).field_table is True
+
+
+def test_the_default_fit_ships_the_chosen_tip_model_and_the_field_table():
+    # the accurate calibration by default: the mechanics where the grid identifies it, and the
+    # (Y, Z) table for contacts with friction or at a slant; --no-field-table opts out
+    assert (FitOptions().tip_model, FitOptions().field_table) == ("auto", True)
+    assert options_from_args(["--no-field-table"]) == FitOptions(field_table=False)
+    assert options_from_args(["--field-table"]) == FitOptions()
 
 
 @pytest.mark.parametrize("words, message", [
@@ -169,10 +213,13 @@ def test_the_word_parser_knows_every_option_of_the_command_and_its_defaults():
 
     own = {"raw", "out_path", "as_json"}
     options = [p for p in command.params if p.name not in own]
-    assert sorted(o for p in options for o in p.opts) == sorted([*VALUED, *FLAGS])
+    assert sorted(o for p in options for o in [*p.opts, *p.secondary_opts]) == \
+        sorted([*VALUED, *FLAGS])
     defaults = [word for p in options if not p.is_flag and p.default is not None
                 for word in (p.opts[0], str(p.default))]
     assert options_from_args(defaults) == FitOptions()
+    on_off = {p.name: p.default for p in options if p.is_flag and p.secondary_opts}
+    assert on_off == {"field_table": FitOptions().field_table}
 
 
 def test_the_fit_stage_imports_without_click():
@@ -203,14 +250,14 @@ def test_an_entry_radius_outside_half_the_trace_length_is_refused(rigid_raw, rad
     # the trace looks for its entry on circles out to half the length (35 mm of 70 mm)
     with pytest.raises(UsageError, match=r"--entry-radius-mm must lie between 0 and half the "
                                          r"trace length \(35 mm\)"):
-        fit(rigid_raw, FitOptions(trace_length_mm=70.0, entry_radius_mm=radius_mm))
+        fit(rigid_raw, _options(trace_length_mm=70.0, entry_radius_mm=radius_mm))
 
 
 def test_one_untraceable_level_inside_the_range_is_a_warning_not_an_abort(rigid_raw, monkeypatch):
     from whiskercal.model import trace as trace_module
     from whiskercal.model.errors import NonConvergenceError
 
-    clean = fit(rigid_raw, FitOptions(samples=8)).calibration.lookup
+    clean = fit(rigid_raw, _options(samples=8)).calibration.lookup
     bad = float(clean.z_knots_uT[4])
     original = trace_module.TRACERS["fast"]
 
@@ -219,7 +266,7 @@ def test_one_untraceable_level_inside_the_range_is_a_warning_not_an_abort(rigid_
             raise NonConvergenceError(f"no convergence at z = {z:.1f} µT")
         return original(problem, z)
     monkeypatch.setitem(trace_module.TRACERS, "fast", tracer)
-    result = fit(rigid_raw, FitOptions(samples=8))
+    result = fit(rigid_raw, _options(samples=8))
     assert np.array_equal(result.calibration.lookup.z_knots_uT, clean.z_knots_uT)
     assert np.max(np.abs(result.calibration.lookup.tips_mm - clean.tips_mm)) < 0.01
     assert [w for w in result.warnings if "could not be traced" in w] == [

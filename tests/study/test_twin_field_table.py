@@ -3,7 +3,7 @@
 Goal (issue 13, §5): the filtered tip within 0.3 mm of the twin's true tip at every depth the
 study passes, on the default sensor. The artifact is a level-set calibration with the table of
 the mechanics and magnet map fitted to a grid simulated on the twin (Y and Z, seed 0); the
-recorded study (data/) gives 0.008-0.035 mm with `fit --field-table` (docs/calibration.md).
+recorded study (data/) gives 0.008-0.035 mm with the table `fit` writes (docs/calibration.md).
 """
 
 from dataclasses import replace

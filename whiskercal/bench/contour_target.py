@@ -1,12 +1,14 @@
 """The study's rule checked on the closed loop: contour error against the deflection target.
 
-The default sensor's recorded grid (``data/twin-paper-75mm``) is fitted with the defaults and
-given the target its recorded flat-plane study chooses (``optimal-depth``); then the contour
+The default sensor's recorded grid (``data/twin-paper-75mm``) is fitted with the paper's level
+set as its z lookup (``fit --tip-model level-set``: what docs/bench.md measured; ``fit``'s own
+default ships the mechanics' lookup) and given the target its recorded flat-plane study chooses
+(``optimal-depth``, on the z lookup alone); then the contour
 loop runs on the twin round each object at a range of targets (|z| from 4 to 9 mT, the sign
 of the chosen one, and the chosen one itself), each run measured against the object's true
 outline without alignment. Targets past the calibrated range (|z| above its end, about
 9.5 mT here) are listed, not run: the lookup has no tip to give there. The full run does it
-twice, once per tip model: the z lookup alone and the (Y, Z) table (``fit --field-table``,
+twice, once per tip model: the z lookup alone and the (Y, Z) table (``fit``'s default,
 fitted once and reused for every run; ``--quick`` skips it). The same runs measure the
 controller's own cost per sample (the twin's solve not included) against the sensor's 3.3 ms
 period.
@@ -30,8 +32,8 @@ PERIOD_MS = 1000.0 / 300.0
 
 def calibrations_with_target(folder: Path, dataset: Path = DATASET,
                              field_table: bool = True) -> dict[str, Path]:
-    """The dataset's grid fitted once with the defaults (and the (Y, Z) table when asked),
-    written as one artifact per tip model, each with its study's chosen target.
+    """The dataset's grid fitted once, the level set as its z lookup (and the (Y, Z) table when
+    asked), written as one artifact per tip model, each with its study's chosen target.
 
     Both artifacts share the fit's z lookup, so the study, run on the z-lookup one, chooses the
     same target for both: the series differ only in how a reading becomes a tip.
@@ -47,7 +49,8 @@ def calibrations_with_target(folder: Path, dataset: Path = DATASET,
     if not (dataset / "raw_grid.h5").exists() or not (dataset / "plane_study.h5").exists():
         raise UsageError(f"{dataset} holds no raw_grid.h5 and plane_study.h5: the contour-target "
                          "comparison runs from a source checkout with its data/")
-    result = fit(read_raw_grid(dataset / "raw_grid.h5"), FitOptions(field_table=field_table))
+    options = FitOptions(tip_model="level-set", field_table=field_table)
+    result = fit(read_raw_grid(dataset / "raw_grid.h5"), options)
     plain = replace(result, field_table=None).write(folder / "calibration.h5")
     report = build_report(dataset / "plane_study.h5", runtime.load(plain))
     made = {"z-lookup": write_target(plain, folder / "calibration-target.h5", report.choice,
@@ -60,7 +63,7 @@ def calibrations_with_target(folder: Path, dataset: Path = DATASET,
 
 
 def calibration_with_target(folder: Path, dataset: Path = DATASET) -> Path:
-    """The dataset's grid fitted with the defaults, its study's chosen target written in."""
+    """The dataset's grid fitted (the level set, no table), its study's chosen target written in."""
     return calibrations_with_target(folder, dataset, field_table=False)["z-lookup"]
 
 

@@ -50,6 +50,7 @@ FLAGS: dict[str, tuple[str, bool]] = {
     "--allow-extrapolation": ("allow_extrapolation", True),
     "--no-rod-correction": ("rod_correction", False),
     "--field-table": ("field_table", True),
+    "--no-field-table": ("field_table", False),
 }
 
 

@@ -1,4 +1,4 @@
-"""``fit --field-table``: the (Y, Z) -> tip table for realistic tip contacts.
+"""The (Y, Z) -> tip table for realistic tip contacts (``fit``'s default; ``--no-field-table``).
 
 One scalar cannot tell a tip pushed square from one pushed with friction or by a slanted surface
 at the same Y; the chip's Z axis can (docs/calibration.md). The mechanics and a multipole magnet
@@ -96,19 +96,36 @@ def trust_verdict(estimate_mm: float, residual_ratio) -> tuple[bool, list[str]]:
     return True, []
 
 
+# the fewest contacts the joint fit is tried on (it has 14 parameters: 3 mechanical, 7 geometric,
+# 4 strengths, each contact giving two readings)
+MIN_CONTACTS = 20
+
+
+def _withheld(reason: str) -> FieldTableFit:
+    """No table, and one warning saying why: the table is on by default, and a grid it cannot
+    be fitted to may still calibrate the z lookup."""
+    return FieldTableFit(None, {"field_table": {"field_table_written": False, "reason": reason},
+                                "field_table_estimated_tip_error_mm": float("nan")},
+                         [f"no (Y, Z) table written: {reason}; the runtime uses the z lookup"])
+
+
 def fit_field_table(raw, length_mm: float) -> FieldTableFit:
     """Fit the mechanics and the magnet map to the grid's contacts, and tabulate the tips.
 
-    Raises UsageError when the grid has too few contacts for the fit.
+    A grid with too few contacts, or one the mechanics cannot be fitted to (a rigid root, rod
+    positions the model refuses), gets no table and one warning, as an untrusted table does.
     """
     started = time.perf_counter()
     used = contact_mask(raw.z_uT, raw.z_sem_uT)
-    if used.sum() < 20:
-        raise UsageError(f"a (Y, Z) table needs at least 20 contacts, the grid has {used.sum()}.")
+    if used.sum() < MIN_CONTACTS:
+        return _withheld(f"it needs at least {MIN_CONTACTS} contacts, the grid has {used.sum()}")
     fields = np.column_stack([raw.z_uT[used], axial_deflection_uT(raw)[used]])
     noise = _noise(raw, used)
-    fit = fit_mechanics_magnet(raw.rod_center_mm[used], fields, raw.rod_radius_mm, length_mm,
-                               noise)
+    try:
+        fit = fit_mechanics_magnet(raw.rod_center_mm[used], fields, raw.rod_radius_mm,
+                                   length_mm, noise)
+    except UsageError as error:  # as the z lookup's mechanics (fit.tip_model) reports it
+        return _withheld(f"the (Y, Z) model cannot be fitted ({str(error).rstrip('.')})")
     y_range = (float(fields[:, 0].min()), float(fields[:, 0].max()))
     load_fields, load_tips = table_load_points(fit, y_range)
     table = tabulate(load_fields, load_tips, y_range)

@@ -51,12 +51,14 @@ class FitOptions:
     threshold_uT : float
         Collision threshold stored for the runtime, µT from the static reading.
     tip_model : str
-        The lookup shipped: "level-set" (the paper's), "mechanics" (the mechanics-informed
-        model) or "auto" (the mechanics where the grid identifies it, else the level set). The
+        The lookup shipped: "auto" (default: the mechanics-informed model where the grid
+        identifies it, else the level set), "mechanics" or "level-set" (the paper's). The
         mechanics is fitted in every case for the error estimate (``fit.tip_model``).
     field_table : bool
         Also fit the mechanics with the magnet's map to Y and Z and store the (Y, Z) -> tip
-        table (``fit.field_table``) for tip contacts with friction or at a slant.
+        table (``fit.field_table``) for tip contacts with friction or at a slant (default;
+        ``--no-field-table`` leaves it out). Withheld, with a warning, where the fit's own
+        estimate says it cannot be trusted.
     """
 
     degree: int | str = 5
@@ -70,8 +72,8 @@ class FitOptions:
     allow_extrapolation: bool = False
     rod_correction: bool = True
     threshold_uT: float = CollisionParams.threshold_uT
-    tip_model: str = "level-set"
-    field_table: bool = False
+    tip_model: str = "auto"
+    field_table: bool = True
 
     def __post_init__(self) -> None:
         # the degree's range is the model's to check (FitError), as it is for every caller

@@ -72,7 +72,7 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
 
 
 def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress):
-    """The (Y, Z) -> tip table when asked for (``fit.field_table``), else None."""
+    """The (Y, Z) -> tip table (``fit.field_table``; on unless ``--no-field-table``), else None."""
     if not options.field_table:
         return None
     from whiskercal.fit.field_table import fit_field_table

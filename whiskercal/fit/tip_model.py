@@ -5,15 +5,16 @@ The level set f = z is the whisker's shape under a shaft contact, not the locus 
 (``mechfit.identify``) models the suspension and solves it for tip contact; where the grid pins
 the suspension down it is an order of magnitude closer, and its profile says how firmly. So:
 
-- ``level-set`` (default): the paper's method ships; the mechanics is fitted for the estimate;
+- ``level-set``: the paper's method ships; the mechanics is fitted for the estimate;
 - ``mechanics``: always the mechanics' lookup (refused when it cannot be fitted);
-- ``auto``: the mechanics when its estimated error is finite and below the level set's, else
-  the level set.
+- ``auto`` (default): the mechanics when its estimated error is finite and below the level
+  set's, else the level set.
 
-The level set stays the default because the paper's application loads the tip with friction:
-on the twin's cylinder contour the level set at its study target errs 0.17 mm, the mechanics at
-its own target 0.91 mm (docs/calibration.md); the mechanics wins only on frictionless tip
-contacts.
+A frictionless tip model is not the contact a robot makes (on the twin's cylinder contour the
+level set at its study target erred 0.17 mm, the mechanics at its own target 0.91 mm); the
+(Y, Z) table ``fit`` writes by default (``fit.field_table``) is what places tips pushed with
+friction, and the z lookup chosen here is the fallback where the table has no tip or the robot
+streams Y only (docs/calibration.md).
 
 The level set's error is estimated as its distance from an identified mechanics model (plus
 that model's own estimate); without one, neither error can be estimated, and the fit says so.

@@ -104,6 +104,9 @@ def fit_quantities(data) -> dict[str, Any]:
     # whether the fit warned of its tip error: a decision, where the estimate's digits are not
     found["fit.tip_error_warned"] = any("tip error" in str(w)
                                        for w in data.metrics.get("warnings", []))
+    # whether the artifact carries the (Y, Z) table (fit's default; withheld where its own
+    # estimate says it cannot be trusted): the study reads Z through it when it does
+    found["fit.field_table_written"] = data.field_table is not None
     return found
 
 

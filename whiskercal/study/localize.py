@@ -4,7 +4,7 @@ The study judges the calibration exactly as a robot would use it: one ``whiskerc
 tracker per trial, fed one sample at a time (collision detection, the lookup z -> tip, the
 constant-state Kalman filter). Samples whose z the calibration cannot map (outside its
 calibrated range) get no estimate and are counted. The chip's Z axis goes along when the
-calibration carries a (Y, Z) table (``fit --field-table``); otherwise Y alone, as the lookup
+calibration carries a (Y, Z) table (``fit``'s default); otherwise Y alone, as the lookup
 takes it.
 """
 

@@ -23,7 +23,8 @@ def command() -> None:
                    "20 mm step and a concave corner.")
 @click.option("--artifact", type=click.Path(dir_okay=False), required=True,
               help="Calibration artifact (CAL.h5) of the twin's sensor, with a target; one from "
-                   "`fit --field-table` places the contacts from the Y and Z axes (docs/contour.md).")
+                   "a (Y, Z) table (written by `fit` by default) places the contacts from the Y and Z "
+                   "axes (docs/contour.md).")
 @click.option("--sensor", "sensor_name", default=None, metavar="ID_OR_PATH",
               help="The twin's sensor build: a shipped id or a .toml file [default: the default sensor].")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,

@@ -37,7 +37,7 @@ def _summary(data, elapsed_s: float) -> dict:
     for key in ("lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm"):
         if key in m:
             summary[key] = m[key]
-    if "field_table_estimated_tip_error_mm" in m:  # fit --field-table
+    if "field_table_estimated_tip_error_mm" in m:  # not with --no-field-table
         summary["field_table_estimated_tip_error_mm"] = float(
             m["field_table_estimated_tip_error_mm"])
         summary["field_table_written"] = data.field_table is not None
@@ -78,15 +78,17 @@ def _summary(data, elapsed_s: float) -> dict:
 @click.option("--threshold-uT", "threshold_uT", default=300.0, show_default=True, type=float,
               help="Collision threshold stored for the runtime, µT from the static reading.")
 @click.option("--tip-model", type=click.Choice(["auto", "mechanics", "level-set"]),
-              default="level-set", show_default=True,
-              help="Tip model shipped in the lookup: the paper's level set, the mechanics-"
-              "informed fit (suspension + elastica solved for a frictionless tip contact), or "
-              "auto: the mechanics where the grid pins the suspension down. The mechanics is "
-              "fitted either way for the error estimate (docs/calibration.md).")
-@click.option("--field-table", is_flag=True,
+              default="auto", show_default=True,
+              help="Tip model shipped in the lookup: auto, the mechanics-informed fit "
+              "(suspension + elastica solved for a frictionless tip contact) where the grid pins "
+              "the suspension down, else the paper's level set; or either one by name. The "
+              "mechanics is fitted either way for the error estimate (docs/calibration.md).")
+@click.option("--field-table/--no-field-table", default=True, show_default=True,
               help="Also fit the suspension and the magnet's field to the Y and Z axes and store "
               "a (Y, Z) -> tip table: the runtime then places tips pushed with friction or by "
-              "slanted surfaces (docs/calibration.md). Adds a few tens of seconds.")
+              "slanted surfaces (docs/calibration.md). Withheld, with a warning, where its own "
+              "error estimate says it cannot be trusted. Adds 30-60 s to a fit of the default "
+              "grid, minutes on long builds; --no-field-table leaves it out.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit summary as JSON.")
 @pass_app
 def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, samples: int,
@@ -97,13 +99,14 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     """Fit a raw calibration grid (RAW.h5) and write the calibration artifact.
 
     Fits the surface z = f(x, y), traces the level set f = z from the root for the whisker's
-    arc length at SAMPLES deflections, and stores the lookup z -> tip with the collision and
-    filter settings the runtime uses. On a twin dataset the lookup is also measured against
-    the twin's true tips.
+    arc length at SAMPLES deflections (or solves the fitted mechanics for a tip contact), and
+    stores the lookup z -> tip with the collision and filter settings the runtime uses. On a
+    twin dataset the lookup is also measured against the twin's true tips.
 
     Every fit estimates its own RMS tip error without the truth (estimated_tip_error_mm, from
     how firmly the grid pins the suspension model down) and warns when it exceeds 0.25 mm or
-    cannot be estimated.
+    cannot be estimated. By default it also writes the (Y, Z) -> tip table and estimates that
+    table's error the same way (field_table_estimated_tip_error_mm).
 
     Refuses a grid that stops so far short of the tip that the trace would extrapolate more
     than --max-extension-mm past it (unless --allow-extrapolation), and warns, with the numbers,
