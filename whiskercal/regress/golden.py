@@ -28,7 +28,17 @@ GOLDEN_SCHEMA = "whiskercal.golden"
 GOLDEN_VERSION = "1.0.0"
 # The pipeline a dataset's golden results came from, unless its golden file says otherwise:
 # `whiskercal fit` with these arguments, the study report with this margin weight.
-DEFAULT_PIPELINE = {"fit_args": ["--degree", "5", "--samples", "20"], "margin_weight_mm": 0.1}
+# The level set's lookup and no (Y, Z) table, not fit's defaults: the tolerance classes hold for
+# them on any machine, the defaults' iterative fits move past them (data/README.md).
+DEFAULT_PIPELINE = {
+    "fit_args": ["--degree", "5", "--samples", "20", "--tip-model", "level-set", "--no-field-table"],
+    "margin_weight_mm": 0.1,
+    "why": ("--tip-model level-set --no-field-table: the level set's lookup reproduces to the"
+            " tolerance classes below on any machine; the mechanics' and the (Y, Z) table's "
+            "iterative fits (fit's defaults) move past them under another BLAS "
+            "(data/README.md), so the default fit is tested against the twin's truth instead "
+            "(tests/fit/test_tip_model.py)"),
+}
 
 
 @dataclass
