@@ -123,30 +123,8 @@ class Follower:
                 return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip)
         self._key_point(contact, pose)
         velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
-        kept = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
-        # counted only while the heading keeps up: turning about the contact adds no key point
-        lag = abs(_wrap(self._target_heading() - pose[2]))
-        self._dwell = self._dwell + 1 if phase == "follow" and lag < math.radians(self.config.stop_heading_deg) else 0
-        if self._turning:  # a key point's rule (an edge, a step back) turned the direction
-            pass
-        elif phase == "follow" and self._held_ahead(contact, float(velocity @ self.tangent), z_uT):
-            # held with the deflection kept, not rising: on an edge (the surface bends toward
-            # the object); held as the deflection falls, or rises (the base comes nearer a tip
-            # that cannot go on): against a surface ahead (a concave corner)
-            self._turn_at_corner(contact, toward_object=kept and not self._held_rising)
-            velocity, turn = self._action(z_uT, pose, moving=True)
-        elif (phase == "follow" and lag < math.radians(self.config.slow_heading_deg)
-              and abs(z_uT) > self.config.rise_share * abs(self.target_z_uT)):
-            # the deflection rises well past the target while moving along with the heading
-            # caught up: the base nears a tip that cannot go on, a surface ahead (a concave
-            # corner), before the held tip's estimates wander (its axial push read as a bend)
-            self._turn_at_corner(contact)
-            velocity, turn = self._action(z_uT, pose, moving=True)
-        elif kept and self._dwell > self.config.dwell_s * self.config.rate_hz:
-            # no new key point for that long while following at the target: the contact stays
-            # on an edge while the sensor turns about it; the surface bends toward the object
-            self._turn_at_corner(contact, toward_object=True)
-            velocity, turn = self._action(z_uT, pose, moving=True)
+        if not self._turning:  # (a key point's rule, an edge or a step back, may have turned it)
+            self._corner_rules(contact, pose, z_uT, float(velocity @ self.tangent), phase == "follow")
         if self._turning:
             return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip, contact)
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
@@ -154,6 +132,31 @@ class Follower:
         velocity = velocity + turn * np.array([-arm[1], arm[0]])
         robot.command(velocity, turn)
         return Step(contact, phase, slip, velocity, turn)
+
+    def _corner_rules(self, contact: np.ndarray, pose: np.ndarray, z_uT: float,
+                      tangential_mm_s: float, following: bool) -> None:
+        """The edge and concave-corner rules that watch the deflection and the held tip
+        (docs/contour.md, the controller's rule 7); each turns the surface's direction."""
+        config = self.config
+        kept = abs(z_uT) >= config.press_share * abs(self.target_z_uT)
+        # counted only while the heading keeps up: turning about the contact adds no key point
+        lag = abs(_wrap(self._target_heading() - pose[2]))
+        self._dwell = self._dwell + 1 if following and lag < math.radians(config.stop_heading_deg) else 0
+        if following and self._held_ahead(contact, tangential_mm_s, z_uT):
+            # held with the deflection kept, not rising: on an edge (the surface bends toward
+            # the object); held as the deflection falls, or rises (the base comes nearer a tip
+            # that cannot go on): against a surface ahead (a concave corner)
+            self._turn_at_corner(contact, toward_object=kept and not self._held_rising)
+        elif (following and lag < math.radians(config.slow_heading_deg)
+              and abs(z_uT) > config.rise_share * abs(self.target_z_uT)):
+            # the deflection rises well past the target while moving along with the heading
+            # caught up: the base nears a tip that cannot go on, a surface ahead (a concave
+            # corner), before the held tip's estimates wander (its axial push read as a bend)
+            self._turn_at_corner(contact)
+        elif kept and self._dwell > config.dwell_s * config.rate_hz:
+            # no new key point for that long while following at the target: the contact stays
+            # on an edge while the sensor turns about it; the surface bends toward the object
+            self._turn_at_corner(contact, toward_object=True)
 
     def _turn_about(self, pivot: np.ndarray, z_uT: float, pose: np.ndarray, robot: Robot,
                     phase: str, slip: bool, contact: np.ndarray | None = None) -> Step:
