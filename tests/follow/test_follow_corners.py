@@ -331,3 +331,21 @@ def test_a_search_meeting_the_object_on_the_far_side_comes_in_further_along(past
     expected = np.array([10.0, 0.0]) + config.search_standoff_mm * np.array(
         [math.cos(math.radians(angle)), math.sin(math.radians(angle))])
     np.testing.assert_allclose(np.array(follower.keys), [expected], atol=1e-9)
+
+
+@pytest.mark.parametrize("bent, stops", [(True, True), (False, False)])
+def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_stops_the_sensor(bent, stops):
+    # bent: the tip 70 mm along the whisker and 30 mm to its right (the chord 23° clockwise of
+    # the heading, as a whisker pressed at the target is); turning about the corner to the
+    # heading the 45° turn asks for (-155°) would put the base 2.7 mm above the wall it leaves
+    # (y = 0 through the corner). Straight (the tip on the whisker's axis): 33 mm above it.
+    follower, robot, config = _following_along_x(
+        (lambda robot: Touching()) if bent else (lambda robot: HeldAt(robot)))
+    step = follower.update(-5600.0, robot)  # the rise rule: a surface ahead
+    assert _angle_deg(follower.tangent) == pytest.approx(135.0)
+    assert follower.gave_up == stops
+    if stops:  # stopped for good rather than driven into the wall
+        assert step.phase == "gave-up" and not np.any(step.velocity_mm_s) and step.turn_rad_s == 0.0
+        assert follower.update(-5000.0, robot).phase == "gave-up"
+    else:
+        assert step.phase == "follow" and follower._turning

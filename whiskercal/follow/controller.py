@@ -76,6 +76,7 @@ class Follower:
         self._past_edge = False  # the surface's direction was last turned by an edge rule
         self._held_rising = False
         self._turning = False  # a corner rule turned the direction; the heading not round yet
+        self._left_outward: np.ndarray | None = None  # the surface left at a concave corner
 
     def update(self, z_uT: float, robot: Robot, axial_uT: float | None = None) -> Step:
         """Feed one z sample (µT from rest) and, when the magnetometer streams it, the chip's Z
@@ -126,7 +127,7 @@ class Follower:
         if not self._turning:  # (a key point's rule, an edge or a step back, may have turned it)
             self._corner_rules(contact, pose, z_uT, float(velocity @ self.tangent), phase == "follow")
         if self._turning:
-            return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip, contact)
+            return self._at_corner(z_uT, pose, robot, phase, slip, contact)
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
         arm = pose[:2] - contact
         velocity = velocity + turn * np.array([-arm[1], arm[0]])
@@ -157,6 +158,17 @@ class Follower:
             # no new key point for that long while following at the target: the contact stays
             # on an edge while the sensor turns about it; the surface bends toward the object
             self._turn_at_corner(contact, toward_object=True)
+
+    def _at_corner(self, z_uT: float, pose: np.ndarray, robot: Robot, phase: str, slip: bool,
+                   contact: np.ndarray) -> Step:
+        """A corner rule has just turned the direction: turn about the corner, unless that
+        would bring the base to the surface it leaves (a concave corner narrower than the bent
+        whisker's reach): then stop for good rather than crash."""
+        if self._swings_into_left(pose, contact):
+            self.gave_up = True
+            robot.command(np.zeros(2), 0.0)
+            return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
+        return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip, contact)
 
     def _turn_about(self, pivot: np.ndarray, z_uT: float, pose: np.ndarray, robot: Robot,
                     phase: str, slip: bool, contact: np.ndarray | None = None) -> Step:
@@ -270,9 +282,23 @@ class Follower:
         still while it turns, about the contact)."""
         sign = 1.0 if toward_object else -1.0
         self._past_edge = toward_object
+        if not toward_object and self._left_outward is None:  # the surface followed up to here
+            self._left_outward = np.array([self.tangent[1], -self.tangent[0]])
         self._turning = True
         self.tangent = _unit(_angle(self.tangent) + sign * math.radians(self.config.corner_turn_deg))
         self._restart_keys(contact)
+
+    def _swings_into_left(self, pose: np.ndarray, contact: np.ndarray) -> bool:
+        """After a concave corner's rule: would turning about the corner to the heading asked
+        for, the whisker bent as now, bring the base within ``corner_clearance_mm`` of the
+        surface left there (its line through the corner)?"""
+        if self._past_edge or self._left_outward is None:
+            return False
+        corner = self.keys[-1]
+        arm = float(np.linalg.norm(pose[:2] - contact))
+        bend = _wrap(_angle(contact - pose[:2]) - pose[2])  # the chord to the tip from the heading
+        base = corner - arm * _unit(self._target_heading() + bend)
+        return float((base - corner) @ self._left_outward) < self.config.corner_clearance_mm
 
     def _restart_keys(self, point: np.ndarray) -> None:
         """The key points start afresh from ``point`` (mm, world)."""
@@ -292,6 +318,8 @@ class Follower:
             return
         self.keys.append(contact)
         self._dwell = 0
+        if len(self.keys) >= 3:  # a surface followed again: no corner left behind
+            self._left_outward = None
         if len(self.keys) >= 2 and float((self.keys[-1] - self.keys[-2]) @ self.tangent) < 0.0:
             # the contact went back against the surface's direction: no surface turns back on
             # itself; a tip held in a concave corner, its axial push read as a deflection, moves
