@@ -263,3 +263,89 @@ def test_following_at_the_target_without_a_new_key_point_turns_toward_the_object
     # after 1 s, counter-clockwise by 45° (toward the object below); not again within the next
     # second (the time is counted afresh)
     assert angles[int(0.9 * config.rate_hz)] == 180 and set(angles[int(1.1 * config.rate_hz):]) == {-135}
+
+
+def _angle_deg(direction):
+    return math.degrees(math.atan2(direction[1], direction[0]))
+
+
+def test_a_key_point_that_steps_back_against_the_surface_is_a_tip_held_in_a_concave_corner():
+    follower, robot, _ = _following_along_x(lambda robot: HeldAt(robot))  # key points 12 .. 2 mm
+    follower._samples = follower.config.key_every - 1  # the next contact is a key point
+    follower._key_point(np.array([4.5, 0.5]), robot.pose())  # 2.5 mm back (+x) from the last
+    # no surface turns back on itself: the surface ahead turns away from the object (clockwise)
+    # by 45°, about the last key point before the step back
+    assert _angle_deg(follower.tangent) == pytest.approx(135.0)
+    np.testing.assert_allclose(np.array(follower.keys), [[2.0, 0.0]])
+    assert follower._turning
+
+
+@pytest.mark.parametrize("z_uT, turned", [(-5600.0, True), (-5400.0, False)])
+def test_a_deflection_rising_past_the_target_while_moving_along_is_a_surface_ahead(z_uT, turned):
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot))
+    follower.update(z_uT, robot)  # 1.12 (or 1.08) times the target's |z|, the heading caught up
+    assert _angle_deg(follower.tangent) == pytest.approx(135.0 if turned else 180.0)
+
+
+def test_a_held_tip_whose_deflection_rises_as_the_sensor_moves_along_is_a_concave_corner():
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot, (1.0, 0.0)))
+    samples = int(0.5 * config.rate_hz)
+    for index in range(samples):  # kept at the target and rising, below the rise rule's 1.1
+        follower.update(-5000.0 - 300.0 * index / samples, robot)
+        robot.step(1.0 / config.rate_hz)
+    assert _angle_deg(follower.tangent) == pytest.approx(135.0)  # away from the object, not an edge
+
+
+def test_after_a_corner_rule_it_turns_about_the_corner_and_keeps_no_key_point_until_round():
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot))
+    follower.update(-5600.0, robot)  # the rise rule: the corner is that sample's contact
+    corner = np.array(follower.keys[-1])
+    heading = robot.pose()[2]
+    for _ in range(int(1.0 * config.rate_hz)):
+        step = follower.update(-5000.0, robot)
+        pose = robot.pose()
+        # the base moves so that the corner stays put while it turns, and (the PID) along the
+        # normal: no motion along the surface
+        arm = pose[:2] - corner
+        own = step.velocity_mm_s - step.turn_rad_s * np.array([-arm[1], arm[0]])
+        assert own @ follower.tangent == pytest.approx(0.0, abs=1e-9)
+        assert np.linalg.norm(own) < 0.01  # mm/s: the PID's integral of the one high sample
+        assert np.all(np.isnan(step.contact_mm))  # a held tip's estimate is not on the surface
+        robot.step(1.0 / config.rate_hz)
+    assert len(follower.keys) == 1 and follower._turning
+    assert math.degrees(heading - robot.pose()[2]) > 5.0  # turning clockwise, toward -155°
+
+
+@pytest.mark.parametrize("past_edge", [True, False])
+def test_a_search_meeting_the_object_on_the_far_side_comes_in_further_along(past_edge):
+    config = FollowConfig()
+    follower = _follower_that_lost_contact(config)  # followed +x, the object above, last key (10, 0)
+    follower.tracker = Touching()
+    follower._touching, follower._past_edge = False, past_edge  # searching
+    robot = KinematicRobot([0.0, -80.0, follower._target_heading()])
+    assert follower.update(400.0, robot).phase == "back-off"  # z of the wrong sign: the far side
+    # past an edge: the line came in over the edge's rounding; the same direction, 10 mm on.
+    # otherwise a surface ahead: the direction turns 45° away (clockwise), 10 mm past the corner
+    angle = 0.0 if past_edge else -45.0
+    assert _angle_deg(follower.tangent) == pytest.approx(angle)
+    expected = np.array([10.0, 0.0]) + config.search_standoff_mm * np.array(
+        [math.cos(math.radians(angle)), math.sin(math.radians(angle))])
+    np.testing.assert_allclose(np.array(follower.keys), [expected], atol=1e-9)
+
+
+@pytest.mark.parametrize("bent, stops", [(True, True), (False, False)])
+def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_stops_the_sensor(bent, stops):
+    # bent: the tip 70 mm along the whisker and 30 mm to its right (the chord 23° clockwise of
+    # the heading, as a whisker pressed at the target is); turning about the corner to the
+    # heading the 45° turn asks for (-155°) would put the base 2.7 mm above the wall it leaves
+    # (y = 0 through the corner). Straight (the tip on the whisker's axis): 33 mm above it.
+    follower, robot, config = _following_along_x(
+        (lambda robot: Touching()) if bent else (lambda robot: HeldAt(robot)))
+    step = follower.update(-5600.0, robot)  # the rise rule: a surface ahead
+    assert _angle_deg(follower.tangent) == pytest.approx(135.0)
+    assert follower.gave_up == stops
+    if stops:  # stopped for good rather than driven into the wall
+        assert step.phase == "gave-up" and not np.any(step.velocity_mm_s) and step.turn_rad_s == 0.0
+        assert follower.update(-5000.0, robot).phase == "gave-up"
+    else:
+        assert step.phase == "follow" and follower._turning

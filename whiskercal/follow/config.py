@@ -46,6 +46,10 @@ class FollowConfig:
     by more than this is an edge: the surface's direction takes it at once. edge_turn_max_rad_s:
     the turn rate allowed while the heading lags past ``stop_heading_deg`` (the sensor then
     stands still, turning about the contact: past an edge, or a concave corner).
+    rise_share: following with the heading caught up, |z| above this share of the target's
+    |z| is a tip held by a surface ahead (a concave corner). corner_clearance_mm: the least
+    distance (mm) from the sensor's base to the surface left at a concave corner: when turning
+    about the corner would bring the base nearer, the sensor stops for good (gave up).
     """
 
     rate_hz: float = 300.0
@@ -81,6 +85,8 @@ class FollowConfig:
     edge_turn_max_rad_s: float = 0.3
     dwell_s: float = 1.0
     search_turns: int = 4
+    rise_share: float = 1.1
+    corner_clearance_mm: float = 10.0
 
     def __post_init__(self) -> None:
         for item in fields(self):

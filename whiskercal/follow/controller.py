@@ -73,6 +73,10 @@ class Follower:
         self._search_turned = 0  # turns of the search line about the last key point so far
         self._far_side = False  # the last sample felt the object on the whisker's far side
         self._dwell = 0  # samples following since the last key point
+        self._past_edge = False  # the surface's direction was last turned by an edge rule
+        self._held_rising = False
+        self._turning = False  # a corner rule turned the direction; the heading not round yet
+        self._left_outward: np.ndarray | None = None  # the surface left at a concave corner
 
     def update(self, z_uT: float, robot: Robot, axial_uT: float | None = None) -> Step:
         """Feed one z sample (µT from rest) and, when the magnetometer streams it, the chip's Z
@@ -109,27 +113,73 @@ class Follower:
         # along the (frictionless) surface, round a bend too, and the heading follows it
         phase = "follow" if self.pressed else "press"
         self.pressed |= abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
+        if self._turning:
+            # after a corner rule, until the heading is within slow_heading_deg of the new one:
+            # the tip stays on the corner (the last key point) and the sensor turns about it;
+            # the estimates of a tip held there wander (its axial push read as a bend), so they
+            # add no key point and fire no rule
+            self._turning = (abs(_wrap(self._target_heading() - pose[2]))
+                             >= math.radians(self.config.slow_heading_deg))
+            if self._turning:
+                return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip)
         self._key_point(contact, pose)
         velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
-        kept = abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
-        # counted only while the heading keeps up: turning about the contact adds no key point
-        lag = abs(_wrap(self._target_heading() - pose[2]))
-        self._dwell = self._dwell + 1 if phase == "follow" and lag < math.radians(self.config.stop_heading_deg) else 0
-        if phase == "follow" and self._held_ahead(contact, float(velocity @ self.tangent)):
-            # held with the deflection kept: on an edge (the surface bends toward the object);
-            # held as the deflection falls: against a surface ahead (a concave corner)
-            self._turn_at_corner(contact, toward_object=kept)
-            velocity, turn = self._action(z_uT, pose, moving=True)
-        elif kept and self._dwell > self.config.dwell_s * self.config.rate_hz:
-            # no new key point for that long while following at the target: the contact stays
-            # on an edge while the sensor turns about it; the surface bends toward the object
-            self._turn_at_corner(contact, toward_object=True)
-            velocity, turn = self._action(z_uT, pose, moving=True)
+        if not self._turning:  # (a key point's rule, an edge or a step back, may have turned it)
+            self._corner_rules(contact, pose, z_uT, float(velocity @ self.tangent), phase == "follow")
+        if self._turning:
+            return self._at_corner(z_uT, pose, robot, phase, slip, contact)
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
         arm = pose[:2] - contact
         velocity = velocity + turn * np.array([-arm[1], arm[0]])
         robot.command(velocity, turn)
         return Step(contact, phase, slip, velocity, turn)
+
+    def _corner_rules(self, contact: np.ndarray, pose: np.ndarray, z_uT: float,
+                      tangential_mm_s: float, following: bool) -> None:
+        """The edge and concave-corner rules that watch the deflection and the held tip
+        (docs/contour.md, the controller's rule 7); each turns the surface's direction."""
+        config = self.config
+        kept = abs(z_uT) >= config.press_share * abs(self.target_z_uT)
+        # counted only while the heading keeps up: turning about the contact adds no key point
+        lag = abs(_wrap(self._target_heading() - pose[2]))
+        self._dwell = self._dwell + 1 if following and lag < math.radians(config.stop_heading_deg) else 0
+        if following and self._held_ahead(contact, tangential_mm_s, z_uT):
+            # held with the deflection kept, not rising: on an edge (the surface bends toward
+            # the object); held as the deflection falls, or rises (the base comes nearer a tip
+            # that cannot go on): against a surface ahead (a concave corner)
+            self._turn_at_corner(contact, toward_object=kept and not self._held_rising)
+        elif (following and lag < math.radians(config.slow_heading_deg)
+              and abs(z_uT) > config.rise_share * abs(self.target_z_uT)):
+            # the deflection rises well past the target while moving along with the heading
+            # caught up: the base nears a tip that cannot go on, a surface ahead (a concave
+            # corner), before the held tip's estimates wander (its axial push read as a bend)
+            self._turn_at_corner(contact)
+        elif kept and self._dwell > config.dwell_s * config.rate_hz:
+            # no new key point for that long while following at the target: the contact stays
+            # on an edge while the sensor turns about it; the surface bends toward the object
+            self._turn_at_corner(contact, toward_object=True)
+
+    def _at_corner(self, z_uT: float, pose: np.ndarray, robot: Robot, phase: str, slip: bool,
+                   contact: np.ndarray) -> Step:
+        """A corner rule has just turned the direction: turn about the corner, unless that
+        would bring the base to the surface it leaves (a concave corner narrower than the bent
+        whisker's reach): then stop for good rather than crash."""
+        if self._swings_into_left(pose, contact):
+            self.gave_up = True
+            robot.command(np.zeros(2), 0.0)
+            return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
+        return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip, contact)
+
+    def _turn_about(self, pivot: np.ndarray, z_uT: float, pose: np.ndarray, robot: Robot,
+                    phase: str, slip: bool, contact: np.ndarray | None = None) -> Step:
+        """Turn about ``pivot`` (world, mm: the corner) toward the heading the surface asks
+        for, pressing to the target, with no motion along; the step's contact is NaN (an
+        estimate of a held tip is not a point of the surface)."""
+        velocity, turn = self._action(z_uT, pose, moving=False)
+        arm = pose[:2] - pivot
+        velocity = velocity + turn * np.array([-arm[1], arm[0]])
+        robot.command(velocity, turn)
+        return Step(np.full(2, np.nan) if contact is None else contact, phase, slip, velocity, turn)
 
     # -- pieces ---------------------------------------------------------------------------------
     def _find_contact(self, robot: Robot, pose: np.ndarray, slip: bool) -> Step:
@@ -143,11 +193,20 @@ class Follower:
             # lost to the far side, the surface goes on ahead of the tip (a concave corner):
             # it turns away from the object about the last key point
             if self._far_side and self.keys and self.tangent is not None:
-                self._turn_at_corner(self.keys[-1])
+                if self._past_edge and not self._touching:
+                    # a search past an edge met it with the whisker's far side: the line came
+                    # in over the edge's rounding, not onto the face; come in further along
+                    self._past_edge = False
+                    self._restart_keys(self.keys[-1] + self.config.search_standoff_mm * self.tangent)
+                else:
+                    # the surface ahead begins at the corner: come in onto it a standoff past
+                    # the corner, so that the whisker's line clears the surface it leaves
+                    self._turn_at_corner(self.keys[-1])
+                    self._restart_keys(self.keys[-1] + self.config.search_standoff_mm * self.tangent)
             self.pressed, self._backing = False, int(self.config.backoff_s * self.config.rate_hz)
             self._lined_up = False
             self._progress.clear()
-        self._touching = False
+        self._touching = self._turning = False  # (the search lines up on its own)
         self._integral = 0.0
         if self._backing > 0:  # straight back along the whisker: the wire leaves the object
             self._backing -= 1
@@ -200,16 +259,18 @@ class Follower:
         arm = pose[:2] - free_tip  # turn about the free tip
         return tip_velocity + turn * np.array([-arm[1], arm[0]]), turn
 
-    def _held_ahead(self, contact: np.ndarray, tangential_mm_s: float) -> bool:
+    def _held_ahead(self, contact: np.ndarray, tangential_mm_s: float, z_uT: float) -> bool:
         """Is the tip held while the sensor moves along (a surface ahead of it: a concave
         corner)? True when the contact has gone less than ``stall_share`` of the last
-        ``stall_travel_mm`` of tangential motion commanded along the surface."""
+        ``stall_travel_mm`` of tangential motion commanded along the surface. Sets
+        ``_held_rising``: |z| has risen over that travel (the base nearing a held tip)."""
         config = self.config
         self._travel += max(tangential_mm_s, 0.0) / config.rate_hz
-        self._progress.append((self._travel, contact))
+        self._progress.append((self._travel, contact, abs(z_uT)))
         while len(self._progress) > 1 and self._travel - self._progress[1][0] >= config.stall_travel_mm:
             self._progress.popleft()
-        travel, before = self._progress[0]
+        travel, before, z_before = self._progress[0]
+        self._held_rising = abs(z_uT) > z_before
         if self._travel - travel < config.stall_travel_mm:
             return False
         return float((contact - before) @ self.tangent) < config.stall_share * (self._travel - travel)
@@ -220,9 +281,29 @@ class Follower:
         start the key points afresh from the corner (the catch-up rule then holds the sensor
         still while it turns, about the contact)."""
         sign = 1.0 if toward_object else -1.0
+        self._past_edge = toward_object
+        if not toward_object and self._left_outward is None:  # the surface followed up to here
+            self._left_outward = np.array([self.tangent[1], -self.tangent[0]])
+        self._turning = True
         self.tangent = _unit(_angle(self.tangent) + sign * math.radians(self.config.corner_turn_deg))
+        self._restart_keys(contact)
+
+    def _swings_into_left(self, pose: np.ndarray, contact: np.ndarray) -> bool:
+        """After a concave corner's rule: would turning about the corner to the heading asked
+        for, the whisker bent as now, bring the base within ``corner_clearance_mm`` of the
+        surface left there (its line through the corner)?"""
+        if self._past_edge or self._left_outward is None:
+            return False
+        corner = self.keys[-1]
+        arm = float(np.linalg.norm(pose[:2] - contact))
+        bend = _wrap(_angle(contact - pose[:2]) - pose[2])  # the chord to the tip from the heading
+        base = corner - arm * _unit(self._target_heading() + bend)
+        return float((base - corner) @ self._left_outward) < self.config.corner_clearance_mm
+
+    def _restart_keys(self, point: np.ndarray) -> None:
+        """The key points start afresh from ``point`` (mm, world)."""
         self.keys.clear()
-        self.keys.append(contact)
+        self.keys.append(point)
         self._bend_mm = math.inf
         self._progress.clear()
         self._dwell = 0
@@ -237,6 +318,14 @@ class Follower:
             return
         self.keys.append(contact)
         self._dwell = 0
+        if len(self.keys) >= 3:  # a surface followed again: no corner left behind
+            self._left_outward = None
+        if len(self.keys) >= 2 and float((self.keys[-1] - self.keys[-2]) @ self.tangent) < 0.0:
+            # the contact went back against the surface's direction: no surface turns back on
+            # itself; a tip held in a concave corner, its axial push read as a deflection, moves
+            # the estimates toward the base. The corner is the last key point before the step.
+            self._turn_at_corner(self.keys[-2])
+            return
         self._bend_mm = self._bend_radius_mm()
         if self.pressed and len(self.keys) >= 3 and self._round_an_edge():
             return  # (not on the first key points: the first direction is only the approach's)
@@ -253,6 +342,7 @@ class Follower:
         if _wrap(_angle(step) - _angle(self.tangent)) <= math.radians(self.config.edge_turn_deg):
             return False
         self.tangent = step / float(np.linalg.norm(step))
+        self._past_edge = self._turning = True
         last_two = list(self.keys)[-2:]
         self.keys.clear()
         self.keys.extend(last_two)
