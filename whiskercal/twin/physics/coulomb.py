@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from whiskercal.checks import number
 from whiskercal.errors import UsageError
 
 # PLA against a nitinol wire's end: dry polymer-on-metal friction is 0.2-0.4; the static and
@@ -24,16 +25,6 @@ DEFAULT_MU_KINETIC = 0.22
 DEFAULT_SLIP_REBOUND = 0.9
 # Below this gap between mu_s and the rest ratio the tip cannot re-stick: it slides steadily.
 STEADY_SLIDE_RATIO = 1e-9
-
-
-def _finite(name: str, value, minimum: float = -math.inf) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise UsageError(f"{name} must be a number, got {value!r}.") from None
-    if not math.isfinite(number) or number < minimum:
-        raise UsageError(f"{name} must be a finite number >= {minimum:g}, got {value!r}.")
-    return number
 
 
 @dataclass(frozen=True)
@@ -56,11 +47,10 @@ class Coulomb:
     slip_rebound: float = DEFAULT_SLIP_REBOUND
 
     def __post_init__(self) -> None:
-        _finite("mu_kinetic", self.mu_kinetic, 0.0)
-        if _finite("mu_static", self.mu_static, 0.0) < self.mu_kinetic:
+        number(self.mu_kinetic, "mu_kinetic", low=0.0)
+        if number(self.mu_static, "mu_static", low=0.0) < self.mu_kinetic:
             raise UsageError("mu_static must be at least mu_kinetic.")
-        if not 0.0 <= _finite("slip_rebound", self.slip_rebound) <= 1.0:
-            raise UsageError(f"slip_rebound must lie in 0..1, got {self.slip_rebound!r}.")
+        number(self.slip_rebound, "slip_rebound", low=0.0, high=1.0)
 
     @property
     def rest_ratio(self) -> float:
