@@ -173,7 +173,7 @@ class MobileSensor:
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
         seen, solved = {}, {}
         for index, piece in enumerate(self._obstacle):
-            if _edge_distances_mm(piece.vertices_mm, origin).min() <= self._keep_mm:
+            if piece.edge_distances_mm(origin).min() <= self._keep_mm:
                 seen[index] = (piece.vertices_mm - origin) @ turn.T
         whisker = self.sensor.whisker
         for index, vertices in seen.items():
@@ -249,20 +249,13 @@ class MobileSensor:
         """First index and number of the edges within ``_keep_mm`` + NEAR_REUSE_MM of
         ``origin`` (so that the run still holds while the base stays within NEAR_REUSE_MM of
         it); (None, 0) when they are not one run."""
-        near = _edge_distances_mm(self._obstacle.vertices_mm, origin) <= self._keep_mm + NEAR_REUSE_MM
+        near = self._obstacle.edge_distances_mm(origin) <= self._keep_mm + NEAR_REUSE_MM
         starts = np.flatnonzero(near & ~np.roll(near, 1))
         return (int(starts[0]), int(near.sum())) if len(starts) == 1 else (None, 0)
 
 
 NEAR_MARGIN_MM = 40.0
 NEAR_REUSE_MM = 2.0
-
-
-def _edge_distances_mm(vertices_mm: np.ndarray, point_mm: np.ndarray) -> np.ndarray:
-    """Distance from ``point_mm`` to each edge of the closed polygon ``vertices_mm`` (mm)."""
-    edge = np.roll(vertices_mm, -1, axis=0) - vertices_mm
-    share = np.clip(((point_mm - vertices_mm) * edge).sum(axis=1) / (edge * edge).sum(axis=1), 0.0, 1.0)
-    return np.linalg.norm(vertices_mm + share[:, None] * edge - point_mm, axis=1)
 
 
 def _kept(solved: dict, pieces: dict, free):

@@ -191,6 +191,14 @@ class Polygon:
         """How far each point lies inside the polygon (negative outside), shape (n,)."""
         return np.min(self.edge_offsets_mm[None, :] - points_mm @ self.outward_normals.T, axis=1)
 
+    def edge_distances_mm(self, point_mm: np.ndarray) -> np.ndarray:
+        """Distance (mm) from `point_mm` to each edge i (from vertex i to i+1), shape (k,)."""
+        vertices = self.vertices_mm
+        edge = _following(vertices) - vertices
+        share = np.clip(((point_mm - vertices) * edge).sum(axis=1) / (edge * edge).sum(axis=1),
+                        0.0, 1.0)
+        return np.linalg.norm(vertices + share[:, None] * edge - point_mm, axis=1)
+
     def moved(self, offset_mm: np.ndarray) -> "Polygon":
         """The same polygon moved by `offset_mm`."""
         return replace(self, vertices_mm=self.vertices_mm + offset_mm)

@@ -50,10 +50,7 @@ def surface_normal(obstacle, point_mm) -> np.ndarray:
 
 def nearest_edge(polygon: Polygon, point_mm: np.ndarray) -> int:
     """Index of the polygon's edge (from vertex i to i + 1) nearest to ``point_mm``."""
-    vertices = polygon.vertices_mm
-    edge = np.concatenate([vertices[1:], vertices[:1]]) - vertices
-    share = np.clip(((point_mm - vertices) * edge).sum(axis=1) / (edge * edge).sum(axis=1), 0.0, 1.0)
-    return int(np.argmin(np.linalg.norm(vertices + share[:, None] * edge - point_mm, axis=1)))
+    return int(np.argmin(polygon.edge_distances_mm(point_mm)))
 
 
 def friction_ratio(force, normal) -> tuple[float, float]:
