@@ -42,6 +42,18 @@ def test_the_default_fit_of_the_default_grid_is_within_the_goals(raw):
 
 
 @pytest.mark.slow
+def test_the_60mm_grids_default_z_lookup_meets_the_family_goal_above_its_estimate():
+    # this grid's mechanics fit once landed in two places with the CPU (0.42 mm RMS, silently
+    # over the goal, on one; docs/calibration.md): it must land in the good one everywhere
+    result = fit(read_raw_grid(DATA / "twin-short-60mm" / "raw_grid.h5"),
+                 FitOptions(field_table=False))
+    assert result.metrics["tip_model"] == "mechanics"
+    true_rms = result.metrics["lookup_vs_truth_rmse_mm"]
+    assert true_rms <= 0.25 and result.metrics["lookup_vs_truth_max_mm"] <= 0.5
+    assert true_rms <= result.metrics["estimated_tip_error_mm"] <= 0.25
+
+
+@pytest.mark.slow
 def test_the_level_set_estimates_its_error_and_warns_of_it(raw):
     result = fit(raw, FitOptions(tip_model="level-set", field_table=False))
     assert result.metrics["tip_model"] == "level-set"
