@@ -50,8 +50,9 @@ class SensorParams:
 
 
 # Fitted by scripts/fit_default_magnet.py against the authors' characterized model (a target for
-# choosing defaults only; nothing computes results from it): a 2.1 x 0.56 mm NdFeB disc 4.3 mm
-# below the centre of rotation, 1.9 mm above the chip; see docs/twin.md.
+# choosing defaults only; nothing computes results from it), then reading the model's input as
+# the change from rest: a 2.1 x 0.56 mm NdFeB disc 4.3 mm below the centre of rotation, 1.9 mm
+# above the chip. docs/twin.md gives the refit on the model's raw-Y footing and why it waits.
 DEFAULT_SENSOR = SensorParams(
     sensor_id="twin-paper-75mm",
     whisker=WhiskerParams(),
