@@ -9,6 +9,10 @@ import pytest
 from whiskercal.errors import UsageError
 from whiskercal.twin.physics.mechanics import (Circle, Polygon, WhiskerParams, free, plane_for_depth,
                                        regular_polygon, solve_plane, solve_rod, solve_shape)
+from whiskercal.twin.outlines import outline
+from whiskercal.twin.physics import elastica as el
+from whiskercal.twin.physics.contacts import make_equilibrium
+from whiskercal.twin.physics.polygon import polygon_params
 from whiskercal.twin.validation.checks import equilibrium_residual
 
 WHISKER = WhiskerParams()
@@ -155,6 +159,23 @@ def test_polygon_along_a_path_stays_outside():
         kinds.add(previous.kind)
         assert np.all(moved.depth_mm(previous.shape_mm(201)[1:]) <= 1e-6)
     assert "shaft" in kinds
+
+
+def test_a_tip_sliding_over_a_rounded_corner_goes_on_along_it_not_round_the_far_side():
+    # seen in a contour run on the rounded square at -7 mT: warm-started from the tip on the
+    # top face's last edge, the corner's vertex solves to a physical state with the wire bent
+    # the other way (tip 82 mm off); the next edge continues the contact and must be chosen
+    pose = np.array([21.12791562, 120.21856511, -1.92318147])
+    turn = np.array([[math.cos(pose[2]), math.sin(pose[2])], [-math.sin(pose[2]), math.cos(pose[2])]])
+    square = Polygon((outline("rounded-rect").obstacle().vertices_mm - pose[:2]) @ turn.T)
+    z = np.array([-1.61401152, -1.74996062, -0.6959451])  # the last pose's tip on edge 62
+    p = polygon_params(WHISKER, square, el.TIP_LINE, 62)
+    before = make_equilibrium(WHISKER, "tip", el.TIP_LINE, z, p)
+    previous = replace(before, solution=before.solution + (62,))
+    eq = solve_shape(WHISKER, square, previous)
+    assert eq.kind == "tip" and eq.tip_mm[1] < 0.0  # still bent toward -y by the square
+    assert np.linalg.norm(eq.tip_mm - before.tip_mm) < 0.1
+    assert np.all(square.depth_mm(eq.shape_mm(201)[1:]) <= 1e-6)
 
 
 @pytest.mark.parametrize("radius", [-1.0, math.nan, math.inf, "thick", None])

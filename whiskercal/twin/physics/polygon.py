@@ -24,6 +24,9 @@ from whiskercal.twin.physics.whisker import Equilibrium
 
 SHAPE_NODES = 64
 DEPTH_TOL_L = 1e-6      # how far (in L) the wire may cut into the polygon: round-off
+# How far (in L) the tip may move between two poses and still count as the same contact
+# continued: a period moves the base by hundredths of a millimetre, a path step by PATH_STEP.
+JUMP_L = 0.1
 # A candidate is (code, index): a corner on the shaft, the tip on an edge, the tip on a corner.
 
 
@@ -77,20 +80,42 @@ def physical_state(whisker, polygon: Polygon, code: int, index: int, z, p) -> bo
     return not polygon.crosses_polyline(points, DEPTH_TOL_L * whisker.length_mm)
 
 
+def _tip_of(code: int, z, p) -> np.ndarray:
+    """The tip (in L) of a solved state."""
+    return np.array(el.end_state(code, z, p, el.DEFAULT_STEPS)[3:5])
+
+
 def _solve_pose(whisker, polygon: Polygon, state):
-    """From state (code, index, z): the physical state at this pose, or None."""
+    """From state (code, index, z): the physical state at this pose, or None.
+
+    The last pose's contact when it still holds; else the first other physical candidate whose
+    tip lies within :data:`JUMP_L` of the last one's, and only when none does, the first
+    physical one (the contact slipped off: the wire snaps elsewhere). Newton warm-started from
+    the last state can land on a distant equilibrium that is physical too (the wire bent the
+    other way round a corner the tip was sliding past) while the continuation lies on the next
+    edge, later in the order.
+    """
     code, index, z = state
+    last_tip = None
     # lazily: the contact the last pose had usually still holds, and listing every other
     # candidate of a many-edged polygon would cost more than solving it
     order = itertools.chain([(code, index)], (c for c in _candidates(polygon, index) if c != (code, index)))
+    distant = None
     for cand_code, cand_index in order:
         p = polygon_params(whisker, polygon, cand_code, cand_index)
         start = np.append(z[:3], z[3] if len(z) > 3 else 0.999) \
             if cand_code == el.SHAFT_CIRCLE else z[:3]
         z_new, ok = solve_kind(cand_code, start, p)
         if ok and physical_state(whisker, polygon, cand_code, cand_index, z_new, p):
-            return cand_code, cand_index, z_new
-    return None
+            found = (cand_code, cand_index, z_new)
+            if (cand_code, cand_index) == (code, index):
+                return found  # the same contact, followed from its own last solution
+            if last_tip is None:
+                last_tip = _tip_of(code, z, polygon_params(whisker, polygon, code, index))
+            if np.linalg.norm(_tip_of(cand_code, z_new, p) - last_tip) <= JUMP_L:
+                return found
+            distant = distant or found
+    return distant
 
 
 def _first_touch(whisker, polygon: Polygon):
