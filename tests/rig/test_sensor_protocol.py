@@ -6,7 +6,7 @@ from byte_pairs import expected_protocol
 
 from whiskercal.errors import DeviceError
 from whiskercal.protocol.frames import encode_sample, encode_text
-from whiskercal.rig.sensor import SensorClient, SensorCommandError
+from whiskercal.rig.sensor import SYNC_TIMEOUT_S, SensorClient, SensorCommandError
 
 CFG = encode_text("OK rate=300 gain=5 res=2 osr=0 filt=2")
 
@@ -125,6 +125,15 @@ def test_sync_refuses_a_board_that_is_not_streaming():
     with expected_protocol(SensorClient, []) as sensor:
         with pytest.raises(DeviceError, match="not streaming"):
             sensor.sync()
+
+
+def test_start_and_sync_wait_the_clients_timeout_when_it_is_longer():
+    # a host given a generous timeout (a busy machine, a board emulated in real time) must not
+    # give up on START after the default 5 s
+    with expected_protocol(SensorClient, [], timeout_s=30.0) as patient:
+        assert patient.sync_timeout_s == 30.0
+    with expected_protocol(SensorClient, []) as default:
+        assert default.sync_timeout_s == SYNC_TIMEOUT_S > default.timeout_s
 
 
 def test_a_lost_sync_answer_is_asked_for_again_only_when_frames_were_lost():

@@ -24,7 +24,8 @@ _READ_CHUNK_BYTES = 4096
 # Answered "OK" by a streaming board without changing anything: the sync marker (see sync()).
 SYNC_COMMAND = "START"
 # How long a sync may wait (s) once the host has read all that arrived: the board answers at
-# once, but a host or a simulated board starved of CPU may take seconds.
+# once, but a host or a simulated board starved of CPU may take seconds. A client given a longer
+# timeout waits that long instead (``SensorClient.sync_timeout_s``).
 SYNC_TIMEOUT_S = 5.0
 
 
@@ -142,6 +143,12 @@ class SensorClient:
         return self._decoder.corrupt
 
     # -- commands ---------------------------------------------------------------------------
+    @property
+    def sync_timeout_s(self) -> float:
+        """How long START and a sync may wait for their answer (s): :data:`SYNC_TIMEOUT_S`, or
+        the client's own timeout when that is longer."""
+        return max(SYNC_TIMEOUT_S, self.timeout_s)
+
     def command(self, line: str, timeout_s: float | None = None) -> str:
         """Send one command line and return the text after ``OK``; ``ERR:N`` raises.
 
@@ -211,7 +218,7 @@ class SensorClient:
         if self._config is None:
             self.config()
         self._unwrapper = _Unwrapper()
-        self.command("START", SYNC_TIMEOUT_S)
+        self.command("START", self.sync_timeout_s)
         self.streaming = True
 
     def stop(self) -> None:
@@ -246,7 +253,7 @@ class SensorClient:
         for attempt in range(1, attempts + 1):
             lost = self._frames_lost()
             try:
-                self.command(SYNC_COMMAND, SYNC_TIMEOUT_S)
+                self.command(SYNC_COMMAND, self.sync_timeout_s)
                 break
             except DeviceTimeout:
                 if attempt == attempts or self._frames_lost() == lost:
@@ -257,12 +264,13 @@ class SensorClient:
 
     def _first_sample_after(self, behind: int) -> float:
         """Board time (s) of the first sample after the first ``behind`` kept ones, waiting for it."""
-        deadline = self.transport.now_s() + SYNC_TIMEOUT_S
+        deadline = self.transport.now_s() + self.sync_timeout_s
         while len(self._unwrapper.rows) <= behind:
             remaining = deadline - self.transport.now_s()
             data = self.transport.read_some(_READ_CHUNK_BYTES, max(remaining, 0.0))
             if not data and remaining <= 0:
-                raise self.transport.timed_out("a sample after the sync answer", SYNC_TIMEOUT_S)
+                raise self.transport.timed_out("a sample after the sync answer",
+                                               self.sync_timeout_s)
             self._take(self._decoder.feed(data))
         return self._unwrapper.rows[behind][1] * 1e-6
 
