@@ -74,7 +74,7 @@ def test_full_grid_on_the_twin_with_truth(tmp_path):
     result = run_cli("--stage", stage, "--sensor", sensor, "--out", str(out),
                      "--config", str(fast_config(tmp_path)), "--json")
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.output)
+    summary = json.loads(result.stdout)
     assert summary["points"] == 180 and summary["complete"]
     assert summary["dropped"] == 0 and summary["corrupt"] == 0
     assert abs(summary["baseline_drift_uT"]) < 5.0
@@ -265,7 +265,7 @@ def test_collect_over_sim_serve_ptys_like_real_ports(tmp_path):
         process.terminate()
         process.wait(5)
     assert result.exit_code == 0, result.output
-    assert json.loads(result.output)["points"] == planned
+    assert json.loads(result.stdout)["points"] == planned
     grid = read_raw_grid(tmp_path / "raw.h5")
     assert grid.complete and grid.truth is None and len(grid.z_uT) == planned
     assert np.all(grid.z_uT < 0)  # every point pushes the whisker to -y
