@@ -6,8 +6,9 @@ The whisker (mechanics) is taken as it is; only the magnet is fitted: the NdFeB 
 grade, how far below the centre of rotation it sits, the gap to the chip and a small lateral
 mounting error of the chip, minimizing the RMS distance between the twin's tip for a
 frictionless tip contact and the authors' characterized model (below) over its raw Y readings
--10000..0 µT, each compared at the twin's z = raw - 447 µT (the model's own rest), with the Z axis kept inside the MLX90393's default range. The chip's mounting
-tilt follows in closed form from the static Y reading the real sensor shows at rest (1160 µT).
+-10000..0 µT, each compared at the twin's z = raw - 447 µT (the model's own rest), with the Z
+axis kept inside the MLX90393's default range. The chip's mounting tilt follows in closed form
+from the static Y reading the real sensor shows at rest (1160 µT).
 The script prints the numbers that docs/twin.md records. params.py still holds the magnet an
 earlier version fitted on another footing (the model's input read as the change from rest):
 docs/twin.md says what applying this fit changes and what keeps it from being the default yet.
