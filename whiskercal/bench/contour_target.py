@@ -2,14 +2,14 @@
 
 The default sensor's recorded grid (``data/twin-paper-75mm``) is fitted with the paper's level
 set as its z lookup (``fit --tip-model level-set``: what docs/bench.md measured; ``fit``'s own
-default ships the mechanics' lookup) and given the target its recorded flat-plane study chooses
-(``optimal-depth``, on the z lookup alone); then the contour
-loop runs on the twin round each object at a range of targets (|z| from 4 to 9 mT, the sign
-of the chosen one, and the chosen one itself), each run measured against the object's true
-outline without alignment. Targets past the calibrated range (|z| above its end, about
+default ships the mechanics' lookup) and given the target its recorded flat-plane study chooses through it
+(``optimal-depth``); then the contour loop runs on the twin round each object at a range of
+targets (|z| from 3 to 9 mT, the sign of the chosen one, and the chosen one itself), each run
+measured against the object's true outline without alignment. Targets past the calibrated range (|z| above its end, about
 9.5 mT here) are listed, not run: the lookup has no tip to give there. The full run does it
 twice, once per tip model: the z lookup alone and the (Y, Z) table (``fit``'s default,
-fitted once and reused for every run; ``--quick`` skips it). The same runs measure the
+fitted once and reused for every run, with the target the study chooses through the table;
+``--quick`` skips it). The same runs measure the
 controller's own cost per sample (the twin's solve not included) against the sensor's 3.3 ms
 period.
 """
@@ -26,17 +26,15 @@ from whiskercal.errors import UsageError
 from whiskercal.plotting import pyplot, save_png
 
 DATASET = Path(whiskercal.__file__).resolve().parents[1] / "data" / "twin-paper-75mm"
-MAGNITUDES_UT = (4000.0, 5000.0, 6000.0, 7000.0, 8000.0, 9000.0, 10000.0, 11000.0, 12000.0)
+MAGNITUDES_UT = (3000.0, 4000.0, 5000.0, 6000.0, 7000.0, 8000.0, 9000.0, 10000.0, 11000.0, 12000.0)
 PERIOD_MS = 1000.0 / 300.0
 
 
 def calibrations_with_target(folder: Path, dataset: Path = DATASET,
                              field_table: bool = True) -> dict[str, Path]:
     """The dataset's grid fitted once, the level set as its z lookup (and the (Y, Z) table when
-    asked), written as one artifact per tip model, each with its study's chosen target.
-
-    Both artifacts share the fit's z lookup, so the study, run on the z-lookup one, chooses the
-    same target for both: the series differ only in how a reading becomes a tip.
+    asked), written as one artifact per tip model, each with the target the recorded study
+    chooses through that artifact (as ``optimal-depth report`` does for a user's).
     """
     from dataclasses import replace
 
@@ -57,6 +55,7 @@ def calibrations_with_target(folder: Path, dataset: Path = DATASET,
                                      report.study.sha256)}
     if field_table:
         table = result.write(folder / "calibration-table.h5")
+        report = build_report(dataset / "plane_study.h5", runtime.load(table))
         made["yz-table"] = write_target(table, folder / "calibration-table-target.h5",
                                         report.choice, report.study.sha256)
     return made
@@ -94,13 +93,15 @@ def run(quick: bool = False, progress=None, field_table: bool | None = None,
     rows = []
     with tempfile.TemporaryDirectory(prefix="whiskercal-contour-target-") as folder:
         artifacts = calibrations_with_target(Path(folder), field_table=field_table)
-        calibration = runtime.load(artifacts["z-lookup"])
-        chosen, range_end = float(calibration.target_z_uT), float(calibration.z_range_uT[0])
-        targets, beyond = _targets(chosen, range_end, quick, magnitudes_uT)
+        chosen = {series: float(runtime.load(path).target_z_uT)
+                  for series, path in artifacts.items()}
+        range_end = float(runtime.load(artifacts["z-lookup"]).z_range_uT[0])
         for series, artifact in artifacts.items():
+            targets, beyond = _targets(chosen[series], range_end, quick, magnitudes_uT)
             tag = (lambda row, s=series: progress({"tip_model": s, **row})) if progress else None
             for row in target_sweep(artifact, targets, shapes, duration_s=duration_s, on_row=tag):
-                rows.append({"tip_model": series, **row, "default": row["target_z_uT"] == chosen})
+                rows.append({"tip_model": series, **row,
+                             "default": row["target_z_uT"] == chosen[series]})
     return {"rows": rows, "chosen_target_z_uT": chosen, "calibrated_range_end_uT": range_end,
             "beyond_range_uT": beyond, "duration_s": duration_s,
             "controller": _controller_cost(rows), "supports": _supports(rows, chosen)}
@@ -121,7 +122,8 @@ def _series(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
     return {key: sorted(mine, key=lambda r: abs(r["target_z_uT"])) for key, mine in groups.items()}
 
 
-def _supports(rows: list[dict], chosen: float) -> dict:
+def _supports(rows: list[dict], chosen: dict[str, float]) -> dict:
+    """Per tip model: the best target that went round, and the error at its chosen one."""
     best, at_chosen = {}, {}
     for (model, shape), mine in _series(rows).items():
         went_round = [r for r in mine if r["coverage"] >= 0.95]
@@ -129,7 +131,7 @@ def _supports(rows: list[dict], chosen: float) -> dict:
             best.setdefault(model, {})[shape] = min(
                 went_round, key=lambda r: r["mean_error_mm"])["target_z_uT"]
         at_chosen.setdefault(model, {}).update(
-            {shape: r["mean_error_mm"] for r in mine if r["target_z_uT"] == chosen})
+            {shape: r["mean_error_mm"] for r in mine if r["target_z_uT"] == chosen[model]})
     return {"target_z_uT": chosen, "best_target_z_uT": best,
             "chosen_mean_error_mm": at_chosen,
             "controller_ms_per_sample": _controller_cost(rows)["mean_ms_per_sample"],
@@ -143,7 +145,7 @@ LABELS = {"z-lookup": "z lookup", "yz-table": "(Y, Z) table"}
 
 def draw(result: dict, path: Path) -> Path:
     """Mean contour error (no alignment) against |target|, one line per tip model and object
-    (colour: object, line: tip model); the chosen target marked, runs that did not go round
+    (colour: object, line: tip model); each tip model's chosen target marked, runs that did not go round
     hollow, the calibrated range's end drawn."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
@@ -158,8 +160,9 @@ def draw(result: dict, path: Path) -> Path:
                 label=f"{shape}, {LABELS.get(model, model)}")
         ax.plot(x[went_round], y[went_round], "o", color=colour)
         ax.plot(x[~went_round], y[~went_round], "o", mfc="none", color=colour)
-    ax.axvline(abs(result["chosen_target_z_uT"]) / 1000.0, color="k", ls="--", lw=1,
-               label="optimal-depth's target")
+    for model, target in result["chosen_target_z_uT"].items():
+        ax.axvline(abs(target) / 1000.0, color="k", ls=LINE_STYLES.get(model, ":"), lw=1,
+                   label=f"optimal-depth's target, {LABELS.get(model, model)}")
     ax.axvline(abs(result["calibrated_range_end_uT"]) / 1000.0, color="grey", ls=":", lw=1,
                label="end of the calibrated range")
     errors = np.array([r["mean_error_mm"] for r in rows], float)

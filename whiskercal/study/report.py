@@ -22,7 +22,7 @@ from whiskercal.rig.overload import SENSOR_AXIS_Y
 
 SENSOR_AXIS_Z = 2
 from whiskercal.study.recorder import measured_positions_mm, stage_position_per_sample
-from whiskercal.study.target import NoTargetError, TargetChoice, choose_target
+from whiskercal.study.target import TIE_MM, NoTargetError, TargetChoice, choose_target
 
 
 class IncompleteStudyError(ArtifactError):
@@ -127,7 +127,8 @@ def _missing_row(depth_mm: float) -> TrialMetrics:
 
 
 def build_report(study_path: str | Path, calibration, criteria: Criteria = Criteria(),
-                 margin_weight_mm: float = 0.1, allow_missing: bool = False) -> StudyReport:
+                 margin_weight_mm: float = 0.1, allow_missing: bool = False,
+                 tie_mm: float = TIE_MM) -> StudyReport:
     """Analyse a study file with a loaded calibration and choose the target.
 
     Parameters
@@ -142,6 +143,8 @@ def build_report(study_path: str | Path, calibration, criteria: Criteria = Crite
         The target rule's margin weight (see whiskercal.study.target).
     allow_missing
         Analyse a study that lacks planned trials instead of refusing it.
+    tie_mm
+        Scores within this of the lowest tie; the shallowest tied depth wins.
     """
     study = read_study(study_path)
     if not allow_missing or not study.trials:
@@ -159,7 +162,7 @@ def build_report(study_path: str | Path, calibration, criteria: Criteria = Crite
     report = StudyReport(study=study, rows=rows, series=sorted(series, key=lambda s: s.depth_mm),
                          unmapped=unmapped)
     try:
-        report.choice = choose_target(rows, margin_weight_mm)
+        report.choice = choose_target(rows, margin_weight_mm, tie_mm)
     except NoTargetError as error:
         report.no_target = str(error)
     return report

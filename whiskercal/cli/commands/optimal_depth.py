@@ -70,10 +70,13 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
               help="Analyse a study that lacks planned trials (they count as failing).")
 @click.option("--margin-weight", "margin_weight_mm", type=float, default=0.1, show_default=True,
               help="Target rule: penalty (mm) for a depth one step from a failing one.")
+@click.option("--tie", "tie_mm", type=float, default=0.05, show_default=True,
+              help="Target rule: scores within this (mm) of the lowest tie, and the shallowest "
+                   "tied depth wins.")
 @click.option("--json", "as_json", is_flag=True, help="Print the per-trial table and the choice as JSON.")
 def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
                    out_artifact: Path | None, no_figures: bool, allow_missing: bool,
-                   margin_weight_mm: float, as_json: bool) -> None:
+                   margin_weight_mm: float, tie_mm: float, as_json: bool) -> None:
     """Analyse a study: errors, slips, failing trials; choose and write the target.
 
     STUDY_PATH is the file `optimal-depth run` wrote.
@@ -85,13 +88,14 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
     from whiskercal.study.report import build_report
 
     number(margin_weight_mm, "--margin-weight", low=0, unit="mm")  # before any work
+    number(tie_mm, "--tie", low=0, unit="mm")
     out_dir = out_dir or Path(study_path).parent
     destination = out_artifact or target_artifact_path(artifact_path, out_dir)
     for output in [destination] + ([] if no_figures else figure_paths(out_dir)):
         refuse_input_as_output(output, [study_path, artifact_path])  # before any work
     calibration = runtime.load(artifact_path)
     report = build_report(study_path, calibration, margin_weight_mm=margin_weight_mm,
-                          allow_missing=allow_missing)
+                          allow_missing=allow_missing, tie_mm=tie_mm)
     if not no_figures:
         report.figures = write_figures(report.series, report.rows, out_dir)
     if report.choice is not None:
