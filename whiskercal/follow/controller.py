@@ -100,10 +100,14 @@ class Follower:
             return self._find_contact(robot, pose, slip)  # is leaving the object
         if tip is None and self._touching and self._missing < self._grace:
             # a sample or two without a tip (the collision detector's hysteresis near its
-            # threshold, the first touch) is not a lost contact: hold still for a moment
+            # threshold, the first touch) is not a lost contact: hold still for a moment, or,
+            # before the target is first reached, press on (standing still, a tip stuck by
+            # friction at its first touch can hold z just under the threshold until the grace
+            # runs out, and the sensor backs off, over and over)
             self._missing += 1
-            robot.command(np.zeros(2), 0.0)
-            return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, np.zeros(2), 0.0)
+            velocity, turn = (np.zeros(2), 0.0) if self.pressed else self._press_on(z_uT, pose)
+            robot.command(velocity, turn)
+            return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, velocity, turn)
         if not self.contacted or tip is None:
             return self._find_contact(robot, pose, slip)
         self._missing, self._search_turned = 0, 0
@@ -393,6 +397,12 @@ class Follower:
                  else config.edge_turn_max_rad_s)
         turn = float(np.clip(config.heading_gain_per_s * error_heading, -limit, limit))
         return tangential * self.tangent + normal * inward, turn
+
+    def _press_on(self, z_uT: float, pose: np.ndarray) -> tuple[np.ndarray, float]:
+        """Toward the object, as the press does (as the approach did before any key point)."""
+        if self.tangent is None:
+            return self.config.approach_speed_mm_s * _unit(pose[2] + math.radians(self.config.tilt_deg)), 0.0
+        return self._action(z_uT, pose, moving=False)
 
     def _bend_radius_mm(self) -> float:
         """Radius (mm) of the circle through the oldest, middle and newest key points (inf when
