@@ -111,7 +111,7 @@ def test_cli_text_states_units_and_the_deflection_used():
     out = result.output
     for expected in ("EI                 14.38 N·mm²", "k_θ·L/EI           15.6",
                      "the study's plane (tilted 20°, μ_s 0.30, μ_k 0.22) 40 mm past the undeflected tip",
-                     "force              0.006 N", "one-to-one z range   -14646 .. 0 µT",
+                     "force              0.006 N", "one-to-one z range   -15274 .. 0 µT",
                      "saturation           none over the tip-contact sweep"):
         assert expected in out, out
 

@@ -133,7 +133,7 @@ def test_dict_and_toml_round_trips_give_the_same_sensor(tmp_path, sensor):
 def test_the_dict_holds_every_parameter():
     data = sensor_to_dict(DEFAULT_SENSOR)
     assert data["whisker"]["root_rotational_stiffness_n_mm_per_rad"] == 3.0
-    assert data["magnet"]["sensor_offset_mm"] == [0.0, 0.15, 0.0]
+    assert data["magnet"]["sensor_offset_mm"] == [0.0, 0.197, 0.0]
     assert data["magnet"]["grid"]["pad_cells"] == 8
     assert data["magnetometer"]["noise_uT_rms"] == [5.6, 5.6, 9.0]
 

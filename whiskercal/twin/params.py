@@ -50,20 +50,20 @@ class SensorParams:
 
 
 # Fitted by scripts/fit_default_magnet.py against the authors' characterized model (a target for
-# choosing defaults only; nothing computes results from it), then reading the model's input as
-# the change from rest: a 2.1 x 0.56 mm NdFeB disc 4.3 mm below the centre of rotation, 1.9 mm
-# above the chip. docs/twin.md gives the refit on the model's raw-Y footing and why it waits.
+# choosing defaults only; nothing computes results from it), whose input is the raw Y reading
+# (rest near +447 µT): a 2.07 x 0.59 mm NdFeB disc 4.7 mm below the centre of rotation, 1.9 mm
+# above the chip (docs/twin.md, "Default sensor and how it was chosen").
 DEFAULT_SENSOR = SensorParams(
     sensor_id="twin-paper-75mm",
     whisker=WhiskerParams(),
     magnet=MagnetParams(
-        diameter_mm=2.1,
-        height_mm=0.56,
-        polarization_T=-1.179,
-        magnet_center_mm=-4.31,
-        gap_mm=1.86,
-        sensor_offset_mm=(0.0, 0.15, 0.0),
-        sensor_tilt_rad=0.04301,
+        diameter_mm=2.074,
+        height_mm=0.585,
+        polarization_T=-1.2361,
+        magnet_center_mm=-4.674,
+        gap_mm=1.911,
+        sensor_offset_mm=(0.0, 0.197, 0.0),
+        sensor_tilt_rad=0.06838,
     ),
     magnetometer=MagnetometerParams(),
 )
