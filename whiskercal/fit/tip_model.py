@@ -78,6 +78,7 @@ def _mechanics_metrics(mechanics: MechanicsCalibration) -> dict:
             "estimated_tip_error_mm": _finite_or_nan(mechanics.estimated_tip_error_mm),
             "local_estimated_tip_error_mm": _finite_or_nan(mechanics.local_tip_error_mm),
             "pose_map_degree": int(mechanics.fit.pose_map.exponents.sum(axis=1).max()),
+            "pose_map_shift_order": int(mechanics.fit.pose_map.exponents[:, 1:].sum(axis=1).max()),
             "tip_sweep_points": int(mechanics.sweep_points),
             "profile": [p.row() for p in mechanics.profile]}
 
