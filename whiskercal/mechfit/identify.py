@@ -42,7 +42,8 @@ PROFILE_RATIOS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 10000.0)
 PLAUSIBLE_DELTA_CHI2 = 4.0   # two standard errors of one parameter
 IGNORED_DELTA_CHI2 = 400.0   # twenty: a fit this far off says nothing about the best one
 # A best fit whose residual is more than twice the noise (χ²/dof above 4) leaves something the
-# model does not explain (a suspension outside its family, a wrong trace length): not estimated.
+# model does not explain (a suspension outside its family, a pose map short of the field, a wrong
+# trace length): not estimated.
 MAX_CHI2_PER_DOF = 4.0
 MIN_COVERAGE = 0.9           # share of the lookup's knots a plausible fit must also answer
 PROFILE_EVALUATIONS = 60
