@@ -53,7 +53,7 @@ COMPARISON_KNOTS = 41
 LOCAL_STEP = 1e-3
 LOCAL_MIN_COVERAGE = 0.5
 # A χ² per degree of freedom this many of its standard deviations (√(2/dof)) above 1 tries a
-# pose map one degree richer (``_richer_map``).
+# pose map one step richer (``_richer_map``).
 RICHER_MAP_SIGMAS = 2.0
 # Not beyond 4 (degree 5 was not needed on the family; docs/calibration.md).
 MAX_MAP_DEGREE = 4
