@@ -10,12 +10,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from whiskercal.bench import sensor_family
 from whiskercal.bench.tip_accuracy import (FAMILY, ROD_RADIUS_MM, simulate_fields, simulate_sweep,
                                            true_suspension, truth_tip_curve)
 from whiskercal.bench.twin_grid import tip_error_mm
 from whiskercal.mechfit.fit import _Objective
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
-from whiskercal.mechfit.identify import calibrate_mechanics
+from whiskercal.mechfit.identify import _Problem, calibrate_mechanics
 from whiskercal.twin.params import DEFAULT_SENSOR
 
 # the default build's tip sweep point at -20 deg on the trace length: a tip contact
@@ -61,3 +62,25 @@ def test_the_sweep_pins_down_a_build_its_grid_does_not():
     assert error["rmse_mm"] <= 0.25 and error["max_mm"] <= 0.5
     assert model.sweep_points == mask.sum() >= 10
     assert math.isfinite(model.estimated_tip_error_mm)
+
+
+def test_the_pose_map_grows_in_degree_first_then_in_the_shifts_order():
+    problem = _Problem(AT_TIP, np.zeros(1), ROD_RADIUS_MM, 78.0, 1.0, (-1.0, 0.0))
+    ladder = []
+    while problem is not None:
+        ladder.append((problem.degree, problem.shift_order, problem.terms()))
+        problem = problem.richer()
+    assert ladder == [(3, 2, 15), (4, 2, 21), (4, 3, 29), (4, 4, 34)]
+
+
+@pytest.mark.slow
+def test_a_root_that_shifts_across_most_of_the_gap_is_fitted_and_ships_with_the_sweep():
+    # the stiff 60 mm wire (k_theta*L/EI 3.8): its root shifts by up to 1.65 mm of the magnet's
+    # 1.86 mm gap, where a pose map quadratic in the shift left 9x the noise and the level set
+    # (5.2 mm RMS off) shipped instead
+    sensor = next(s for s in sensor_family.FAMILY if s.sensor_id == "stiff-wire-60x0.40")
+    row = sensor_family.measure(sensor, tip_sweep=True)
+    assert row["tip_model"] == "mechanics" and not row["warned"]
+    assert row["tip_curve"]["rmse_mm"] <= 0.25 and row["tip_curve"]["max_mm"] <= 0.5
+    assert row["tip_curve"]["coverage"] == 1.0
+    assert row["estimated_tip_error_mm"] <= 0.25

@@ -37,7 +37,7 @@ from whiskercal.errors import WhiskercalError
 from whiskercal.mechfit.fit import fit_mechanics
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.forward import Suspension
-from whiskercal.mechfit.tables import field_tip_table, monotone_z_range, z_lookup
+from whiskercal.mechfit.tables import field_tip_table, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
 from whiskercal.model.calibrate import CalibrationOptions, calibrate
 from whiskercal.tomlconfig import read_toml
@@ -173,9 +173,9 @@ def truth_tip_curve(sensor: SensorParams) -> tuple[np.ndarray, np.ndarray]:
         family = tip_family(true_suspension(sensor))
         z = pose_fields_of_poses(sensor, family.pose)[:, 0]
         tips = family.tip_mm
-    low, _ = monotone_z_range(z)
-    keep = z >= low
-    return z[keep], tips[keep]
+    # past the fold z turns back and a second branch of tips shares the first one's z; a z
+    # lookup answers the first branch (``truth.first_branch``), which is the truth of its z
+    return truth.first_branch(z, tips)
 
 
 def pose_fields_of_poses(sensor: SensorParams, poses: np.ndarray) -> np.ndarray:

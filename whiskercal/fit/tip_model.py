@@ -78,6 +78,7 @@ def _mechanics_metrics(mechanics: MechanicsCalibration) -> dict:
             "estimated_tip_error_mm": _finite_or_nan(mechanics.estimated_tip_error_mm),
             "local_estimated_tip_error_mm": _finite_or_nan(mechanics.local_tip_error_mm),
             "pose_map_degree": int(mechanics.fit.pose_map.exponents.sum(axis=1).max()),
+            "pose_map_shift_order": int(mechanics.fit.pose_map.exponents[:, 1:].sum(axis=1).max()),
             "tip_sweep_points": int(mechanics.sweep_points),
             "profile": [p.row() for p in mechanics.profile]}
 
@@ -165,7 +166,8 @@ def _warnings(choice: TipModelChoice, mechanics, why_not: str) -> list[str]:
     if mechanics.chi2_per_dof > MAX_CHI2_PER_DOF:
         return [f"the tip error cannot be estimated: the suspension model leaves "
                 f"{math.sqrt(mechanics.chi2_per_dof):.1f}x the noise unexplained (a suspension "
-                "outside the model, or a wrong trace length?); tips may be off by millimetres"]
+                "outside the model, a root shifting further than the pose map follows without "
+                "a tip sweep, or a wrong trace length?); tips may be off by millimetres"]
     if not math.isfinite(mechanics.local_tip_error_mm):
         return ["the tip error cannot be estimated: the fitted tip curve does not hold its z "
                 "range under the fit's own uncertainty (z folds near its end); tips may be off "

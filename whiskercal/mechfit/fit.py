@@ -20,7 +20,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from whiskercal.errors import UsageError
-from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, PoseMap, fit_pose_map
+from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, MAX_SHIFT_ORDER, PoseMap, fit_pose_map
 from whiskercal.mechfit.forward import Suspension, pose_of, rod_equilibria
 
 STUB_FRACTION_START = 0.04
@@ -55,9 +55,10 @@ class _Objective:
     """Residuals (in standard errors) of trial mechanics; keeps the last equilibria as warm starts."""
 
     def __init__(self, trace_mm, rod_center_mm, rod_radius_mm, fields_uT, noise_uT, degree,
-                 fresh=None):
+                 fresh=None, shift_order=MAX_SHIFT_ORDER):
         self.trace_mm, self.centers, self.radius = trace_mm, rod_center_mm, rod_radius_mm
         self.fields, self.weights, self.degree = fields_uT, 1.0 / noise_uT, degree
+        self.shift_order = shift_order
         # points solved along the rod's approach every time, never from a nearby suspension's
         # solution: near the tip a warm start can land on another equilibrium than the rig's
         self.fresh = np.zeros(len(rod_center_mm), bool) if fresh is None else np.asarray(fresh)
@@ -81,7 +82,8 @@ class _Objective:
     def evaluate(self, theta: np.ndarray):
         """One solve: (suspension, poses, pose map, residual µT, residual in standard errors)."""
         suspension, poses, in_contact = self.solve(theta)
-        pose_map, residual = fit_pose_map(poses, self.fields, self.degree)
+        pose_map, residual = fit_pose_map(poses, self.fields, self.degree,
+                                          max_shift_order=self.shift_order)
         scaled = residual * self.weights
         scaled[~in_contact] = 1e3  # a trial that loses a contact the grid had is far off
         return suspension, poses, pose_map, residual, scaled

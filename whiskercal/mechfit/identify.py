@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from whiskercal.errors import UsageError
-from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, exponents
+from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, MAX_SHIFT_ORDER, exponents
 from whiskercal.mechfit.fit import MAX_STUB_FRACTION, MechanicsFit, _Objective, fit_mechanics
 from whiskercal.mechfit.tables import DEFAULT_KIND, DEFAULT_SAMPLES, monotone_z_range, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
@@ -42,7 +42,8 @@ PROFILE_RATIOS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 10000.0)
 PLAUSIBLE_DELTA_CHI2 = 4.0   # two standard errors of one parameter
 IGNORED_DELTA_CHI2 = 400.0   # twenty: a fit this far off says nothing about the best one
 # A best fit whose residual is more than twice the noise (χ²/dof above 4) leaves something the
-# model does not explain (a suspension outside its family, a wrong trace length): not estimated.
+# model does not explain (a suspension outside its family, a pose map short of the field, a wrong
+# trace length): not estimated.
 MAX_CHI2_PER_DOF = 4.0
 MIN_COVERAGE = 0.9           # share of the lookup's knots a plausible fit must also answer
 PROFILE_EVALUATIONS = 60
@@ -52,12 +53,16 @@ COMPARISON_KNOTS = 41
 LOCAL_STEP = 1e-3
 LOCAL_MIN_COVERAGE = 0.5
 # A χ² per degree of freedom this many of its standard deviations (√(2/dof)) above 1 tries a
-# pose map one degree richer (``_richer_map``).
+# pose map one step richer (``_richer_map``).
 RICHER_MAP_SIGMAS = 2.0
-# Not beyond 4: on the stiff-wire build (k_θ·L/EI 3.8) a degree-5 map absorbs what the
-# suspension model misses, fits to the noise and ships a tip curve 35 mm off with an estimate
-# of 0.0075 mm; at degree 4 the misfit stays visible (5× the noise) and the fit warns.
+# Not beyond 4 (degree 5 was not needed on the family; docs/calibration.md).
 MAX_MAP_DEGREE = 4
+# At degree 4 the shift's order may rise from 2 to 4 (the whole polynomial): on a build whose
+# root carries most of the compliance (the stiff 60 mm wire, k_θ·L/EI 3.8) the root shifts by
+# up to 1.65 mm of the magnet's 1.86 mm gap, and a degree-4 map quadratic in the shift leaves
+# 14 µT RMS on its grid and sweep at the true poses (1.6 µT at order 4), 9× the noise after the
+# fit.
+MAX_MAP_SHIFT_ORDER = 4
 
 
 @dataclass
@@ -133,8 +138,8 @@ class _Problem:
     """The grid and the weights every fit of one calibration shares."""
 
     def __init__(self, rod_center_mm, z_uT, rod_radius_mm, trace_length_mm, noise_uT, z_range,
-                 sweep=None, degree=DEFAULT_DEGREE):
-        self.degree = degree
+                 sweep=None, degree=DEFAULT_DEGREE, shift_order=MAX_SHIFT_ORDER):
+        self.degree, self.shift_order = degree, shift_order
         self.centers = np.asarray(rod_center_mm, float)
         self.sweep = np.zeros(len(self.centers), bool) if sweep is None else np.asarray(sweep, bool)
         self.fields = np.asarray(z_uT, float).reshape(-1, 1)
@@ -144,10 +149,27 @@ class _Problem:
 
     def objective(self) -> _Objective:
         return _Objective(self.trace_mm, self.centers, self.radius, self.fields, self.noise,
-                          self.degree, self.sweep)
+                          self.degree, self.sweep, self.shift_order)
+
+    def terms(self) -> int:
+        """The pose map's number of monomials."""
+        return len(exponents(self.degree, self.shift_order))
 
     def dof(self) -> int:
-        return max(len(self.centers) - 3 - len(exponents(self.degree)), 1)
+        return max(len(self.centers) - 3 - self.terms(), 1)
+
+    def richer(self) -> _Problem | None:
+        """The same problem with the next richer pose map: one degree more up to
+        :data:`MAX_MAP_DEGREE`, then the shift's order one more up to
+        :data:`MAX_MAP_SHIFT_ORDER`; None past both."""
+        richer = copy.copy(self)
+        if self.degree < MAX_MAP_DEGREE:
+            richer.degree = self.degree + 1
+        elif self.shift_order < min(self.degree, MAX_MAP_SHIFT_ORDER):
+            richer.shift_order = self.shift_order + 1
+        else:
+            return None
+        return richer
 
     def as_fit(self, objective: _Objective, theta: np.ndarray) -> tuple[MechanicsFit, float]:
         """The fit at ``theta`` and its χ² (standard errors; a lost contact counts heavily)."""
@@ -181,9 +203,9 @@ def _profile_point(problem: _Problem, best: np.ndarray, ratio: float) -> Profile
 
 
 def _richer_map(problem: _Problem, fit: MechanicsFit, chi2: float, theta: np.ndarray):
-    """With a tip sweep, the pose map a degree higher (up to :data:`MAX_MAP_DEGREE`), while the
-    fit leaves more than the noise and the higher degree explains enough more to pay for its
-    terms (Akaike: Δχ² > 2 per term).
+    """With a tip sweep, the next richer pose map (``_Problem.richer``: a degree higher, then
+    a higher order in the shift), while the fit leaves more than the noise and the richer map
+    explains enough more to pay for its terms (Akaike: Δχ² > 2 per term).
 
     A degree-3 map misses the twin's field by up to about 1 µT over a grid and a tip sweep
     (which takes the pose off the shaft contacts' path); that is a quarter of the noise's
@@ -193,14 +215,12 @@ def _richer_map(problem: _Problem, fit: MechanicsFit, chi2: float, theta: np.nda
     # only a tip sweep takes the pose off the shaft contacts' path, where the map falls short;
     # on a grid alone a misfit comes from elsewhere (the stage's position error on recorded
     # data), and a richer map absorbs it into the suspension (docs/calibration.md)
-    while problem.sweep.any() and problem.degree < MAX_MAP_DEGREE:
+    while problem.sweep.any() and (richer := problem.richer()) is not None:
         dof = problem.dof()
         if chi2 / dof <= 1.0 + RICHER_MAP_SIGMAS * math.sqrt(2.0 / dof):
             break
-        richer = copy.copy(problem)
-        richer.degree = problem.degree + 1
         new_fit, new_chi2, new_theta = _refine(richer, theta)
-        extra = len(exponents(richer.degree)) - len(exponents(problem.degree))
+        extra = richer.terms() - problem.terms()
         if not new_chi2 + 2.0 * extra < chi2:
             break
         problem, fit, chi2, theta = richer, new_fit, new_chi2, new_theta
