@@ -22,5 +22,7 @@ def test_full_default_study(tmp_path, twin_calibration, request):
     by_depth = {row.depth_mm: row for row in report.rows}
     assert all(by_depth[d].filtered_mean_mm < 2.0 and not by_depth[d].failing
                for d in np.arange(5.0, 41.0, 5.0))
-    assert by_depth[45.0].failing and by_depth[45.0].tangential
+    # 45 mm stands 0.4 mm short of the slip into tangential contact (docs/study.md): the twin
+    # keeps it a tip contact, and the data must not call it tangential
+    assert by_depth[45.0].true_tangential_fraction == 0.0 and not by_depth[45.0].tangential
     assert report.choice.depth_mm <= 35.0

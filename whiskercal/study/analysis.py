@@ -35,9 +35,10 @@ class Criteria:
     """A raw estimate farther than this from the plane's line has left the plane."""
     max_off_plane_fraction: float = 0.2
     """More of the contact samples off the plane than this means tangential contact."""
-    jump_sigma: float = 8.0
+    jump_sigma: float = 6.0
     """A slip is a step of z that leaves the median step by this many robust standard deviations
-    of the steps (the default sensor's 5.6 µT noise makes them ~8 µT) ..."""
+    of the steps (the default sensor's 5.6 µT noise makes them ~9 µT; its stick-slip at the
+    paper's 40 mm drops z by 62-91 µT a slip, which eight would miss a third of) ..."""
     jump_floor_uT: float = 60.0
     """... and by this absolute size, so that quantization never counts as a slip."""
     min_contact_samples: int = 10
