@@ -116,3 +116,14 @@ def test_a_build_with_a_four_times_stiffer_root_meets_the_family_goal():
     error, coverage, _ = _tip_curve_error(stiff)
     assert coverage == 1.0
     assert error["rmse_mm"] <= 0.25 and error["max_mm"] <= 0.5
+
+
+@pytest.mark.parametrize("theta", [(-3.0, -8.0, -1000.0), (-3.0, -8.0, 1000.0), (900.0, -900.0, 0.0)])
+def test_any_trial_parameters_give_a_representable_suspension(theta):
+    # a profile's least squares may try a stub's logit or a compliance's log far out: no overflow
+    from whiskercal.mechfit.fit import MAX_STUB_FRACTION, _Objective
+
+    objective = _Objective(78.0, np.zeros((1, 2)), 0.5, np.zeros((1, 1)), np.ones(1), 3)
+    suspension = objective.suspension(np.array(theta))
+    assert 0.0 <= suspension.stub_mm <= 78.0 * MAX_STUB_FRACTION
+    assert np.isfinite([suspension.rot_compliance, suspension.trans_compliance]).all()

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.special import expit
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, MAX_SHIFT_ORDER, PoseMap, fit_pose_map
@@ -31,6 +32,8 @@ TRANS_SHARE_START = 0.01
 MAX_STUB_FRACTION = 0.2
 # evaluations of each start's scouting fit with the linear pose map
 SCOUT_EVALUATIONS = 40
+# compliances within e^±40 of 1 (EI/L·k_θ and EI/L³·k_t): far past any build, short of overflow
+LOG_LIMIT = 40.0
 
 
 @dataclass
@@ -66,8 +69,10 @@ class _Objective:
         self.evaluations = 0
 
     def suspension(self, theta: np.ndarray) -> Suspension:
-        stub = self.trace_mm * MAX_STUB_FRACTION / (1.0 + math.exp(-theta[2]))
-        return Suspension(self.trace_mm, stub, math.exp(theta[0]), math.exp(theta[1]))
+        # a profile's least squares may try any logit or log: keep them representable
+        stub = self.trace_mm * MAX_STUB_FRACTION * float(expit(theta[2]))
+        rot, trans = np.exp(np.clip(theta[:2], -LOG_LIMIT, LOG_LIMIT))
+        return Suspension(self.trace_mm, stub, float(rot), float(trans))
 
     def solve(self, theta: np.ndarray):
         suspension = self.suspension(theta)
