@@ -118,7 +118,8 @@ def test_a_build_with_a_four_times_stiffer_root_meets_the_family_goal():
     assert error["rmse_mm"] <= 0.25 and error["max_mm"] <= 0.5
 
 
-@pytest.mark.parametrize("theta", [(-3.0, -8.0, -1000.0), (-3.0, -8.0, 1000.0), (900.0, -900.0, 0.0)])
+@pytest.mark.parametrize("theta", [(-3.0, -8.0, -1000.0), (-3.0, -8.0, 1000.0),
+                                   (900.0, -900.0, 0.0)])
 def test_any_trial_parameters_give_a_representable_suspension(theta):
     # a profile's least squares may try a stub's logit or a compliance's log far out: no overflow
     from whiskercal.mechfit.fit import MAX_STUB_FRACTION, _Objective

@@ -12,8 +12,8 @@ from short_study import short_study  # noqa: E402
 # A short study that keeps what the assertions need: the nine default depths and one at 50 mm
 # (past the default sensor's slip into tangential contact near 45.4 mm, with push-in enough
 # beyond it for the kink test's confirming window: a 48 mm trial leaves it only the push-in's
-# last window), the paper's 300 Hz (the kink test needs dense push-in samples), a 10 mm slide instead of 80 mm, faster moves off the
-# slide, a coarser first-contact search.
+# last window), the paper's 300 Hz (the kink test needs dense push-in samples), a 10 mm slide
+# instead of 80 mm, faster moves off the slide, a coarser first-contact search.
 TEST_CONFIG = short_study([5, 10, 15, 20, 25, 30, 35, 40, 45, 50])
 
 

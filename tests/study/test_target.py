@@ -46,7 +46,7 @@ def test_margin_penalty_prefers_the_depth_farther_from_failure():
 def test_among_near_tied_scores_the_shallowest_depth_wins():
     # 35 mm scores lowest, but 10-35 mm lie within the 0.05 mm tie: the shallowest of them wins
     scores = {10: 0.018, 15: 0.022, 20: 0.023, 25: 0.020, 30: 0.015, 35: 0.014, 40: 0.021}
-    rows = [_row(5, 0.01, 0.0)] + [_row(d, s, 0.0) for d, s in scores.items()] + [_row(45, 0.03, 0.0)]
+    rows = [_row(5, 0.01, 0.0), *(_row(d, s, 0.0) for d, s in scores.items()), _row(45, 0.03, 0.0)]
     choice = choose_target(rows)
     assert choice.depth_mm == 10 and choice.z_uT == -2000.0
     assert "shallowest of 7" in choice.reason

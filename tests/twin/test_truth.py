@@ -17,7 +17,8 @@ from whiskercal.twin.truth import (
     z_of_pose,
 )
 
-# The characterized model the authors ran on their robot (reference/README.md): raw Y (µT) -> tip (mm).
+# The characterized model the authors ran on their robot (reference/README.md): raw Y (µT) ->
+# tip (mm).
 # A realism target for the twin's defaults only.
 AUTHORS_RAW_Y_UT = np.array([0.0, -1000.0, -3000.0, -5000.0, -7000.0, -8760.0, -10000.0])
 AUTHORS_REST_RAW_Y_UT = 447.0

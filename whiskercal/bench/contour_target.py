@@ -2,14 +2,14 @@
 
 The default sensor's recorded grid (``data/twin-paper-75mm``) is fitted with the paper's level
 set as its z lookup (``fit --tip-model level-set``: what docs/bench.md measured; ``fit``'s own
-default ships the mechanics' lookup) and given the target its recorded flat-plane study chooses through it
-(``optimal-depth``); then the contour loop runs on the twin round each object at a range of
-targets (|z| from 3 to 9 mT, the sign of the chosen one, and the chosen one itself), each run
-measured against the object's true outline without alignment. Targets past the calibrated range (|z| above its end, about
-9.5 mT here) are listed, not run: the lookup has no tip to give there. The full run does it
-twice, once per tip model: the z lookup alone and the (Y, Z) table (``fit``'s default,
-fitted once and reused for every run, with the target the study chooses through the table;
-``--quick`` skips it). The same runs measure the
+default ships the mechanics' lookup) and given the target its recorded flat-plane study
+chooses through it (``optimal-depth``); then the contour loop runs on the twin round each
+object at a range of targets (|z| from 3 to 12 mT, the sign of the chosen one, and the chosen
+one itself), each run measured against the object's true outline without alignment. Targets
+past the calibrated range (|z| above its end, about 10.2 mT here) are listed, not run: the
+lookup has no tip to give there. The full run does it twice, once per tip model: the z lookup
+alone and the (Y, Z) table (``fit``'s default, fitted once and reused for every run, with the
+target the study chooses through the table; ``--quick`` skips it). The same runs measure the
 controller's own cost per sample (the twin's solve not included) against the sensor's 3.3 ms
 period.
 """
@@ -145,8 +145,8 @@ LABELS = {"z-lookup": "z lookup", "yz-table": "(Y, Z) table"}
 
 def draw(result: dict, path: Path) -> Path:
     """Mean contour error (no alignment) against |target|, one line per tip model and object
-    (colour: object, line: tip model); each tip model's chosen target marked, runs that did not go round
-    hollow, the calibrated range's end drawn."""
+    (colour: object, line: tip model); each tip model's chosen target marked, runs that did
+    not go round hollow, the calibrated range's end drawn."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     rows = result["rows"]

@@ -107,7 +107,8 @@ class Follower:
             self._missing += 1
             velocity, turn = (np.zeros(2), 0.0) if self.pressed else self._press_on(z_uT, pose)
             robot.command(velocity, turn)
-            return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, velocity, turn)
+            phase = "follow" if self.pressed else "press"
+            return Step(np.full(2, np.nan), phase, slip, velocity, turn)
         if not self.contacted or tip is None:
             return self._find_contact(robot, pose, slip)
         self._missing, self._search_turned = 0, 0
@@ -400,9 +401,10 @@ class Follower:
 
     def _press_on(self, z_uT: float, pose: np.ndarray) -> tuple[np.ndarray, float]:
         """Toward the object, as the press does (as the approach did before any key point)."""
-        if self.tangent is None:
-            return self.config.approach_speed_mm_s * _unit(pose[2] + math.radians(self.config.tilt_deg)), 0.0
-        return self._action(z_uT, pose, moving=False)
+        if self.tangent is not None:
+            return self._action(z_uT, pose, moving=False)
+        heading = pose[2] + math.radians(self.config.tilt_deg)
+        return self.config.approach_speed_mm_s * _unit(heading), 0.0
 
     def _bend_radius_mm(self) -> float:
         """Radius (mm) of the circle through the oldest, middle and newest key points (inf when
