@@ -211,16 +211,18 @@ class Polygon:
         """Does any segment of the polyline through `points_mm` (n, 2) cut into the polygon
         deeper than `tol_mm`? (Separating axes: the edge normals and each segment's normal.)"""
         points = np.asarray(points_mm, dtype=float)
-        starts, ends = points[:-1], points[1:]
-        normals, offsets = self.outward_normals, self.edge_offsets_mm
-        outside = np.minimum(starts @ normals.T, ends @ normals.T) - offsets >= -tol_mm
-        separated = np.any(outside, axis=1)
+        height = points @ self.outward_normals.T - self.edge_offsets_mm  # (n, k) above each edge
+        separated = np.any(np.minimum(height[:-1], height[1:]) >= -tol_mm, axis=1)
+        if separated.all():  # the usual case, and most of a moving scene's calls: done
+            return False
+        # only the segments no edge separates need their own normal as the axis
+        starts, ends = points[:-1][~separated], points[1:][~separated]
         direction = ends - starts
         across = np.column_stack([-direction[:, 1], direction[:, 0]])
         across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
         signed = across @ self.vertices_mm.T - np.einsum("ij,ij->i", across, starts)[:, None]
-        separated |= np.all(signed >= -tol_mm, axis=1) | np.all(signed <= tol_mm, axis=1)
-        return bool(not np.all(separated))
+        apart = np.all(signed >= -tol_mm, axis=1) | np.all(signed <= tol_mm, axis=1)
+        return bool(not np.all(apart))
 
 
 def _following(rows: np.ndarray) -> np.ndarray:
