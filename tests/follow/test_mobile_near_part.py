@@ -36,5 +36,5 @@ def test_the_near_edges_give_the_same_contact_as_the_whole_outline():
     z_whole, _ = _pressed_and_slid(whole, pose[2])
     assert kinds.count("tip") > 600  # it did press on the object
     np.testing.assert_array_equal(z_culled, z_whole)
-    first, vertices = culled._near_part(culled.pose()[:2])
-    assert len(vertices) < 0.5 * len(shape.obstacle().vertices_mm)  # and did leave edges out
+    first, part = culled._near_part(culled.pose()[:2])
+    assert len(part.vertices_mm) < 0.5 * len(shape.obstacle().vertices_mm)  # and left edges out

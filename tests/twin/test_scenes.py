@@ -10,7 +10,7 @@ import whiskercal.rig  # noqa: F401  (registers sim://)
 from whiskercal.errors import UsageError
 from whiskercal.rig.sensor import SensorClient
 from whiskercal.rig.stage import StageClient
-from whiskercal.twin.physics.obstacles import Circle, regular_polygon
+from whiskercal.twin.physics.obstacles import Circle, Polygon, regular_polygon
 from whiskercal.twin.scenes import (NoFixture, PlaneFixture, RodFixture, ShapeFixture,
                                     fixture_for_scene, scene_names)
 from whiskercal.twin.world import create_world
@@ -106,3 +106,17 @@ def test_each_world_works_on_its_own_copy_of_a_shared_scene():
     second = create_world(f"scene-test-{next(_names)}", physics=RigidWhiskerPhysics(), fixture=shared)
     assert first.scene is not second.scene and first.scene is not shared
     assert first.config.fixture is shared and first.scene == shared
+
+
+def test_a_polygon_seen_from_a_moved_frame_is_the_polygon_built_there():
+    # the moving scene's shortcut: a rigid move's normals and offsets follow from the world's
+    world = regular_polygon([150.0, -40.0], 90.0, 8, rotation_rad=0.3)
+    angle, origin = 0.7, np.array([20.0, 35.0])
+    turn = np.array([[np.cos(-angle), -np.sin(-angle)], [np.sin(-angle), np.cos(-angle)]])
+    seen = world.seen_from(turn, origin)
+    built = Polygon((world.vertices_mm - origin) @ turn.T)
+    np.testing.assert_allclose(seen.vertices_mm, built.vertices_mm, atol=1e-12)
+    np.testing.assert_allclose(seen.outward_normals, built.outward_normals, atol=1e-12)
+    np.testing.assert_allclose(seen.edge_offsets_mm, built.edge_offsets_mm, atol=1e-9)
+    wire = np.column_stack([np.linspace(0.0, 200.0, 30), np.zeros(30)])
+    assert seen.crosses_polyline(wire) == built.crosses_polyline(wire)

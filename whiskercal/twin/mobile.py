@@ -114,6 +114,7 @@ class MobileSensor:
         # edges farther than this from the base cannot meet the whisker (mm; see _near_part)
         self._keep_mm = float(sensor.whisker.reach_mm) + NEAR_MARGIN_MM
         self._near = None  # (base position, first edge, count) of the last near run
+        self._runs: dict[tuple[int, int], Polygon] = {}  # near runs met so far, world frame
 
     # -- the Robot interface -----------------------------------------------------------------
     def pose(self) -> np.ndarray:
@@ -220,10 +221,10 @@ class MobileSensor:
         turn, origin = rotation(-self._pose[2]), self._pose[:2]
         if isinstance(self._obstacle, Circle):
             return replace(self._obstacle, center_mm=turn @ (self._obstacle.center_mm - origin)), 0
-        first, vertices = self._near_part(origin)
-        return Polygon((vertices - origin) @ turn.T), first
+        first, part = self._near_part(origin)
+        return part.seen_from(turn, origin), first
 
-    def _near_part(self, origin: np.ndarray) -> tuple[int, np.ndarray]:
+    def _near_part(self, origin: np.ndarray) -> tuple[int, Polygon]:
         """The run of the outline's edges that come within ``_keep_mm`` of the sensor's base, as
         a convex polygon (closed by a chord inside the object), and the index of its first vertex.
 
@@ -240,10 +241,12 @@ class MobileSensor:
             self._near = (origin.copy(), *self._near_run(origin))
         _, first, count = self._near
         if not warm or first is None or count < 2:  # a polygon needs three vertices
-            return 0, vertices
+            return 0, self._obstacle
         if (self._previous.solution[-1] - first) % len(vertices) >= count:  # its contact is not
-            return 0, vertices                                                # among the near edges
-        return first, vertices[(first + np.arange(count + 1)) % len(vertices)]
+            return 0, self._obstacle                                          # among the near edges
+        if (first, count) not in self._runs:
+            self._runs[first, count] = Polygon(vertices[(first + np.arange(count + 1)) % len(vertices)])
+        return first, self._runs[first, count]
 
     def _near_run(self, origin: np.ndarray) -> tuple[int | None, int]:
         """First index and number of the edges within ``_keep_mm`` + NEAR_REUSE_MM of

@@ -199,6 +199,18 @@ class Polygon:
                         0.0, 1.0)
         return np.linalg.norm(vertices + share[:, None] * edge - point_mm, axis=1)
 
+    def seen_from(self, turn: np.ndarray, origin_mm: np.ndarray) -> "Polygon":
+        """The same polygon in a frame at `origin_mm` (mm) turned by `turn` (the 2x2 rotation from
+        this frame to that one). A rigid move keeps it convex and counter-clockwise, so nothing
+        is checked again, and its normals and edge offsets follow from this one's (a moving
+        scene builds the object in the sensor's frame at every period)."""
+        moved = object.__new__(Polygon)
+        object.__setattr__(moved, "vertices_mm", (self.vertices_mm - origin_mm) @ turn.T)
+        object.__setattr__(moved, "side", self.side)
+        moved.__dict__["outward_normals"] = self.outward_normals @ turn.T
+        moved.__dict__["edge_offsets_mm"] = self.edge_offsets_mm - self.outward_normals @ origin_mm
+        return moved
+
     def moved(self, offset_mm: np.ndarray) -> "Polygon":
         """The same polygon moved by `offset_mm`."""
         return replace(self, vertices_mm=self.vertices_mm + offset_mm)
@@ -212,17 +224,18 @@ class Polygon:
         deeper than `tol_mm`? (Separating axes: the edge normals and each segment's normal.)"""
         points = np.asarray(points_mm, dtype=float)
         height = points @ self.outward_normals.T - self.edge_offsets_mm  # (n, k) above each edge
-        separated = np.any(np.minimum(height[:-1], height[1:]) >= -tol_mm, axis=1)
+        separated = (np.minimum(height[:-1], height[1:]) >= -tol_mm).any(axis=1)
         if separated.all():  # the usual case, and most of a moving scene's calls: done
             return False
         # only the segments no edge separates need their own normal as the axis
         starts, ends = points[:-1][~separated], points[1:][~separated]
         direction = ends - starts
-        across = np.column_stack([-direction[:, 1], direction[:, 0]])
-        across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
-        signed = across @ self.vertices_mm.T - np.einsum("ij,ij->i", across, starts)[:, None]
-        apart = np.all(signed >= -tol_mm, axis=1) | np.all(signed <= tol_mm, axis=1)
-        return bool(not np.all(apart))
+        across = np.empty_like(direction)
+        across[:, 0], across[:, 1] = -direction[:, 1], direction[:, 0]
+        across /= np.maximum(np.sqrt((across * across).sum(axis=1, keepdims=True)), 1e-300)
+        signed = across @ self.vertices_mm.T - (across * starts).sum(axis=1)[:, None]
+        apart = (signed >= -tol_mm).all(axis=1) | (signed <= tol_mm).all(axis=1)
+        return not apart.all()
 
 
 def _following(rows: np.ndarray) -> np.ndarray:
