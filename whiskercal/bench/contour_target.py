@@ -93,9 +93,9 @@ def run(quick: bool = False, progress=None, field_table: bool | None = None,
     rows = []
     with tempfile.TemporaryDirectory(prefix="whiskercal-contour-target-") as folder:
         artifacts = calibrations_with_target(Path(folder), field_table=field_table)
-        chosen = {series: float(runtime.load(path).target_z_uT)
-                  for series, path in artifacts.items()}
-        range_end = float(runtime.load(artifacts["z-lookup"]).z_range_uT[0])
+        loaded = {series: runtime.load(path) for series, path in artifacts.items()}
+        chosen = {series: float(calibration.target_z_uT) for series, calibration in loaded.items()}
+        range_end = float(loaded["z-lookup"].z_range_uT[0])
         for series, artifact in artifacts.items():
             targets, beyond = _targets(chosen[series], range_end, quick, magnitudes_uT)
             tag = (lambda row, s=series: progress({"tip_model": s, **row})) if progress else None

@@ -223,7 +223,7 @@ class Follower:
             robot.command(velocity, turn)
             return Step(np.full(2, np.nan), "gave-up" if self.gave_up else "search", slip, velocity, turn)
         phase = "approach" if not self.contacted else "search"
-        velocity = self.config.approach_speed_mm_s * _unit(pose[2] + math.radians(self.config.tilt_deg))
+        velocity = self._approach_velocity(pose)
         robot.command(velocity, 0.0)
         return Step(np.full(2, np.nan), phase, slip, velocity, 0.0)
 
@@ -403,8 +403,11 @@ class Follower:
         """Toward the object, as the press does (as the approach did before any key point)."""
         if self.tangent is not None:
             return self._action(z_uT, pose, moving=False)
-        heading = pose[2] + math.radians(self.config.tilt_deg)
-        return self.config.approach_speed_mm_s * _unit(heading), 0.0
+        return self._approach_velocity(pose), 0.0
+
+    def _approach_velocity(self, pose: np.ndarray) -> np.ndarray:
+        """Along the whisker's lean toward the object, at the approach speed (mm/s, world)."""
+        return self.config.approach_speed_mm_s * _unit(pose[2] + math.radians(self.config.tilt_deg))
 
     def _bend_radius_mm(self) -> float:
         """Radius (mm) of the circle through the oldest, middle and newest key points (inf when
