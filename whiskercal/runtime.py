@@ -199,6 +199,20 @@ class Calibration:
         low, high = self.trusted_z_range_uT
         return inside & ((z < low) | (z > high))
 
+    def tip_motion_mm_per_uT(self, z_uT: float) -> float:
+        """How far (mm) the lookup's tip moves per µT of deflection about ``z_uT`` (a central
+        difference over 1 % of the calibrated range, clipped to it): what a controller that
+        holds a deflection needs to scale its gains to the build.
+
+        Raises UsageError when z is not one real number.
+        """
+        z_uT = _z_scalar(z_uT)
+        low, high = self.z_range_uT
+        step = 0.01 * (high - low)
+        below, above = max(z_uT - step, low), min(z_uT + step, high)
+        tips = self.tip(np.array([below, above]), out_of_range="clip")
+        return float(np.linalg.norm(tips[1] - tips[0]) / (above - below))
+
     def _flagged(self, z_uT: float) -> bool:
         """The tracker's per-sample test, for a z the lookup has already answered."""
         if not self._flagging:

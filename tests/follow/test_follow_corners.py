@@ -216,15 +216,14 @@ def _following_along_x(tracker_at):
     return follower, robot, config
 
 
-@pytest.mark.parametrize("z_uT, turned_deg", [(-3000.0, 135.0), (-5000.0, -135.0)])
+@pytest.mark.parametrize("z_uT, turned_deg", [(-3000.0, 135.0), (-5000.0, -160.0)])
 def test_a_tip_held_while_the_sensor_moves_along_turns_the_surface(z_uT, turned_deg):
     follower, robot, config = _following_along_x(lambda robot: HeldAt(robot, (1.0, 0.0)))
-    for _ in range(int(0.5 * config.rate_hz)):  # 8 mm/s along: 1.5 mm in 0.19 s
-        follower.update(z_uT, robot)
-        robot.step(1.0 / config.rate_hz)
+    _until_the_surface_turns(follower, robot, z_uT)  # 8 mm/s along: 1.5 mm in 0.19 s
     # the deflection falling (a surface ahead): turned clockwise, away from the object on the
-    # left; kept (the tip on an edge): counter-clockwise, toward it; by 45°, once: the sensor
-    # then only turns about the held tip while its heading catches up
+    # left, by 45°; kept (the tip on an edge): counter-clockwise, toward it, by 20° (more would
+    # lean the whisker past a rounded edge's normal: it slips off); once: the sensor then only
+    # turns about the held tip while its heading catches up
     assert math.degrees(math.atan2(follower.tangent[1], follower.tangent[0])) == pytest.approx(turned_deg)
     np.testing.assert_allclose(np.array(follower.keys), [[1.0, 0.0]], atol=1e-9)
 
@@ -260,9 +259,9 @@ def test_following_at_the_target_without_a_new_key_point_turns_toward_the_object
         follower.update(-5000.0, robot)
         robot.step(1.0 / config.rate_hz)
         angles.append(round(math.degrees(math.atan2(follower.tangent[1], follower.tangent[0]))))
-    # after 1 s, counter-clockwise by 45° (toward the object below); not again within the next
+    # after 1 s, counter-clockwise by 20° (toward the object below); not again within the next
     # second (the time is counted afresh)
-    assert angles[int(0.9 * config.rate_hz)] == 180 and set(angles[int(1.1 * config.rate_hz):]) == {-135}
+    assert angles[int(0.9 * config.rate_hz)] == 180 and set(angles[int(1.1 * config.rate_hz):]) == {-160}
 
 
 def _angle_deg(direction):
@@ -280,11 +279,45 @@ def test_a_key_point_that_steps_back_against_the_surface_is_a_tip_held_in_a_conc
     assert follower._turning
 
 
-@pytest.mark.parametrize("z_uT, turned", [(-5600.0, True), (-5400.0, False)])
-def test_a_deflection_rising_past_the_target_while_moving_along_is_a_surface_ahead(z_uT, turned):
-    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot))
-    follower.update(z_uT, robot)  # 1.12 (or 1.08) times the target's |z|, the heading caught up
-    assert _angle_deg(follower.tangent) == pytest.approx(135.0 if turned else 180.0)
+class SlowedAlong:
+    """A tracker whose tip starts at the world point (1, 0) mm (where the key points of
+    ``_following_along_x`` lead) and goes along the x axis at ``share`` of the sensor's own
+    motion along it."""
+
+    def __init__(self, robot, share):
+        self.robot, self.share, self.x0 = robot, share, None
+
+    def update(self, z_uT):
+        x, y, heading = self.robot.pose()
+        self.x0 = x if self.x0 is None else self.x0
+        world = np.array([1.0 + self.share * (x - self.x0), 0.0])
+        c, s = math.cos(heading), math.sin(heading)
+        tip = np.array([[c, s], [-s, c]]) @ (world - [x, y])
+        return TrackerState(True, tip, tip)
+
+
+def _until_the_surface_turns(follower, robot, z_uT, seconds=0.5):
+    """Follow at ``z_uT`` until a corner rule turns the surface's direction (by more than the
+    key points' 10° could), or ``seconds`` pass; return the last step."""
+    before = _angle_deg(follower.tangent)
+    for _ in range(int(seconds * follower.config.rate_hz)):
+        step = follower.update(z_uT, robot)
+        if abs((_angle_deg(follower.tangent) - before + 180.0) % 360.0 - 180.0) > 15.0:
+            return step
+        robot.step(1.0 / follower.config.rate_hz)
+    return step
+
+
+@pytest.mark.parametrize("z_uT, share, turned", [(-5600.0, 0.5, True), (-5400.0, 0.5, False),
+                                                 (-5600.0, 1.0, False)])
+def test_a_deflection_past_the_target_with_the_tip_lagging_the_motion_is_a_surface_ahead(
+        z_uT, share, turned):
+    follower, robot, config = _following_along_x(lambda robot: SlowedAlong(robot, share))
+    _until_the_surface_turns(follower, robot, z_uT)  # 1.12 (or 1.08) times the target's |z|
+    # a tip that goes on with the sensor is pressed harder by a direction not yet the surface's
+    # (after a search, say): the surface does not turn (on a long whisker at a small target it
+    # used to be read as a concave corner, and the sensor stopped on a convex object)
+    assert abs(_angle_deg(follower.tangent)) == pytest.approx(135.0 if turned else 180.0, abs=1.0)
 
 
 def test_a_held_tip_whose_deflection_rises_as_the_sensor_moves_along_is_a_concave_corner():
@@ -297,8 +330,9 @@ def test_a_held_tip_whose_deflection_rises_as_the_sensor_moves_along_is_a_concav
 
 
 def test_after_a_corner_rule_it_turns_about_the_corner_and_keeps_no_key_point_until_round():
-    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot))
-    follower.update(-5600.0, robot)  # the rise rule: the corner is that sample's contact
+    follower, robot, config = _following_along_x(lambda robot: SlowedAlong(robot, 0.5))
+    _until_the_surface_turns(follower, robot, -5600.0)  # the rise rule: the corner is that
+    robot.step(1.0 / config.rate_hz)                     # sample's contact
     corner = np.array(follower.keys[-1])
     heading = robot.pose()[2]
     for _ in range(int(1.0 * config.rate_hz)):
@@ -309,7 +343,8 @@ def test_after_a_corner_rule_it_turns_about_the_corner_and_keeps_no_key_point_un
         arm = pose[:2] - corner
         own = step.velocity_mm_s - step.turn_rad_s * np.array([-arm[1], arm[0]])
         assert own @ follower.tangent == pytest.approx(0.0, abs=1e-9)
-        assert np.linalg.norm(own) < 0.01  # mm/s: the PID's integral of the one high sample
+        # mm/s: the PID's integral of the high samples before the rule (0.19 s, 600 µT over)
+        assert np.linalg.norm(own) < config.ki_mm_s2_per_uT * 600.0 * 0.25
         assert np.all(np.isnan(step.contact_mm))  # a held tip's estimate is not on the surface
         robot.step(1.0 / config.rate_hz)
     assert len(follower.keys) == 1 and follower._turning
@@ -339,10 +374,13 @@ def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_sto
     # the heading, as a whisker pressed at the target is); turning about the corner to the
     # heading the 45° turn asks for (-155°) would put the base 2.7 mm above the wall it leaves
     # (y = 0 through the corner). Straight (the tip on the whisker's axis): 33 mm above it.
-    follower, robot, config = _following_along_x(
-        (lambda robot: Touching()) if bent else (lambda robot: HeldAt(robot)))
-    step = follower.update(-5600.0, robot)  # the rise rule: a surface ahead
-    assert _angle_deg(follower.tangent) == pytest.approx(135.0)
+    follower, robot, config = _following_along_x(lambda robot: SlowedAlong(robot, 0.5))
+    heading = robot.pose()[2]
+    tip_mm = np.array([70.0, -30.0] if bent else [78.0, 0.0])  # the contact (1, 0) seen from the base
+    turn = np.array([[math.cos(heading), -math.sin(heading)], [math.sin(heading), math.cos(heading)]])
+    robot._pose[:2] = np.array([1.0, 0.0]) - turn @ tip_mm
+    step = _until_the_surface_turns(follower, robot, -5600.0)  # the rise rule: a surface ahead
+    assert _angle_deg(follower.tangent) == pytest.approx(135.0, abs=1.0)
     assert follower.gave_up == stops
     if stops:  # stopped for good rather than driven into the wall
         assert step.phase == "gave-up" and not np.any(step.velocity_mm_s) and step.turn_rad_s == 0.0

@@ -65,11 +65,14 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
         config = dataclasses.replace(config, total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
     shape_outline = outline(shape)
+    tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)  # scales the PID to the build
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
-                      config, duration_s, seed, on_progress, stop_requested, friction)
+                      config, duration_s, seed, on_progress, stop_requested, friction,
+                      tip_mm_per_uT)
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
                           float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
                           run.columns, {"follow": run.config, "artifact": str(artifact),
+                                        "tip_mm_per_uT": tip_mm_per_uT,
                                         "mu_kinetic": float(mu_kinetic),
                                         "mu_static": None if friction is None else friction.mu_static})
 

@@ -57,14 +57,15 @@ def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
 def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: FollowConfig,
                 duration_s: float, seed: int = 0, on_progress: Callable[[float], None] | None = None,
                 stop_requested: Callable[[], bool] | None = None,
-                friction=None) -> ContourRun:
+                friction=None, tip_mm_per_uT: float | None = None) -> ContourRun:
     """Run the loop for ``duration_s`` s of robot time, or until stopped (a partial run);
-    ``friction``: a ``Coulomb``, friction at the tip (``twin.mobile``), None: frictionless."""
+    ``friction``: a ``Coulomb``, friction at the tip (``twin.mobile``), None: frictionless;
+    ``tip_mm_per_uT``: the calibration's tip motion per µT at the target (scales the PID)."""
     rng = np.random.default_rng(seed)
     reach_mm = sensor.whisker.reach_mm
     robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng, reach_mm),
                          seed=seed, friction=friction)
-    follower = Follower(tracker, target_z_uT, config, reach_mm)
+    follower = Follower(tracker, target_z_uT, config, reach_mm, tip_mm_per_uT)
     run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
     rows: dict[str, list] = {name: [] for name in COLUMNS}
     dt, steps = 1.0 / config.rate_hz, int(round(duration_s * config.rate_hz))

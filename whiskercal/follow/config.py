@@ -17,7 +17,11 @@ class FollowConfig:
     normal motions share (the paper's 8 mm/s). approach_speed_mm_s: toward the object before the
     first contact. tilt_deg: how far the whisker leans back from the surface's inward normal.
     kp_mm_s_per_uT, ki_mm_s2_per_uT, kd_mm_per_uT: the PID from the deflection error (z minus the
-    target, µT) to the normal speed (mm/s), which is limited to normal_speed_max_mm_s.
+    target, µT) to the normal speed (mm/s), which is limited to normal_speed_max_mm_s; they are
+    set for a build whose tip moves gains_tip_mm_per_uT (mm per µT) at the target (the default
+    sensor's, 0.0065 at -3123 µT), and a follower told its build's figure there scales them by
+    the ratio (a longer or softer whisker moves its tip farther per µT: the same gains in µT
+    would leave its deflection barely held).
     heading_gain_per_s: turn rate per radian of heading error, at most turn_max_rad_s (the
     sensor turns about the contact, so the tip stays put while it turns). key_every: samples
     between key points; key_spacing_mm: their least spacing; key_points: how many the B-spline
@@ -38,7 +42,10 @@ class FollowConfig:
     stall_travel_mm, stall_share: a surface ahead of the tip (a concave corner) holds the tip: when
     the contact has moved along the surface less than ``stall_share`` of the last
     ``stall_travel_mm`` the tangential command asked for, the surface's direction turns away from
-    the object by ``corner_turn_deg`` (and again if it stays held). search_turn_deg,
+    the object by ``corner_turn_deg`` (and again if it stays held); held with the deflection
+    kept, or no key point for ``dwell_s`` while following at the target (an edge), it turns
+    toward the object by ``edge_hold_turn_deg`` (and again if it stays held: one larger turn
+    can lean a long whisker past a rounded edge's normal, and it slips off). search_turn_deg,
     search_turns: when a search passes the last key point without a contact (the surface bent
     toward the object there: an edge), the line it comes in along turns toward the object about
     that key point by ``search_turn_deg`` and it searches again, up to ``search_turns`` times
@@ -47,7 +54,9 @@ class FollowConfig:
     the turn rate allowed while the heading lags past ``stop_heading_deg`` (the sensor then
     stands still, turning about the contact: past an edge, or a concave corner).
     rise_share: following with the heading caught up, |z| above this share of the target's
-    |z| is a tip held by a surface ahead (a concave corner). corner_clearance_mm: the least
+    |z| is a tip held by a surface ahead (a concave corner) when the contact has also gone less
+    than ``rise_progress_share`` of the last ``stall_travel_mm`` commanded (a tip that goes on,
+    pressed harder by a direction not yet the surface's, is not held). corner_clearance_mm: the least
     distance (mm) from the sensor's base to the surface left at a concave corner: when turning
     about the corner would bring the base nearer, the sensor stops for good (gave up).
     """
@@ -59,6 +68,7 @@ class FollowConfig:
     kp_mm_s_per_uT: float = 3e-3
     ki_mm_s2_per_uT: float = 1e-4
     kd_mm_per_uT: float = 0.0
+    gains_tip_mm_per_uT: float = 0.0065
     normal_speed_max_mm_s: float = 6.0
     heading_gain_per_s: float = 1.0
     turn_max_rad_s: float = 0.1
@@ -80,12 +90,14 @@ class FollowConfig:
     stall_travel_mm: float = 1.5
     stall_share: float = 0.3
     corner_turn_deg: float = 45.0
+    edge_hold_turn_deg: float = 20.0
     search_turn_deg: float = 45.0
     edge_turn_deg: float = 20.0
     edge_turn_max_rad_s: float = 0.3
     dwell_s: float = 1.0
     search_turns: int = 4
     rise_share: float = 1.1
+    rise_progress_share: float = 0.7
     corner_clearance_mm: float = 10.0
 
     def __post_init__(self) -> None:

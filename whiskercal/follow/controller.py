@@ -54,9 +54,13 @@ class Follower:
     """The controller (see the module's docstring) over a runtime ``Tracker``."""
 
     def __init__(self, tracker, target_z_uT: float, config: FollowConfig = FollowConfig(),
-                 reach_mm: float = 78.0) -> None:
+                 reach_mm: float = 78.0, tip_mm_per_uT: float | None = None) -> None:
+        """``tip_mm_per_uT``: how far the build's tip moves per µT at the target (the
+        calibration's ``tip_motion_mm_per_uT``); the PID's gains scale by its ratio to
+        ``config.gains_tip_mm_per_uT`` (None: the gains as they are)."""
         self.tracker, self.target_z_uT, self.config = tracker, float(target_z_uT), config
         self.reach_mm = float(reach_mm)  # centre of rotation to the undeflected tip
+        self.gain_scale = 1.0 if tip_mm_per_uT is None else float(tip_mm_per_uT) / config.gains_tip_mm_per_uT
         self.keys: deque = deque(maxlen=config.key_points)
         self.tangent: np.ndarray | None = None
         self._samples, self._integral, self._last_error = 0, 0.0, None
@@ -154,10 +158,13 @@ class Follower:
             # that cannot go on): against a surface ahead (a concave corner)
             self._turn_at_corner(contact, toward_object=kept and not self._held_rising)
         elif (following and lag < math.radians(config.slow_heading_deg)
-              and abs(z_uT) > config.rise_share * abs(self.target_z_uT)):
+              and abs(z_uT) > config.rise_share * abs(self.target_z_uT)
+              and self._slowed(contact)):
             # the deflection rises well past the target while moving along with the heading
-            # caught up: the base nears a tip that cannot go on, a surface ahead (a concave
-            # corner), before the held tip's estimates wander (its axial push read as a bend)
+            # caught up, and the tip lags the motion: the base nears a tip that cannot go on, a
+            # surface ahead (a concave corner), before the held tip's estimates wander (its axial
+            # push read as a bend). A tip that keeps going on is pressed harder by a direction
+            # not yet the surface's (after a search, say), not held by a surface ahead
             self._turn_at_corner(contact)
         elif kept and self._dwell > config.dwell_s * config.rate_hz:
             # no new key point for that long while following at the target: the contact stays
@@ -280,17 +287,26 @@ class Follower:
             return False
         return float((contact - before) @ self.tangent) < config.stall_share * (self._travel - travel)
 
+    def _slowed(self, contact: np.ndarray) -> bool:
+        """Has the contact gone less than ``rise_progress_share`` of the tangential travel
+        commanded over the last ``stall_travel_mm`` (the window ``_held_ahead`` keeps)?"""
+        travel, before, _ = self._progress[0]
+        if self._travel - travel < self.config.stall_travel_mm:
+            return False
+        return float((contact - before) @ self.tangent) < self.config.rise_progress_share * (self._travel - travel)
+
     def _turn_at_corner(self, contact: np.ndarray, toward_object: bool = False) -> None:
         """The tip is held: the surface turns there, away from the object (a surface ahead, a
-        concave corner) or toward it (an edge). Turn its direction by ``corner_turn_deg`` and
+        concave corner) or toward it (an edge). Turn its direction by ``corner_turn_deg`` (or
+        ``edge_hold_turn_deg``) and
         start the key points afresh from the corner (the catch-up rule then holds the sensor
         still while it turns, about the contact)."""
-        sign = 1.0 if toward_object else -1.0
+        turn = self.config.edge_hold_turn_deg if toward_object else -self.config.corner_turn_deg
         self._past_edge = toward_object
         if not toward_object and self._left_outward is None:  # the surface followed up to here
             self._left_outward = np.array([self.tangent[1], -self.tangent[0]])
         self._turning = True
-        self.tangent = _unit(_angle(self.tangent) + sign * math.radians(self.config.corner_turn_deg))
+        self.tangent = _unit(_angle(self.tangent) + math.radians(turn))
         self._restart_keys(contact)
 
     def _swings_into_left(self, pose: np.ndarray, contact: np.ndarray) -> bool:
@@ -428,10 +444,10 @@ class Follower:
         self._last_error = error
         limit = config.normal_speed_max_mm_s
         if config.ki_mm_s2_per_uT > 0:  # the integral alone never asks for more than the limit
-            bound = limit / config.ki_mm_s2_per_uT
+            bound = limit / (self.gain_scale * config.ki_mm_s2_per_uT)
             self._integral = float(np.clip(self._integral + error * dt, -bound, bound))
-        speed = (config.kp_mm_s_per_uT * error + config.ki_mm_s2_per_uT * self._integral
-                 + config.kd_mm_per_uT * derivative)
+        speed = self.gain_scale * (config.kp_mm_s_per_uT * error + config.ki_mm_s2_per_uT * self._integral
+                                   + config.kd_mm_per_uT * derivative)
         return float(np.clip(speed, -limit, limit))
 
     def _slip(self, z_uT: float, raw_tip) -> bool:
