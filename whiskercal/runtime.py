@@ -201,13 +201,14 @@ class Calibration:
 
     def tip_motion_mm_per_uT(self, z_uT: float) -> float:
         """How far (mm) the lookup's tip moves per µT of deflection about ``z_uT`` (a central
-        difference over 1 % of the calibrated range, clipped to it): what a controller that
-        holds a deflection needs to scale its gains to the build.
+        difference over 1 % of the calibrated range; a z outside the range is taken at its
+        nearest end, one-sided there): what a controller that holds a deflection needs to scale
+        its gains to the build.
 
         Raises UsageError when z is not one real number.
         """
-        z_uT = _z_scalar(z_uT)
         low, high = self.z_range_uT
+        z_uT = min(max(_z_scalar(z_uT), low), high)
         step = 0.01 * (high - low)
         below, above = max(z_uT - step, low), min(z_uT + step, high)
         tips = self.tip(np.array([below, above]), out_of_range="clip")

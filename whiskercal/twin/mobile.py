@@ -141,7 +141,13 @@ class MobileSensor:
             obstacle, first = self._seen_from_sensor()
             count = len(getattr(self._obstacle, "vertices_mm", ()))
             previous = _reindexed(self._previous, -first, count)
-            if self.friction is None:
+            short = self._short_of_the_clamp(obstacle)
+            if short is not None:
+                # the contact model takes objects beyond the rigid clamp only: one short of it
+                # is clear of the wire, or has the sensor's base inside it (a crash: what the
+                # twin models ends there)
+                self.collided, equilibrium = short, self.physics.free()
+            elif self.friction is None:
                 equilibrium = self.physics.solve_shape(obstacle, previous)
             else:
                 equilibrium = self._solve_sticking(obstacle, previous)
@@ -154,6 +160,18 @@ class MobileSensor:
         tip = self.to_world(equilibrium.tip_mm)
         return MobileSample(z, kind, tip, self.to_world(equilibrium.contact_mm), axial,
                             equilibrium.slips)
+
+    def _short_of_the_clamp(self, obstacle) -> bool | None:
+        """For a circle (sensor frame) whose centre lies short of the clamp across the wire's
+        line: does it reach the wire beyond the clamp (the base is then inside it)? None for
+        any other object."""
+        if not isinstance(obstacle, Circle):
+            return None
+        (x, y), radius = obstacle.center_mm, obstacle.radius_mm
+        clamp = self.sensor.whisker.root_offset_mm
+        if x > clamp or abs(y) >= radius:
+            return None
+        return bool(x + math.sqrt(radius ** 2 - y ** 2) > clamp)
 
     def _solve_sticking(self, obstacle, previous):
         """The stick-slip solve, its stuck point carried in the world frame (the object stands
