@@ -387,3 +387,22 @@ def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_sto
         assert follower.update(-5000.0, robot).phase == "gave-up"
     else:
         assert step.phase == "follow" and follower._turning
+
+
+@pytest.mark.parametrize("gradual, stops", [(True, True), (False, False)])
+def test_a_deflection_that_falls_by_half_step_by_step_while_touching_stops_the_sensor(gradual, stops):
+    # a tip held in a concave corner and pushed along the wire as the sensor moves on: |z| falls
+    # over tens of samples, the wire still touching (turning about the corner, or backing off
+    # with the tip caught between both walls, drove the wire into the solid); a slip falls in
+    # one snap and is not that
+    follower, robot, config = _following_along_x(lambda robot: HeldAt(robot))
+    for _ in range(int(0.2 * config.rate_hz)):  # following at the target
+        follower.update(-5000.0, robot)
+        robot.step(1.0 / config.rate_hz)
+    falls = np.linspace(-5000.0, -2000.0, 25) if gradual else np.array([-2000.0])
+    steps = [follower.update(z_uT, robot) for z_uT in falls]
+    assert any(step.slip for step in steps)  # either way a slip's fall (|z| under half its most)
+    assert follower.gave_up == stops
+    assert (steps[-1].phase == "gave-up") == stops
+    if stops:
+        assert not np.any(steps[-1].velocity_mm_s) and steps[-1].turn_rad_s == 0.0

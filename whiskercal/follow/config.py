@@ -27,7 +27,9 @@ class FollowConfig:
     between key points; key_spacing_mm: their least spacing; key_points: how many the B-spline
     goes through.
     slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
-    or the raw tip jumping more than slip_jump_mm between samples. press_share: after the first
+    or the raw tip jumping more than slip_jump_mm between samples; such a fall of |z| made of
+    many small steps (none over gradual_step_share of it) with the wire still touching is a tip
+    held in a concave corner and pushed along the wire: the sensor stops for good. press_share: after the first
     contact the sensor only presses in, until |z| reaches this share of the target's.
     lost_after_s: a contact counts as lost only after this long without a tip (the sensor holds
     still meanwhile). backoff_s: after losing contact it backs off this long at the approach
@@ -78,6 +80,7 @@ class FollowConfig:
     slip_drop: float = 0.5
     slip_window_s: float = 0.1
     slip_jump_mm: float = 3.0
+    gradual_step_share: float = 0.25
     press_share: float = 0.9
     backoff_s: float = 6.0
     lost_after_s: float = 0.05

@@ -79,6 +79,7 @@ class Follower:
         self._dwell = 0  # samples following since the last key point
         self._past_edge = False  # the surface's direction was last turned by an edge rule
         self._held_rising = False
+        self._fell_gradually = False  # the last sample's |z| fell by half, gradually (_slip)
         self._turning = False  # a corner rule turned the direction; the heading not round yet
         self._left_outward: np.ndarray | None = None  # the surface left at a concave corner
 
@@ -98,8 +99,7 @@ class Follower:
         if self._far_side:
             tip = None
         if self.gave_up:  # for good: a person must look at why the surface was not found
-            robot.command(np.zeros(2), 0.0)
-            return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
+            return self._stop_for_good(robot, slip)
         if self._backing > 0:  # backing off is finished even if the wire still touches: it
             return self._find_contact(robot, pose, slip)  # is leaving the object
         if tip is None and self._touching and self._missing < self._grace:
@@ -131,6 +131,13 @@ class Follower:
                              >= math.radians(self.config.slow_heading_deg))
             if self._turning:
                 return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip)
+        if self._fell_gradually and phase == "follow" and not self._turning:
+            # |z| halved within the slip window, step by small step, the wire still touching:
+            # not a slip (one snap) but a tip held in a concave corner, the wire pushed along
+            # its axis as the sensor moves on. Turning about the corner from
+            # there kept pushing it, until z read no contact while the tip was still caught,
+            # and backing off then drove the wire into both walls: stop for good instead
+            return self._stop_for_good(robot, slip)
         self._key_point(contact, pose)
         velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
         if not self._turning:  # (a key point's rule, an edge or a step back, may have turned it)
@@ -177,10 +184,14 @@ class Follower:
         would bring the base to the surface it leaves (a concave corner narrower than the bent
         whisker's reach): then stop for good rather than crash."""
         if self._swings_into_left(pose, contact):
-            self.gave_up = True
-            robot.command(np.zeros(2), 0.0)
-            return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
+            return self._stop_for_good(robot, slip)
         return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip, contact)
+
+    def _stop_for_good(self, robot: Robot, slip: bool) -> Step:
+        """Stand still from now on (phase "gave-up"): a person must look at why."""
+        self.gave_up = True
+        robot.command(np.zeros(2), 0.0)
+        return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
 
     def _turn_about(self, pivot: np.ndarray, z_uT: float, pose: np.ndarray, robot: Robot,
                     phase: str, slip: bool, contact: np.ndarray | None = None) -> Step:
@@ -458,9 +469,18 @@ class Follower:
         jumped = (raw_tip is not None and self._last_raw is not None
                   and float(np.linalg.norm(raw_tip - self._last_raw)) > self.config.slip_jump_mm)
         self._last_raw = None if raw_tip is None else np.asarray(raw_tip, float)
+        self._fell_gradually = dropped and self._gradual_fall()
         if dropped:
             self._recent_z.clear()
         return bool(dropped or jumped)
+
+    def _gradual_fall(self) -> bool:
+        """Did the fall of |z| over the slip window come in many small steps (no sample's fall
+        over ``gradual_step_share`` of the whole), not as a slip's one snap?"""
+        recent = np.array(self._recent_z)
+        steps = -np.diff(recent[int(np.argmax(recent)):])
+        whole = float(recent.max() - recent[-1])
+        return steps.size > 1 and float(steps.max()) < self.config.gradual_step_share * whole
 
 
 def _angle(direction: np.ndarray) -> float:
