@@ -103,16 +103,7 @@ class Follower:
         if self._backing > 0:  # backing off is finished even if the wire still touches: it
             return self._find_contact(robot, pose, slip)  # is leaving the object
         if tip is None and self._touching and self._missing < self._grace:
-            # a sample or two without a tip (the collision detector's hysteresis near its
-            # threshold, the first touch) is not a lost contact: hold still for a moment, or,
-            # before the target is first reached, press on (standing still, a tip stuck by
-            # friction at its first touch can hold z just under the threshold until the grace
-            # runs out, and the sensor backs off, over and over)
-            self._missing += 1
-            velocity, turn = (np.zeros(2), 0.0) if self.pressed else self._press_on(z_uT, pose)
-            robot.command(velocity, turn)
-            phase = "follow" if self.pressed else "press"
-            return Step(np.full(2, np.nan), phase, slip, velocity, turn)
+            return self._within_grace(z_uT, pose, robot, slip)
         if not self.contacted or tip is None:
             return self._find_contact(robot, pose, slip)
         self._missing, self._search_turned = 0, 0
@@ -131,12 +122,11 @@ class Follower:
                              >= math.radians(self.config.slow_heading_deg))
             if self._turning:
                 return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip)
-        if self._fell_gradually and phase == "follow" and not self._turning:
+        if self._fell_gradually and phase == "follow":
             # |z| halved within the slip window, step by small step, the wire still touching:
-            # not a slip (one snap) but a tip held in a concave corner, the wire pushed along
-            # its axis as the sensor moves on. Turning about the corner from
-            # there kept pushing it, until z read no contact while the tip was still caught,
-            # and backing off then drove the wire into both walls: stop for good instead
+            # not a slip (one snap) but a tip held in a concave corner, pushed along the wire as
+            # the sensor moves on. Turning about the corner kept pushing it until z read no
+            # contact, the tip still caught, and backing off drove the wire into both walls
             return self._stop_for_good(robot, slip)
         self._key_point(contact, pose)
         velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
@@ -186,6 +176,17 @@ class Follower:
         if self._swings_into_left(pose, contact):
             return self._stop_for_good(robot, slip)
         return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip, contact)
+
+    def _within_grace(self, z_uT: float, pose: np.ndarray, robot: Robot, slip: bool) -> Step:
+        """A sample or two without a tip (the collision detector's hysteresis near its
+        threshold, the first touch) is not a lost contact: hold still for a moment, or, before
+        the target is first reached, press on (standing still, a tip stuck by friction at its
+        first touch can hold z just under the threshold until the grace runs out, and the
+        sensor backs off, over and over)."""
+        self._missing += 1
+        velocity, turn = (np.zeros(2), 0.0) if self.pressed else self._press_on(z_uT, pose)
+        robot.command(velocity, turn)
+        return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, velocity, turn)
 
     def _stop_for_good(self, robot: Robot, slip: bool) -> Step:
         """Stand still from now on (phase "gave-up"): a person must look at why."""
