@@ -29,8 +29,9 @@ class FollowConfig:
     slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
     or the raw tip jumping more than slip_jump_mm between samples; such a fall of |z| made of
     many small steps (none over gradual_step_share of it) with the wire still touching is a tip
-    held in a concave corner and pushed along the wire: the sensor stops for good. press_share: after the first
-    contact the sensor only presses in, until |z| reaches this share of the target's.
+    held in a concave corner and pushed along the wire: the sensor stops for good.
+    press_share: after the first contact the sensor only presses in, until |z| reaches this
+    share of the target's.
     lost_after_s: a contact counts as lost only after this long without a tip (the sensor holds
     still meanwhile). backoff_s: after losing contact it backs off this long at the approach
     speed, then lines the whisker up
@@ -58,9 +59,9 @@ class FollowConfig:
     rise_share: following with the heading caught up, |z| above this share of the target's
     |z| is a tip held by a surface ahead (a concave corner) when the contact has also gone less
     than ``rise_progress_share`` of the last ``stall_travel_mm`` commanded (a tip that goes on,
-    pressed harder by a direction not yet the surface's, is not held). corner_clearance_mm: the least
-    distance (mm) from the sensor's base to the surface left at a concave corner: when turning
-    about the corner would bring the base nearer, the sensor stops for good (gave up).
+    pressed harder by a direction not yet the surface's, is not held). corner_clearance_mm: the
+    least distance (mm) from the sensor's base to the surface left at a concave corner: when
+    turning about the corner would bring the base nearer, the sensor stops for good (gave up).
     """
 
     rate_hz: float = 300.0

@@ -156,7 +156,7 @@ class Follower:
             self._turn_at_corner(contact, toward_object=kept and not self._held_rising)
         elif (following and lag < math.radians(config.slow_heading_deg)
               and abs(z_uT) > config.rise_share * abs(self.target_z_uT)
-              and self._slowed(contact)):
+              and self._lags(contact, config.rise_progress_share)):
             # the deflection rises well past the target while moving along with the heading
             # caught up, and the tip lags the motion: the base nears a tip that cannot go on, a
             # surface ahead (a concave corner), before the held tip's estimates wander (its axial
@@ -293,26 +293,22 @@ class Follower:
         self._progress.append((self._travel, contact, abs(z_uT)))
         while len(self._progress) > 1 and self._travel - self._progress[1][0] >= config.stall_travel_mm:
             self._progress.popleft()
-        travel, before, z_before = self._progress[0]
-        self._held_rising = abs(z_uT) > z_before
-        if self._travel - travel < config.stall_travel_mm:
-            return False
-        return float((contact - before) @ self.tangent) < config.stall_share * (self._travel - travel)
+        self._held_rising = abs(z_uT) > self._progress[0][2]
+        return self._lags(contact, config.stall_share)
 
-    def _slowed(self, contact: np.ndarray) -> bool:
-        """Has the contact gone less than ``rise_progress_share`` of the tangential travel
-        commanded over the last ``stall_travel_mm`` (the window ``_held_ahead`` keeps)?"""
+    def _lags(self, contact: np.ndarray, share: float) -> bool:
+        """Has the contact gone less than ``share`` of the tangential travel commanded over the
+        last ``stall_travel_mm`` (the window ``_held_ahead`` keeps; False until it is full)?"""
         travel, before, _ = self._progress[0]
         if self._travel - travel < self.config.stall_travel_mm:
             return False
-        return float((contact - before) @ self.tangent) < self.config.rise_progress_share * (self._travel - travel)
+        return float((contact - before) @ self.tangent) < share * (self._travel - travel)
 
     def _turn_at_corner(self, contact: np.ndarray, toward_object: bool = False) -> None:
         """The tip is held: the surface turns there, away from the object (a surface ahead, a
         concave corner) or toward it (an edge). Turn its direction by ``corner_turn_deg`` (or
-        ``edge_hold_turn_deg``) and
-        start the key points afresh from the corner (the catch-up rule then holds the sensor
-        still while it turns, about the contact)."""
+        ``edge_hold_turn_deg``) and start the key points afresh from the corner (the catch-up
+        rule then holds the sensor still while it turns, about the contact)."""
         turn = self.config.edge_hold_turn_deg if toward_object else -self.config.corner_turn_deg
         self._past_edge = toward_object
         if not toward_object and self._left_outward is None:  # the surface followed up to here
