@@ -12,7 +12,9 @@ from whiskercal.collect.config import load_config
 from whiskercal.collect.plan import build_plan
 from whiskercal.collect.run import collect
 from whiskercal.collect.sweep import sweep_points
+from whiskercal.fit.field_table import table_contacts
 from whiskercal.fit.run import level_set_points
+from whiskercal.model.calibrate import contact_mask
 
 from fast_collect import FAST_DWELL, SMALL_BAND
 
@@ -110,6 +112,11 @@ def test_a_sweep_run_on_the_twin_records_its_points_apart_from_the_grid(tmp_path
     level_set = level_set_points(grid)
     assert len(level_set) == plan.sweep_from and not level_set.sweep.any()
     assert level_set.truth["kind"].tolist() == grid.truth["kind"][:plan.sweep_from].tolist()
+    # the (Y, Z) table's joint fit reads the sweep's contacts too, marked as the sweep's
+    contacts = table_contacts(grid)
+    touched = contact_mask(grid.z_uT, grid.z_sem_uT)
+    np.testing.assert_array_equal(contacts.sweep, grid.sweep[touched])
+    assert contacts.sweep.any() and contacts.fields_uT.shape == (touched.sum(), 2)
 
 
 def test_a_dataset_without_a_sweep_is_all_grid():

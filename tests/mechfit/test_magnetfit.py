@@ -6,6 +6,8 @@ seed 0 (docs/calibration.md): 0.013 mm RMS noise-free, 0.042 mm with one sample'
 contact answered by the table; the Y-only lookup 1.1 mm.
 """
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -33,3 +35,80 @@ def test_the_yz_table_places_tips_on_planes_with_friction():
     assert errors["y_and_z_sample_noise"]["rmse_mm"] <= 0.3
     assert errors["y_and_z_sample_noise"]["table_answered"] > 0.9
     assert errors["y_only"]["rmse_mm"] > 3 * errors["y_and_z"]["rmse_mm"]
+
+
+def _fake_joint_fit(costs: dict):
+    """A stand-in for one joint refinement: its cost looked up by the start's first parameter."""
+    tried = []
+
+    def joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+                  sweep=None):
+        tried.append((round(float(theta[0]), 6), tuple(orders)))
+        cost = costs.get(round(float(theta[0]), 6), 1e6)
+        return SimpleNamespace(cost=cost, x=np.asarray(theta, float)), SimpleNamespace(
+            orders=tuple(orders), mechanics=SimpleNamespace(evaluations=1))
+    return joint_fit, tried
+
+
+def test_a_start_that_leaves_the_grid_unexplained_falls_back_to_the_y_fit(monkeypatch):
+    from whiskercal.mechfit import magnetfit
+
+    n = 200  # 100 contacts on two axes; costs are half the sum of squared standard errors
+    given = SimpleNamespace(suspension=SimpleNamespace(rot_compliance=1.0, trans_compliance=0.01,
+                                                       stub_mm=3.0, trace_length_mm=78.0))
+    y_fit = SimpleNamespace(suspension=SimpleNamespace(rot_compliance=0.5, trans_compliance=0.005,
+                                                       stub_mm=3.0, trace_length_mm=78.0))
+    # the given start's two variants leave 8x the noise; the Y fit's explains the grid
+    joint_fit, tried = _fake_joint_fit({0.0: 64.0 * n / 2, round(np.log(0.5), 6): 0.5 * n / 2})
+    monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
+    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: y_fit)
+    result, _, fits = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
+                                     np.ones(2), 1.5, 78.0, magnetfit.DEFAULT_ORDERS, None)
+    starts = [t[0] for t in tried]
+    assert starts[:2] == [0.0, 0.0]  # the given start, as it is and with the shift reset
+    assert round(np.log(0.5), 6) in starts[2:4]  # then the Y fit's
+    assert result.cost == 0.5 * n / 2
+    assert len(tried) == len(fits) == 4  # explained: no generic starts, no richer map
+
+
+def test_a_fit_left_above_the_noise_tries_one_more_order_and_keeps_it_when_it_pays(monkeypatch):
+    from whiskercal.mechfit import magnetfit
+
+    n = 200
+    given = SimpleNamespace(suspension=SimpleNamespace(rot_compliance=1.0, trans_compliance=0.01,
+                                                       stub_mm=3.0, trace_length_mm=78.0))
+    costs = {(1, 2, 3, 4): 3.0 * n / 2, (1, 2, 3, 4, 5): 1.0 * n / 2}
+    tried = []
+
+    def joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+                  sweep=None):
+        tried.append(tuple(orders))
+        return SimpleNamespace(cost=costs[tuple(orders)], x=np.asarray(theta, float)), \
+            SimpleNamespace(orders=tuple(orders), mechanics=SimpleNamespace(evaluations=1))
+    monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
+    result, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
+                                                 np.ones(2), 1.5, 78.0, (1, 2, 3, 4), None)
+    assert tried == [(1, 2, 3, 4)] * 2 + [(1, 2, 3, 4, 5)]
+    assert joint.orders == (1, 2, 3, 4, 5) and result.cost == n / 2
+    # a richer order that gains less than its term is not kept
+    costs[(1, 2, 3, 4, 5)] = 3.0 * n / 2 - 0.5
+    _, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
+                                            np.ones(2), 1.5, 78.0, (1, 2, 3, 4), None)
+    assert joint.orders == (1, 2, 3, 4)
+
+
+@pytest.mark.slow
+def test_a_root_that_turns_far_gets_a_fifth_order_and_its_table_meets_the_goal():
+    from whiskercal.bench.sensor_family import FAMILY
+
+    sensor = next(s for s in FAMILY if s.sensor_id == "medium-90x0.30")
+    grid = simulate_fields(sensor, seed=0)
+    fit = fit_mechanics_magnet(grid.rod_center_mm, grid.fields_uT, ROD_RADIUS_MM,
+                               sensor.whisker.reach_mm, NOISE_UT)
+    # four orders left twice the noise on Y (docs/calibration.md); five explain the grid
+    assert fit.pose_map.orders == (1, 2, 3, 4, 5)
+    assert np.all(fit.rms_uT < 1.5 * np.array(NOISE_UT))
+    z_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
+    candidate = {"lookup": z_lookup(fit, z_range), "table": field_tip_table(fit, z_range)}
+    errors = realistic_errors(candidate, realistic_contacts(sensor), z_range, seed=0)
+    assert errors["y_and_z_sample_noise"]["rmse_mm"] <= 0.3  # against the twin's truth

@@ -20,8 +20,9 @@ from whiskercal.artifacts.raw_grid import baseline_y_at
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.table_error import estimated_tip_error_mm
-from whiskercal.mechfit.tables import table_load_points, tabulate
+from whiskercal.mechfit.tables import table_load_points, tabulate, z_lookup
 from whiskercal.model.calibrate import contact_mask
+from whiskercal.model.field_table import FieldTipTable
 
 SENSOR_AXIS_Z = 2
 # the joint fit should explain both axes to about their noise; more says the model does not
@@ -39,11 +40,27 @@ REFUSE_ESTIMATE_MM = 0.5
 
 @dataclass
 class FieldTableFit:
-    """The table's arrays for the artifact, its evidence for /metrics, and warnings."""
+    """The table's arrays for the artifact (None when withheld), its evidence for /metrics,
+    warnings, and the table itself whether written or not (None when none was made)."""
 
     table: dict[str, np.ndarray] | None
     metrics: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    tips: FieldTipTable | None = None
+
+
+@dataclass(frozen=True)
+class TableContacts:
+    """What the table is fitted to: rod centres (n, 2) mm, (Y, Z) from rest (n, 2) µT, which
+    contacts are the tip sweep's (n,), the point means' standard errors (Y, Z µT), one sample's
+    noise (Y, Z µT: what a runtime reading carries) and the rod's radius (mm)."""
+
+    rod_center_mm: np.ndarray
+    fields_uT: np.ndarray
+    sweep: np.ndarray
+    noise_uT: np.ndarray
+    sample_noise_uT: np.ndarray
+    rod_radius_mm: float
 
 
 def axial_deflection_uT(raw) -> np.ndarray:
@@ -56,12 +73,6 @@ def axial_deflection_uT(raw) -> np.ndarray:
     return raw.field_mean_uT[:, SENSOR_AXIS_Z] - static
 
 
-def _noise(raw, used) -> np.ndarray:
-    n = np.sqrt(np.maximum(raw.n_samples[used], 1))
-    return np.array([np.median(raw.z_sem_uT[used]),
-                     np.median(raw.field_std_uT[used, SENSOR_AXIS_Z] / n)])
-
-
 def _identification_warnings(profile: list[dict]) -> list[str]:
     """A warning when a k_θ·L/EI four times off fits the grid about as well (Δχ² below 9)."""
     loose = [p["stiffness_ratio"] for p in profile if p["delta_chi2"] < MIN_DELTA_CHI2]
@@ -72,15 +83,11 @@ def _identification_warnings(profile: list[dict]) -> list[str]:
             "about as well as the best); the (Y, Z) table may be off by millimetres"]
 
 
-def _sample_noise(raw, used) -> np.ndarray:
-    """One sample's noise (Y, Z µT): what a single runtime reading carries."""
-    return np.array([np.median(raw.z_std_uT[used]),
-                     np.median(raw.field_std_uT[used, SENSOR_AXIS_Z])])
-
-
-def trust_verdict(estimate_mm: float, residual_ratio) -> tuple[bool, list[str]]:
+def trust_verdict(estimate_mm: float, residual_ratio,
+                  z_lookup_mm: float = float("nan")) -> tuple[bool, list[str]]:
     """(write the table?, warnings) from the table's estimated tip error (mm RMS) and the joint
-    fit's residual in units of the noise (Y, Z)."""
+    fit's residual in units of the noise (Y, Z); ``z_lookup_mm``, what Y alone is estimated to
+    err on the same loads, is named when the table is withheld (the runtime's fallback)."""
     ratio = float(np.max(residual_ratio))
     reasons = []
     if not estimate_mm <= REFUSE_ESTIMATE_MM:
@@ -88,8 +95,10 @@ def trust_verdict(estimate_mm: float, residual_ratio) -> tuple[bool, list[str]]:
     if not ratio <= MAX_RESIDUAL_RATIO:
         reasons.append(f"the (Y, Z) model leaves {ratio:.1f}x the noise unexplained")
     if reasons:
+        fallback = (f", estimated to err {z_lookup_mm:.1f} mm RMS on tip contacts with friction "
+                    "or at a slant" if np.isfinite(z_lookup_mm) else "")
         return False, ["no (Y, Z) table written, it cannot be trusted: " + "; ".join(reasons)
-                       + "; the runtime uses the z lookup"]
+                       + "; the runtime uses the z lookup" + fallback]
     if estimate_mm > WARN_ESTIMATE_MM:
         return True, [f"the (Y, Z) table's estimated tip error is {estimate_mm:.2f} mm RMS "
                       f"(goal {WARN_ESTIMATE_MM} mm)"]
@@ -109,42 +118,79 @@ def _withheld(reason: str) -> FieldTableFit:
                          [f"no (Y, Z) table written: {reason}; the runtime uses the z lookup"])
 
 
-def fit_field_table(raw, length_mm: float) -> FieldTableFit:
-    """Fit the mechanics and the magnet map to the grid's contacts, and tabulate the tips.
+def table_contacts(raw) -> TableContacts:
+    """The raw grid's contacts (the tip sweep's included) as the table's fit reads them."""
+    used = contact_mask(raw.z_uT, raw.z_sem_uT)
+    sweep = np.asarray(getattr(raw, "sweep", np.zeros(len(used), bool)), bool)
+    n = np.sqrt(np.maximum(raw.n_samples[used], 1))
+    axial_std = raw.field_std_uT[used, SENSOR_AXIS_Z]
+    return TableContacts(raw.rod_center_mm[used],
+                         np.column_stack([raw.z_uT[used], axial_deflection_uT(raw)[used]]),
+                         sweep[used], np.array([np.median(raw.z_sem_uT[used]),
+                                                np.median(axial_std / n)]),
+                         np.array([np.median(raw.z_std_uT[used]), np.median(axial_std)]),
+                         float(raw.rod_radius_mm))
 
-    A grid with too few contacts, or one the mechanics cannot be fitted to (a rigid root, rod
-    positions the model refuses), gets no table and one warning, as an untrusted table does.
-    """
-    started = time.perf_counter()
+
+def fit_field_table(raw, length_mm: float, start=None) -> FieldTableFit:
+    """The (Y, Z) table of a raw grid (:func:`field_table_from_contacts`)."""
     used = contact_mask(raw.z_uT, raw.z_sem_uT)
     if used.sum() < MIN_CONTACTS:
         return _withheld(f"it needs at least {MIN_CONTACTS} contacts, the grid has {used.sum()}")
-    fields = np.column_stack([raw.z_uT[used], axial_deflection_uT(raw)[used]])
-    noise = _noise(raw, used)
+    return field_table_from_contacts(table_contacts(raw), length_mm, start)
+
+
+def field_table_from_contacts(contacts: TableContacts, length_mm: float,
+                              start=None) -> FieldTableFit:
+    """Fit the mechanics and the magnet map to the contacts, and tabulate the tips.
+
+    The tip sweep's contacts are fitted too, solved along the rod's approach: they show the map
+    and the suspension tip loads, which the shaft contacts never do; the table spans the grid's
+    Y range. ``start``: the z lookup's mechanics (``MechanicsFit``) to start from (fitted on Y
+    here when not given). Contacts the mechanics cannot be fitted to (a rigid root, rod
+    positions the model refuses) get no table and one warning, as an untrusted table does.
+    """
+    started = time.perf_counter()
+    c = contacts
     try:
-        fit = fit_mechanics_magnet(raw.rod_center_mm[used], fields, raw.rod_radius_mm,
-                                   length_mm, noise)
+        fit = fit_mechanics_magnet(c.rod_center_mm, c.fields_uT, c.rod_radius_mm, length_mm,
+                                   c.noise_uT, start=start, sweep=c.sweep)
     except UsageError as error:  # as the z lookup's mechanics (fit.tip_model) reports it
         return _withheld(f"the (Y, Z) model cannot be fitted ({str(error).rstrip('.')})")
-    y_range = (float(fields[:, 0].min()), float(fields[:, 0].max()))
+    on_grid = c.fields_uT[~c.sweep, 0]
+    y_range = (float(on_grid.min()), float(on_grid.max()))
     load_fields, load_tips = table_load_points(fit, y_range)
     table = tabulate(load_fields, load_tips, y_range)
-    error = estimated_tip_error_mm(load_fields, load_tips, table, _sample_noise(raw, used))
+    error = estimated_tip_error_mm(load_fields, load_tips, table, c.sample_noise_uT,
+                                   _model_z_lookup(fit, y_range))
     estimate = error["estimate_mm"]
-    ratio = fit.rms_uT / noise
-    metrics = {"stiffness_ratio": 1.0 / fit.suspension.rot_compliance,
-               "stub_mm": fit.suspension.stub_mm,
-               "trans_compliance": fit.suspension.trans_compliance,
-               "residual_rms_uT": fit.rms_uT.tolist(), "noise_uT": noise.tolist(),
-               "magnet_map": fit.pose_map.as_dict(), "table_shape": list(table.tips_mm.shape[:2]),
-               "table_answered_fraction": float(np.mean(np.isfinite(table.tips_mm[..., 0]))),
-               "ratio_profile": fit.starts[-1].get("ratio_profile", [])}
-    write, verdict = trust_verdict(estimate, ratio)
+    metrics = _fit_metrics(fit, c, table)
+    write, verdict = trust_verdict(estimate, fit.rms_uT / c.noise_uT,
+                                   error.get("z_lookup_mm", float("nan")))
     warnings = _identification_warnings(metrics["ratio_profile"]) + verdict
     metrics.update(field_table_estimated_tip_error_mm=estimate, estimated_error_parts=error,
-                   field_table_written=write,
-                   fit_s=time.perf_counter() - started)
+                   field_table_written=write, fit_s=time.perf_counter() - started)
     arrays = {"y_uT": table.y_uT, "axial_uT": table.z_uT, "tip_mm": table.tips_mm}
     return FieldTableFit(arrays if write else None,
                          {"field_table": metrics, "field_table_estimated_tip_error_mm": estimate},
-                         warnings)
+                         warnings, table)
+
+
+def _model_z_lookup(fit, y_range):
+    """The joint fit's own z lookup (frictionless tip contact), None where it has none."""
+    try:
+        return z_lookup(fit, y_range)
+    except UsageError:
+        return None
+
+
+def _fit_metrics(fit, contacts: TableContacts, table: FieldTipTable) -> dict:
+    """The joint fit's evidence, as /metrics records it under ``field_table``."""
+    return {"stiffness_ratio": 1.0 / fit.suspension.rot_compliance,
+            "stub_mm": fit.suspension.stub_mm,
+            "trans_compliance": fit.suspension.trans_compliance,
+            "residual_rms_uT": fit.rms_uT.tolist(), "noise_uT": contacts.noise_uT.tolist(),
+            "magnet_map": fit.pose_map.as_dict(), "tip_sweep_points": int(contacts.sweep.sum()),
+            "table_shape": list(table.tips_mm.shape[:2]),
+            "table_answered_fraction": float(np.mean(np.isfinite(table.tips_mm[..., 0]))),
+            "ratio_profile": fit.starts[-1].get("ratio_profile", [])}

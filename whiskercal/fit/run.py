@@ -56,7 +56,7 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
                                               options.samples, untraceable)
     grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
     truth = compare_with_twin_truth(grid, calibration)
-    table = _field_table(grid, length_mm, options, progress)
+    table = _field_table(raw, length_mm, options, progress, tip_model.mechanics)
     shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
                **raw_metrics(raw), **tip_model.metrics,
@@ -71,15 +71,16 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
                      field_table=None if table is None else table.table, shaft_surface=shaft)
 
 
-def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress):
-    """The (Y, Z) -> tip table (``fit.field_table``; on unless ``--no-field-table``), else None."""
+def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress, mechanics):
+    """The (Y, Z) -> tip table (``fit.field_table``; on unless ``--no-field-table``), else None;
+    its joint fit starts from the z lookup's ``mechanics`` calibration when there is one."""
     if not options.field_table:
         return None
     from whiskercal.fit.field_table import fit_field_table
 
     if progress is not None:
         progress("mechanics with the magnet's map on Y and Z, and the (Y, Z) -> tip table")
-    return fit_field_table(raw, length_mm)
+    return fit_field_table(raw, length_mm, None if mechanics is None else mechanics.fit)
 
 
 def _shaft_metrics(shaft) -> dict:

@@ -7,6 +7,9 @@ outer least squares runs over the three mechanical parameters and the map's seve
 the map's strengths follow by linear least squares at every evaluation (variable projection),
 from two starts (the Y fit, and the Y fit with the usual translational compliance), the better
 kept; when neither explains the grid to twice its noise, from the Y fit's generic starts too.
+Where the best still leaves more than the noise, one more multipole order is tried from it and
+kept when it pays for its term (a root that turns far, as on a stiff 90 mm wire, takes the magnet
+where four orders fall short).
 The rod contacts are solved only when the mechanics change (a finite-difference step in a
 geometric parameter reuses the last poses), so a refinement costs a few grid solves an iteration.
 """
@@ -31,6 +34,11 @@ UNEXPLAINED_RATIO = 2.0
 # the identification test: k_θ·L/EI held at these multiples of the best fit's
 PROFILE_FACTORS = (0.25, 4.0)
 PROFILE_EVALUATIONS = 120
+# a χ² per degree of freedom this many of its standard deviations (√(2/dof)) above 1 tries one
+# more multipole order (as ``identify.RICHER_MAP_SIGMAS`` does for the polynomial map)
+RICHER_ORDER_SIGMAS = 2.0
+# the mechanics (3) and the map's geometry (7)
+NONLINEAR_PARAMETERS = 10
 
 
 class _JointObjective:
@@ -77,14 +85,44 @@ def _joint_starts(start: MechanicsFit) -> list[np.ndarray]:
     return [theta, reset]
 
 
+def _start_groups(start, centers, y_uT, noise_y_uT, rod_radius_mm, trace_length_mm, sweep):
+    """Suspensions (as outer parameters) to start the joint fit from, in groups tried in turn
+    until one explains the grid: ``start``'s (the z lookup's mechanics), a Y fit's, the generic
+    starts. Neither of the first two serves every build: from the z lookup's a 4x stiffer root
+    with a tip sweep stopped at 8x the noise, and from the Y fit a stiff 60 mm wire did."""
+    if start is not None:
+        yield _joint_starts(start)
+    yield _joint_starts(fit_mechanics(centers, y_uT, rod_radius_mm, trace_length_mm, noise_y_uT,
+                                      sweep=sweep))
+    yield [_theta_start(trace_length_mm, rot) for rot in ROT_COMPLIANCE_STARTS]
+
+
 def _unexplained(result, n: int) -> bool:
     """More than twice the noise left on average (the residuals are in standard errors)."""
     return 2.0 * result.cost / n > UNEXPLAINED_RATIO ** 2
 
 
-def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders):
+def _misfit(result, n: int, strengths: int) -> bool:
+    """χ² per degree of freedom well above 1 (``RICHER_ORDER_SIGMAS``)."""
+    dof = n - NONLINEAR_PARAMETERS - strengths
+    return 2.0 * result.cost / dof > 1.0 + RICHER_ORDER_SIGMAS * np.sqrt(2.0 / dof)
+
+
+def _one_order_more(orders) -> tuple[int, ...]:
+    return tuple(orders) + (max(orders) + 1,)
+
+
+def _better_by_akaike(fit, richer):
+    """The richer map's fit when it lowers χ² by more than 2 per added strength (Akaike)."""
+    extra = len(richer[1].orders) - len(fit[1].orders)
+    return richer if 2.0 * richer[0].cost + 2.0 * extra < 2.0 * fit[0].cost else fit
+
+
+def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+               sweep=None):
     """One joint refinement from mechanics ``theta``: (least-squares result, objective)."""
-    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1)
+    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1,
+                           sweep)
     joint = _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
     first_map, _ = fit_magnet_map(joint.poses(theta)[1], fields, 1.0 / noise, orders)
     result = least_squares(joint, np.concatenate([theta, first_map.geometry]), diff_step=1e-5,
@@ -92,13 +130,35 @@ def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, or
     return result, joint
 
 
+def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+                    sweep):
+    """The best joint refinement over the start groups (``_start_groups``), with one more
+    multipole order where it pays: (least-squares result, objective, every fit tried)."""
+    fits = []
+    for thetas in _start_groups(start, centers, fields[:, 0], noise[0], rod_radius_mm,
+                                trace_length_mm, sweep):
+        fits += [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm,
+                            orders, sweep) for theta in thetas]
+        if not _unexplained(min(fits, key=lambda f: f[0].cost)[0], fields.size):
+            break
+    best = min(fits, key=lambda f: f[0].cost)
+    if _misfit(best[0], fields.size, len(orders)):
+        fits.append(_joint_fit(best[0].x[:3], centers, fields, noise, rod_radius_mm,
+                               trace_length_mm, _one_order_more(orders), sweep))
+        best = _better_by_akaike(best, fits[-1])
+    return best[0], best[1], fits
+
+
 def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
                          trace_length_mm: float, noise_uT, orders=DEFAULT_ORDERS,
                          start: MechanicsFit | None = None,
-                         profile_factors=PROFILE_FACTORS) -> MechanicsFit:
+                         profile_factors=PROFILE_FACTORS, sweep=None) -> MechanicsFit:
     """Fit the suspension and a magnet pose map to a rod grid's Y and Z (n, 2) µT from rest.
 
-    ``start``: a polynomial fit on Y to start from (made here when not given).
+    ``start``: a fit on Y (``MechanicsFit``) to start from; a Y fit is made here when it is
+    not given or its start leaves the grid unexplained.
+    ``sweep``: which contacts are the tip sweep's (solved along the rod's approach, as in
+    :func:`whiskercal.mechfit.fit.fit_mechanics`); none by default.
     ``profile_factors``: k_θ·L/EI multiples at which :func:`ratio_profile` tests the fit's
     identification (in ``starts[-1]["ratio_profile"]``; none when empty). Same arguments
     otherwise as :func:`whiskercal.mechfit.fit.fit_mechanics`.
@@ -109,27 +169,18 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
         raise UsageError("the magnet fit needs the Y and Z axes, (n, 2) µT.")
     noise = np.broadcast_to(np.asarray(noise_uT, float), (2,))
     centers = np.asarray(rod_center_mm, float)
-    if start is None:
-        start = fit_mechanics(centers, fields[:, 0], rod_radius_mm, trace_length_mm, noise[0])
-    fits = [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders)
-            for theta in _joint_starts(start)]
-    if _unexplained(min(fits, key=lambda f: f[0].cost)[0], fields.size):
-        # the Y fit led astray (Y alone did not pin the suspension down): the generic starts
-        fits += [_joint_fit(_theta_start(trace_length_mm, rot), centers, fields, noise,
-                            rod_radius_mm, trace_length_mm, orders)
-                 for rot in ROT_COMPLIANCE_STARTS]
-    result, joint = min(fits, key=lambda f: f[0].cost)
-    evaluations = start.evaluations + sum(f[1].mechanics.evaluations for f in fits)
+    result, joint, fits = _best_joint_fit(start, centers, fields, noise, rod_radius_mm,
+                                          trace_length_mm, orders, sweep)
+    evaluations = sum(f[1].mechanics.evaluations for f in fits)
     suspension, poses, strengths, scaled = joint.evaluate(result.x)
-    pose_map = MagnetPoseMap(result.x[3:].copy(), strengths, tuple(orders), 2)
+    pose_map = MagnetPoseMap(result.x[3:].copy(), strengths, joint.orders, 2)
     residual = scaled.reshape(fields.shape) / (1.0 / noise)
     profile = ratio_profile(result, joint) if profile_factors else []
     return MechanicsFit(suspension, pose_map, poses, residual,
                         np.sqrt(np.mean(residual ** 2, axis=0)), (0, 1),
-                        time.perf_counter() - started + start.fit_time_s,
-                        evaluations,
-                        start.starts + [{"joint_magnet_cost": float(result.cost),
-                                         "ratio_profile": profile}])
+                        time.perf_counter() - started, evaluations,
+                        [{"joint_fits": len(fits), "joint_magnet_cost": float(result.cost),
+                          "ratio_profile": profile}])
 
 
 def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> list[dict]:

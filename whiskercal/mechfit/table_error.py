@@ -59,9 +59,24 @@ def noise_propagation_mm(y_uT: np.ndarray, z_uT: np.ndarray, tips_mm: np.ndarray
     return float(np.sqrt(np.mean(squares[finite]))) if finite.any() else float("nan")
 
 
-def estimated_tip_error_mm(fields_uT, tips_mm, table, sample_noise_uT) -> dict:
-    """The table's estimated tip error (mm RMS) for one reading, and its two parts."""
+def z_lookup_tip_error_mm(fields_uT: np.ndarray, tips_mm: np.ndarray, lookup) -> float:
+    """RMS distance (mm) between the table's loads' tips and the z lookup's tip at their Y:
+    what reading Y alone costs on the loads the table covers (NaN where it answers none)."""
+    y = np.asarray(fields_uT, float)[:, 0]
+    covered = (y >= lookup.z_min_uT) & (y <= lookup.z_max_uT)
+    if not covered.any():
+        return float("nan")
+    miss = lookup(y[covered]) - np.asarray(tips_mm, float)[covered]
+    return float(np.sqrt(np.mean(np.sum(miss ** 2, axis=1))))
+
+
+def estimated_tip_error_mm(fields_uT, tips_mm, table, sample_noise_uT, lookup=None) -> dict:
+    """The table's estimated tip error (mm RMS) for one reading, and its two parts; with the
+    model's z ``lookup``, the same loads' error read from Y alone (``z_lookup_mm``)."""
     spread = ambiguity_tip_error_mm(fields_uT, tips_mm, sample_noise_uT)
     slope = noise_propagation_mm(table.y_uT, table.z_uT, table.tips_mm, sample_noise_uT)
-    return {"estimate_mm": float(np.hypot(spread, slope)), "ambiguity_mm": spread,
-            "noise_through_slope_mm": slope}
+    out = {"estimate_mm": float(np.hypot(spread, slope)), "ambiguity_mm": spread,
+           "noise_through_slope_mm": slope}
+    if lookup is not None:
+        out["z_lookup_mm"] = z_lookup_tip_error_mm(fields_uT, tips_mm, lookup)
+    return out
