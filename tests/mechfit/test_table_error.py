@@ -8,9 +8,11 @@ ways), whose estimate must show the branches' distance.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from whiskercal.fit.field_table import REFUSE_ESTIMATE_MM, WARN_ESTIMATE_MM, trust_verdict
-from whiskercal.mechfit.table_error import ambiguity_tip_error_mm, noise_propagation_mm
+from whiskercal.mechfit.table_error import (ambiguity_tip_error_mm, noise_propagation_mm,
+                                            z_lookup_tip_error_mm)
 
 NOISE_UT = (5.6, 9.0)  # one sample's Y and Z noise
 
@@ -56,3 +58,29 @@ def test_the_noise_through_a_linear_tables_slope_is_its_slope_times_the_noise():
     tips[:3, :3] = np.nan  # unanswered cells drop out
     expected = np.hypot(0.002 * NOISE_UT[0], 0.001 * NOISE_UT[1])
     assert abs(noise_propagation_mm(y, z, tips, NOISE_UT) - expected) < 1e-9
+
+
+def test_a_withheld_table_names_what_y_alone_costs_on_its_loads():
+    write, warnings = trust_verdict(1.6, (1.0, 1.0), 10.6)
+    assert not write and len(warnings) == 1
+    assert warnings[0].endswith("the runtime uses the z lookup (Y alone errs 10.6 mm RMS on the "
+                                "table's loads: expect millimetres on contacts with friction or "
+                                "at a slant)")
+    assert trust_verdict(1.6, (1.0, 1.0))[1][0].endswith("the runtime uses the z lookup")
+
+
+class _FlatLookup:
+    """A z lookup over -100..0 µT that answers the tip (70, -1) mm everywhere."""
+
+    z_min_uT, z_max_uT = -100.0, 0.0
+
+    def __call__(self, z):
+        return np.tile([70.0, -1.0], (len(z), 1))
+
+
+def test_y_alone_on_the_tables_loads_is_measured_where_the_lookup_answers():
+    fields = np.array([[-50.0, 0.0], [-50.0, 10.0], [-500.0, 0.0]])
+    tips = np.array([[70.0, 0.0], [70.0, -2.0], [0.0, 0.0]])
+    # the same Y, two tips 1 mm either side of the lookup's; the third load is outside its range
+    assert z_lookup_tip_error_mm(fields, tips, _FlatLookup()) == pytest.approx(1.0)
+    assert np.isnan(z_lookup_tip_error_mm(fields[2:], tips[2:], _FlatLookup()))

@@ -95,8 +95,9 @@ def trust_verdict(estimate_mm: float, residual_ratio,
     if not ratio <= MAX_RESIDUAL_RATIO:
         reasons.append(f"the (Y, Z) model leaves {ratio:.1f}x the noise unexplained")
     if reasons:
-        fallback = (f", estimated to err {z_lookup_mm:.1f} mm RMS on tip contacts with friction "
-                    "or at a slant" if np.isfinite(z_lookup_mm) else "")
+        fallback = (f" (Y alone errs {z_lookup_mm:.1f} mm RMS on the table's loads: expect "
+                    "millimetres on contacts with friction or at a slant)"
+                    if np.isfinite(z_lookup_mm) else "")
         return False, ["no (Y, Z) table written, it cannot be trusted: " + "; ".join(reasons)
                        + "; the runtime uses the z lookup" + fallback]
     if estimate_mm > WARN_ESTIMATE_MM:
