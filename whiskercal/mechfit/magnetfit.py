@@ -5,11 +5,12 @@ off the shaft-contact manifold. Here the suspension starts from that fit, the ma
 (``magnetmap.py``) is fitted to both axes on its poses, and then both are refined together: the
 outer least squares runs over the three mechanical parameters and the map's seven geometric ones,
 the map's strengths follow by linear least squares at every evaluation (variable projection),
-from two starts (the Y fit, and the Y fit with the usual translational compliance), the better
-kept; when neither explains the grid to twice its noise, from the Y fit's generic starts too.
+from two starts (a Y fit's suspension as it is, and with the usual translational compliance),
+the better kept; the Y fit given (the z lookup's mechanics) first, then a Y fit made here, then
+the generic starts, while the best leaves more than twice the noise (``_start_groups``).
 Where the best still leaves more than the noise, one more multipole order is tried from it and
-kept when it pays for its term (a root that turns far, as on a stiff 90 mm wire, takes the magnet
-where four orders fall short).
+kept when it pays for its term (on the 90 mm x 0.30 mm build, whose root turns furthest, and on
+the stiff 60 mm wire, four orders left 2-3x the noise).
 The rod contacts are solved only when the mechanics change (a finite-difference step in a
 geometric parameter reuses the last poses), so a refinement costs a few grid solves an iteration.
 """
