@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, realistic_contacts,
-                                           realistic_errors, simulate_fields, stiffness_ratio)
+                                           realistic_errors, simulate_fields, simulate_sweep,
+                                           stiffness_ratio)
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.tables import field_tip_table, z_lookup
 from whiskercal.twin.params import DEFAULT_SENSOR
@@ -50,7 +51,7 @@ def _fake_joint_fit(costs: dict):
     return joint_fit, tried
 
 
-def test_a_start_that_leaves_the_grid_unexplained_falls_back_to_the_y_fit(monkeypatch):
+def test_a_start_that_leaves_the_grid_unexplained_falls_back_to_the_given_one(monkeypatch):
     from whiskercal.mechfit import magnetfit
 
     n = 200  # 100 contacts on two axes; costs are half the sum of squared standard errors
@@ -58,20 +59,20 @@ def test_a_start_that_leaves_the_grid_unexplained_falls_back_to_the_y_fit(monkey
                                                        stub_mm=3.0, trace_length_mm=78.0))
     y_fit = SimpleNamespace(suspension=SimpleNamespace(rot_compliance=0.5, trans_compliance=0.005,
                                                        stub_mm=3.0, trace_length_mm=78.0))
-    # the given start's two variants leave 8x the noise; the Y fit's explains the grid
-    joint_fit, tried = _fake_joint_fit({0.0: 64.0 * n / 2, round(np.log(0.5), 6): 0.5 * n / 2})
+    # the Y fit's two variants leave 8x the noise; the given start explains the grid
+    joint_fit, tried = _fake_joint_fit({round(np.log(0.5), 6): 64.0 * n / 2, 0.0: 0.5 * n / 2})
     monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
     monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: y_fit)
     result, _, fits = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
                                      np.ones(2), 1.5, 78.0, magnetfit.DEFAULT_ORDERS, None)
     starts = [t[0] for t in tried]
-    assert starts[:2] == [0.0, 0.0]  # the given start, as it is and with the shift reset
-    assert round(np.log(0.5), 6) in starts[2:4]  # then the Y fit's
+    # the Y fit's, as it is and with the shift reset; then the given start's
+    assert starts[:2] == [round(np.log(0.5), 6)] * 2 and starts[2:4] == [0.0, 0.0]
     assert result.cost == 0.5 * n / 2
     assert len(tried) == len(fits) == 4  # explained: no generic starts, no richer map
 
 
-def test_a_fit_left_above_the_noise_tries_one_more_order_and_keeps_it_when_it_pays(monkeypatch):
+def test_a_swept_fit_left_above_the_noise_tries_one_more_order_kept_when_it_pays(monkeypatch):
     from whiskercal.mechfit import magnetfit
 
     n = 200
@@ -86,15 +87,23 @@ def test_a_fit_left_above_the_noise_tries_one_more_order_and_keeps_it_when_it_pa
         return SimpleNamespace(cost=costs[tuple(orders)], x=np.asarray(theta, float)), \
             SimpleNamespace(orders=tuple(orders), mechanics=SimpleNamespace(evaluations=1))
     monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
+    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: given)
+    swept = np.arange(100) >= 90
     result, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
-                                                 np.ones(2), 1.5, 78.0, (1, 2, 3, 4), None)
+                                                 np.ones(2), 1.5, 78.0, (1, 2, 3, 4), swept)
     assert tried == [(1, 2, 3, 4)] * 2 + [(1, 2, 3, 4, 5)]
     assert joint.orders == (1, 2, 3, 4, 5) and result.cost == n / 2
     # a richer order that gains less than its term is not kept
     costs[(1, 2, 3, 4, 5)] = 3.0 * n / 2 - 0.5
     _, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
-                                            np.ones(2), 1.5, 78.0, (1, 2, 3, 4), None)
+                                            np.ones(2), 1.5, 78.0, (1, 2, 3, 4), swept)
     assert joint.orders == (1, 2, 3, 4)
+    # on a grid alone the misfit may be the stage's, not the map's: no richer order is tried
+    tried.clear()
+    costs[(1, 2, 3, 4, 5)] = n / 2
+    _, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
+                                            np.ones(2), 1.5, 78.0, (1, 2, 3, 4), None)
+    assert joint.orders == (1, 2, 3, 4) and tried == [(1, 2, 3, 4)] * 2
 
 
 @pytest.mark.slow
@@ -102,10 +111,12 @@ def test_a_root_that_turns_far_gets_a_fifth_order_and_its_table_meets_the_goal()
     from whiskercal.bench.sensor_family import FAMILY
 
     sensor = next(s for s in FAMILY if s.sensor_id == "medium-90x0.30")
-    grid = simulate_fields(sensor, seed=0)
-    fit = fit_mechanics_magnet(grid.rod_center_mm, grid.fields_uT, ROD_RADIUS_MM,
-                               sensor.whisker.reach_mm, NOISE_UT)
-    # four orders left twice the noise on Y (docs/calibration.md); five explain the grid
+    grid, sweep = simulate_fields(sensor, seed=0), simulate_sweep(sensor, seed=0)
+    centers = np.vstack([grid.rod_center_mm, sweep.rod_center_mm])
+    swept = np.arange(len(centers)) >= len(grid.rod_center_mm)
+    fit = fit_mechanics_magnet(centers, np.vstack([grid.fields_uT, sweep.fields_uT]),
+                               ROD_RADIUS_MM, sensor.whisker.reach_mm, NOISE_UT, sweep=swept)
+    # four orders left twice the noise on Y (docs/calibration.md); five explain grid and sweep
     assert fit.pose_map.orders == (1, 2, 3, 4, 5)
     assert np.all(fit.rms_uT < 1.5 * np.array(NOISE_UT))
     z_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
