@@ -92,7 +92,7 @@ def _start_groups(start, centers, y_uT, noise_y_uT, rod_radius_mm, trace_length_
     the generic starts. Neither of the first two serves every build: from the Y fit a stiff
     60 mm wire with a tip sweep stopped at 50x the noise, from the z lookup's a 4x stiffer root
     with a sweep at 8x. The Y fit goes first: from the z lookup's start the recorded default
-    grid lands in another minimum (k_θ·L/EI 15.1 against 15.8) whose table biases the contour
+    grid lands in another minimum (k_θ·L/EI 15.1 against 15.4) whose table biases the contour
     runs by 0.004 mm."""
     yield _joint_starts(fit_mechanics(centers, y_uT, rod_radius_mm, trace_length_mm, noise_y_uT,
                                       sweep=sweep))
@@ -163,8 +163,8 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
                          profile_factors=PROFILE_FACTORS, sweep=None) -> MechanicsFit:
     """Fit the suspension and a magnet pose map to a rod grid's Y and Z (n, 2) µT from rest.
 
-    ``start``: a fit on Y (``MechanicsFit``) to start from; a Y fit is made here when it is
-    not given or its start leaves the grid unexplained.
+    ``start``: a fit on Y (``MechanicsFit``, the z lookup's mechanics) to start from where the
+    Y fit made here first leaves the grid unexplained (``_start_groups``).
     ``sweep``: which contacts are the tip sweep's (solved along the rod's approach, as in
     :func:`whiskercal.mechfit.fit.fit_mechanics`); none by default.
     ``profile_factors``: k_θ·L/EI multiples at which :func:`ratio_profile` tests the fit's
