@@ -38,33 +38,42 @@ def test_the_yz_table_places_tips_on_planes_with_friction():
     assert errors["y_only"]["rmse_mm"] > 3 * errors["y_and_z"]["rmse_mm"]
 
 
-def _fake_joint_fit(costs: dict):
-    """A stand-in for one joint refinement: its cost looked up by the start's first parameter."""
+def _y_fit(rot_compliance: float):
+    """A stand-in Y fit: only its suspension is read (as the joint fit's start)."""
+    return SimpleNamespace(suspension=SimpleNamespace(
+        rot_compliance=rot_compliance, trans_compliance=0.01 * rot_compliance, stub_mm=3.0,
+        trace_length_mm=78.0))
+
+
+def _fake_joint_fit(cost_of):
+    """A stand-in for one joint refinement, costing ``cost_of(start's first parameter, orders)``;
+    and the list of (first parameter, orders) it was called with."""
     tried = []
 
     def joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
                   sweep=None):
-        tried.append((round(float(theta[0]), 6), tuple(orders)))
-        cost = costs.get(round(float(theta[0]), 6), 1e6)
-        return SimpleNamespace(cost=cost, x=np.asarray(theta, float)), SimpleNamespace(
+        key = (round(float(theta[0]), 6), tuple(orders))
+        tried.append(key)
+        return SimpleNamespace(cost=cost_of(*key), x=np.asarray(theta, float)), SimpleNamespace(
             orders=tuple(orders), mechanics=SimpleNamespace(evaluations=1))
     return joint_fit, tried
+
+
+def _best(magnetfit, sweep, orders=(1, 2, 3, 4)):
+    return magnetfit._best_joint_fit(_y_fit(1.0), np.zeros((100, 2)), np.zeros((100, 2)),
+                                     np.ones(2), 1.5, 78.0, orders, sweep)
 
 
 def test_a_start_that_leaves_the_grid_unexplained_falls_back_to_the_given_one(monkeypatch):
     from whiskercal.mechfit import magnetfit
 
     n = 200  # 100 contacts on two axes; costs are half the sum of squared standard errors
-    given = SimpleNamespace(suspension=SimpleNamespace(rot_compliance=1.0, trans_compliance=0.01,
-                                                       stub_mm=3.0, trace_length_mm=78.0))
-    y_fit = SimpleNamespace(suspension=SimpleNamespace(rot_compliance=0.5, trans_compliance=0.005,
-                                                       stub_mm=3.0, trace_length_mm=78.0))
     # the Y fit's two variants leave 8x the noise; the given start explains the grid
-    joint_fit, tried = _fake_joint_fit({round(np.log(0.5), 6): 64.0 * n / 2, 0.0: 0.5 * n / 2})
+    costs = {round(np.log(0.5), 6): 64.0 * n / 2, 0.0: 0.5 * n / 2}
+    joint_fit, tried = _fake_joint_fit(lambda first, _orders: costs.get(first, 1e6))
     monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
-    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: y_fit)
-    result, _, fits = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
-                                     np.ones(2), 1.5, 78.0, magnetfit.DEFAULT_ORDERS, None)
+    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: _y_fit(0.5))
+    result, _, fits = _best(magnetfit, None, magnetfit.DEFAULT_ORDERS)
     starts = [t[0] for t in tried]
     # the Y fit's, as it is and with the shift reset; then the given start's
     assert starts[:2] == [round(np.log(0.5), 6)] * 2 and starts[2:4] == [0.0, 0.0]
@@ -76,34 +85,22 @@ def test_a_swept_fit_left_above_the_noise_tries_one_more_order_kept_when_it_pays
     from whiskercal.mechfit import magnetfit
 
     n = 200
-    given = SimpleNamespace(suspension=SimpleNamespace(rot_compliance=1.0, trans_compliance=0.01,
-                                                       stub_mm=3.0, trace_length_mm=78.0))
     costs = {(1, 2, 3, 4): 3.0 * n / 2, (1, 2, 3, 4, 5): 1.0 * n / 2}
-    tried = []
-
-    def joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
-                  sweep=None):
-        tried.append(tuple(orders))
-        return SimpleNamespace(cost=costs[tuple(orders)], x=np.asarray(theta, float)), \
-            SimpleNamespace(orders=tuple(orders), mechanics=SimpleNamespace(evaluations=1))
+    joint_fit, tried = _fake_joint_fit(lambda _first, orders: costs[orders])
     monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
-    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: given)
+    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: _y_fit(1.0))
     swept = np.arange(100) >= 90
-    result, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
-                                                 np.ones(2), 1.5, 78.0, (1, 2, 3, 4), swept)
-    assert tried == [(1, 2, 3, 4)] * 2 + [(1, 2, 3, 4, 5)]
+    result, joint, _ = _best(magnetfit, swept)
+    assert [t[1] for t in tried] == [(1, 2, 3, 4)] * 2 + [(1, 2, 3, 4, 5)]
     assert joint.orders == (1, 2, 3, 4, 5) and result.cost == n / 2
     # a richer order that gains less than its term is not kept
     costs[(1, 2, 3, 4, 5)] = 3.0 * n / 2 - 0.5
-    _, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
-                                            np.ones(2), 1.5, 78.0, (1, 2, 3, 4), swept)
-    assert joint.orders == (1, 2, 3, 4)
+    assert _best(magnetfit, swept)[1].orders == (1, 2, 3, 4)
     # on a grid alone the misfit may be the stage's, not the map's: no richer order is tried
     tried.clear()
     costs[(1, 2, 3, 4, 5)] = n / 2
-    _, joint, _ = magnetfit._best_joint_fit(given, np.zeros((100, 2)), np.zeros((100, 2)),
-                                            np.ones(2), 1.5, 78.0, (1, 2, 3, 4), None)
-    assert joint.orders == (1, 2, 3, 4) and tried == [(1, 2, 3, 4)] * 2
+    assert _best(magnetfit, None)[1].orders == (1, 2, 3, 4)
+    assert [t[1] for t in tried] == [(1, 2, 3, 4)] * 2
 
 
 @pytest.mark.slow
