@@ -18,9 +18,10 @@ import numpy as np
 
 from whiskercal.artifacts.raw_grid import baseline_y_at
 from whiskercal.errors import UsageError
+from whiskercal.mechfit.joint_lookup import JointLookup, joint_z_lookup
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.table_error import estimated_tip_error_mm
-from whiskercal.mechfit.tables import table_load_points, tabulate, z_lookup
+from whiskercal.mechfit.tables import DEFAULT_SAMPLES, table_load_points, tabulate
 from whiskercal.model.calibrate import contact_mask
 from whiskercal.model.field_table import FieldTipTable
 
@@ -41,12 +42,16 @@ REFUSE_ESTIMATE_MM = 0.5
 @dataclass
 class FieldTableFit:
     """The table's arrays for the artifact (None when withheld), its evidence for /metrics,
-    warnings, and the table itself whether written or not (None when none was made)."""
+    warnings, the table itself whether written or not (None when none was made), and the joint
+    fit's z lookup."""
 
     table: dict[str, np.ndarray] | None
     metrics: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     tips: FieldTipTable | None = None
+    # the joint fit's own z lookup and its estimate (``mechfit.joint_lookup``), where the fit
+    # explains the grid: the tip model's candidate (``fit.tip_model.adopt_joint_lookup``)
+    z_lookup: JointLookup | None = None
 
 
 @dataclass(frozen=True)
@@ -133,16 +138,17 @@ def table_contacts(raw) -> TableContacts:
                          float(raw.rod_radius_mm))
 
 
-def fit_field_table(raw, length_mm: float, start=None) -> FieldTableFit:
+def fit_field_table(raw, length_mm: float, start=None,
+                    samples: int = DEFAULT_SAMPLES) -> FieldTableFit:
     """The (Y, Z) table of a raw grid (:func:`field_table_from_contacts`)."""
     used = contact_mask(raw.z_uT, raw.z_sem_uT)
     if used.sum() < MIN_CONTACTS:
         return _withheld(f"it needs at least {MIN_CONTACTS} contacts, the grid has {used.sum()}")
-    return field_table_from_contacts(table_contacts(raw), length_mm, start)
+    return field_table_from_contacts(table_contacts(raw), length_mm, start, samples)
 
 
-def field_table_from_contacts(contacts: TableContacts, length_mm: float,
-                              start=None) -> FieldTableFit:
+def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=None,
+                              samples: int = DEFAULT_SAMPLES) -> FieldTableFit:
     """Fit the mechanics and the magnet map to the contacts, and tabulate the tips.
 
     The tip sweep's contacts are fitted too, solved along the rod's approach: they show the map
@@ -150,6 +156,8 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float,
     Y range. ``start``: the z lookup's mechanics (``MechanicsFit``) to start from (fitted on Y
     here when not given). Contacts the mechanics cannot be fitted to (a rigid root, rod
     positions the model refuses) get no table and one warning, as an untrusted table does.
+    The joint fit's own z lookup (``samples`` knots) comes along where the fit explains both
+    axes to twice their noise.
     """
     started = time.perf_counter()
     c = contacts
@@ -162,10 +170,13 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float,
     y_range = (float(on_grid.min()), float(on_grid.max()))
     load_fields, load_tips = table_load_points(fit, y_range)
     table = tabulate(load_fields, load_tips, y_range)
+    lookup = _joint_lookup(fit, c, length_mm, y_range, samples)
     error = estimated_tip_error_mm(load_fields, load_tips, table, c.sample_noise_uT,
-                                   _model_z_lookup(fit, y_range))
+                                   None if lookup is None else lookup.lookup)
     estimate = error["estimate_mm"]
     metrics = _fit_metrics(fit, c, table)
+    if lookup is not None:
+        metrics["z_lookup"] = lookup.metrics()
     write, verdict = trust_verdict(estimate, fit.rms_uT / c.noise_uT,
                                    error.get("z_lookup_mm", float("nan")))
     warnings = _identification_warnings(metrics["ratio_profile"]) + verdict
@@ -174,15 +185,17 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float,
     arrays = {"y_uT": table.y_uT, "axial_uT": table.z_uT, "tip_mm": table.tips_mm}
     return FieldTableFit(arrays if write else None,
                          {"field_table": metrics, "field_table_estimated_tip_error_mm": estimate},
-                         warnings, table)
+                         warnings, table, lookup)
 
 
-def _model_z_lookup(fit, y_range):
-    """The joint fit's own z lookup (frictionless tip contact), None where it has none."""
-    try:
-        return z_lookup(fit, y_range)
-    except UsageError:
+def _joint_lookup(fit, contacts: TableContacts, length_mm, y_range, samples):
+    """The joint fit's z lookup with its estimate; None where it has none, or where the fit
+    leaves more than twice the noise (its estimate assumes the model explains the grid)."""
+    if not np.max(fit.rms_uT / contacts.noise_uT) <= MAX_RESIDUAL_RATIO:
         return None
+    c = contacts
+    return joint_z_lookup(fit, c.rod_center_mm, c.fields_uT, c.noise_uT, c.rod_radius_mm,
+                          length_mm, y_range, c.sweep, samples)
 
 
 def _fit_metrics(fit, contacts: TableContacts, table: FieldTipTable) -> dict:

@@ -52,7 +52,9 @@ class FitOptions:
         Collision threshold stored for the runtime, µT from the static reading.
     tip_model : str
         The lookup shipped: "auto" (default: the mechanics-informed model where the grid
-        identifies it, else the level set), "mechanics" or "level-set" (the paper's). The
+        identifies it, else the level set; the (Y, Z) joint fit's where the table's fit
+        estimates it closer, ``fit.tip_model.adopt_joint_lookup``), "mechanics" or
+        "level-set" (the paper's). The
         mechanics is fitted in every case for the error estimate (``fit.tip_model``).
     field_table : bool
         Also fit the mechanics with the magnet's map to Y and Z and store the (Y, Z) -> tip

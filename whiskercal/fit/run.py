@@ -13,7 +13,7 @@ from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
 from whiskercal.fit.options import FitOptions
 from whiskercal.fit.result import FitResult
 from whiskercal.fit.shaft_surface import shaft_surface_for
-from whiskercal.fit.tip_model import choose_tip_model
+from whiskercal.fit.tip_model import adopt_joint_lookup, choose_tip_model
 from whiskercal.fit.trace_length import resolve_trace_length
 from whiskercal.fit.truth import compare_with_twin_truth
 from whiskercal.model.calibrate import (Calibration, CalibrationOptions, calibrate,
@@ -54,9 +54,12 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
         progress("mechanics-informed tip model and the error estimate")
     calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
                                               options.samples, untraceable)
+    table = _field_table(raw, length_mm, options, progress, tip_model.mechanics)
+    if table is not None:
+        calibration, tip_model = adopt_joint_lookup(calibration, tip_model, table.z_lookup,
+                                                    options.tip_model)
     grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
     truth = compare_with_twin_truth(grid, calibration)
-    table = _field_table(raw, length_mm, options, progress, tip_model.mechanics)
     shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
                **raw_metrics(raw), **tip_model.metrics,
@@ -73,14 +76,16 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
 
 def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress, mechanics):
     """The (Y, Z) -> tip table (``fit.field_table``; on unless ``--no-field-table``), else None;
-    its joint fit starts from the z lookup's ``mechanics`` calibration when there is one."""
+    its joint fit starts from the z lookup's ``mechanics`` calibration when there is one, and
+    its own z lookup may become the tip model (``fit.tip_model.adopt_joint_lookup``)."""
     if not options.field_table:
         return None
     from whiskercal.fit.field_table import fit_field_table
 
     if progress is not None:
         progress("mechanics with the magnet's map on Y and Z, and the (Y, Z) -> tip table")
-    return fit_field_table(raw, length_mm, None if mechanics is None else mechanics.fit)
+    return fit_field_table(raw, length_mm, None if mechanics is None else mechanics.fit,
+                           options.samples)
 
 
 def _shaft_metrics(shaft) -> dict:

@@ -8,7 +8,9 @@ the suspension down it is an order of magnitude closer, and its profile says how
 - ``level-set``: the paper's method ships; the mechanics is fitted for the estimate;
 - ``mechanics``: always the mechanics' lookup (refused when it cannot be fitted);
 - ``auto`` (default): the mechanics when its estimated error is finite and below the level
-  set's, else the level set.
+  set's, else the level set; and then the (Y, Z) joint fit's own z lookup (``mechanics-yz``)
+  where its estimate is lower still (``adopt_joint_lookup``, once ``fit.field_table`` has made
+  it).
 
 A frictionless tip model is not the contact a robot makes (on the twin's cylinder contour the
 level set at its study target erred 0.17 mm, the mechanics at its own target 0.91 mm); the
@@ -37,6 +39,8 @@ from whiskercal.model.lookup import LookupReport
 
 # The tip error (RMS, mm) above which a calibration is reported as not meeting its goal.
 WARN_TIP_ERROR_MM = 0.25
+# the tip model's name when the (Y, Z) joint fit's z lookup ships (``adopt_joint_lookup``)
+JOINT_TIP_MODEL = "mechanics-yz"
 
 
 @dataclass
@@ -97,7 +101,11 @@ def _level_set_estimate(calibration: Calibration, mechanics: MechanicsCalibratio
 
 def _use_mechanics(calibration: Calibration, mechanics: MechanicsCalibration) -> Calibration:
     """The calibration with the mechanics' lookup as its tip model (no level-set extrapolation)."""
-    lookup = mechanics.lookup
+    return _use_lookup(calibration, mechanics.lookup)
+
+
+def _use_lookup(calibration: Calibration, lookup) -> Calibration:
+    """The calibration with a model's z lookup as its tip model."""
     report = calibration.lookup_report or LookupReport(
         lookup.kind, math.nan, np.full(2, math.nan), {}, np.zeros(0), np.zeros((0, 2)))
     report = replace(report, kind=lookup.kind, knot_extension_mm=None)
@@ -154,13 +162,40 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
     return calibration, choice
 
 
+def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice, joint,
+                       requested: str) -> tuple[Calibration, TipModelChoice]:
+    """With ``auto``, the (Y, Z) joint fit's z lookup (``mechfit.joint_lookup.JointLookup``,
+    from ``fit.field_table``) as the tip model when its estimated error is below the chosen
+    model's (or that one has none); else both unchanged.
+
+    Z pins the suspension down where Y alone leaves it loose: on the family with the tip sweep
+    its lookups came 2-300x closer to the true tips (docs/calibration.md).
+    """
+    current = choice.estimated_tip_error_mm
+    if requested != "auto" or joint is None or not math.isfinite(joint.estimated_tip_error_mm) \
+            or joint.estimated_tip_error_mm >= current:
+        return calibration, choice
+    estimate = joint.estimated_tip_error_mm
+    metrics = {**choice.metrics, "tip_model": JOINT_TIP_MODEL, "estimated_tip_error_mm": estimate,
+               "replaced_tip_model": choice.name, "replaced_estimated_tip_error_mm": current}
+    adopted = TipModelChoice(JOINT_TIP_MODEL, estimate, metrics, mechanics=choice.mechanics)
+    kept = [w for w in choice.warnings if w.startswith("the level set cannot be traced")]
+    adopted.warnings = kept + _estimate_warning(adopted)
+    return _use_lookup(calibration, joint.lookup), adopted
+
+
+def _estimate_warning(choice: TipModelChoice) -> list[str]:
+    estimate = choice.estimated_tip_error_mm
+    if estimate > WARN_TIP_ERROR_MM:
+        return [f"estimated tip error {estimate:.2f} mm RMS ({choice.name}, frictionless tip "
+                f"contact) exceeds {WARN_TIP_ERROR_MM} mm: treat tips as this uncertain"]
+    return []
+
+
 def _warnings(choice: TipModelChoice, mechanics, why_not: str) -> list[str]:
     estimate = choice.estimated_tip_error_mm
     if math.isfinite(estimate):
-        if estimate > WARN_TIP_ERROR_MM:
-            return [f"estimated tip error {estimate:.2f} mm RMS ({choice.name}, frictionless tip "
-                    f"contact) exceeds {WARN_TIP_ERROR_MM} mm: treat tips as this uncertain"]
-        return []
+        return _estimate_warning(choice)
     if mechanics is None:
         return [f"the tip error cannot be estimated: the mechanics-informed model was {why_not}"]
     if mechanics.chi2_per_dof > MAX_CHI2_PER_DOF:

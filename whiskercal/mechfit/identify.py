@@ -269,7 +269,7 @@ def tip_change_mm(base: TipLookup, other: TipLookup | None) -> float:
     return float(np.sqrt(np.mean(np.sum(change ** 2, axis=1))))
 
 
-def _knot_tips(lookup: TipLookup, knots: np.ndarray) -> np.ndarray:
+def knot_tips(lookup: TipLookup, knots: np.ndarray) -> np.ndarray:
     inside = (knots >= lookup.z_min_uT) & (knots <= lookup.z_max_uT)
     tips = np.full((len(knots), 2), np.nan)
     tips[inside] = lookup(knots[inside])
@@ -288,19 +288,33 @@ def local_estimate(problem: _Problem, theta: np.ndarray, lookup: TipLookup, chi2
     √(4 σ² λ_max(JᵀJ⁻¹ DᵀD) / K) over the K knots. Infinite when a step loses the tip curve.
     """
     objective = problem.objective()
-    base = objective(theta)
+
+    def lookup_at(step):
+        return problem.lookup(problem.as_fit(objective, step)[0], samples, kind)
+
+    return linearized_tip_change_mm(objective, lookup_at, theta, lookup,
+                                    max(chi2 / problem.dof(), 1.0))
+
+
+def linearized_tip_change_mm(residual, lookup_at, params: np.ndarray, lookup: TipLookup,
+                             variance: float) -> float:
+    """The largest RMS tip change (mm) of ``lookup`` at the edge of plausibility (Δχ² = 4, in
+    units of the best fit's residual ``variance``), linearized by a step of each parameter:
+    ``residual(params)`` in standard errors, ``lookup_at(params)`` the lookup there (None where
+    there is none). Infinite when a step loses the tip curve, when under half the knots are
+    answered throughout, or when the misfit has no curvature in some direction."""
+    base = residual(params)
     knots = np.linspace(lookup.z_min_uT, lookup.z_max_uT, COMPARISON_KNOTS)
-    tips = _knot_tips(lookup, knots)
+    tips = knot_tips(lookup, knots)
     jac, slopes = [], []
-    for k in range(len(theta)):
-        step = theta.copy()
+    for k in range(len(params)):
+        step = params.copy()
         step[k] += LOCAL_STEP
-        fit, _ = problem.as_fit(objective, step)
-        other = problem.lookup(fit, samples, kind)
+        other = lookup_at(step)  # before the residual: the same warm starts as always
         if other is None:
             return math.inf
-        jac.append((objective(step) - base) / LOCAL_STEP)
-        slopes.append(((_knot_tips(other, knots) - tips) / LOCAL_STEP))
+        jac.append((residual(step) - base) / LOCAL_STEP)
+        slopes.append((knot_tips(other, knots) - tips) / LOCAL_STEP)
     # a step may move the end of the one-to-one range (a fold of z) past the last knots: the
     # change is taken where both answer, unless that is less than half the range
     known = np.all(np.isfinite(np.stack(slopes)), axis=(0, 2))
@@ -309,7 +323,6 @@ def local_estimate(problem: _Problem, theta: np.ndarray, lookup: TipLookup, chi2
     d = np.stack([s[known].ravel() for s in slopes], axis=1)
     curvature = np.stack(jac, axis=1)
     curvature = curvature.T @ curvature
-    variance = max(chi2 / problem.dof(), 1.0)
     try:
         worst = np.max(np.real(np.linalg.eigvals(np.linalg.solve(curvature, d.T @ d))))
     except np.linalg.LinAlgError:

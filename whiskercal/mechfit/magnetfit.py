@@ -18,6 +18,7 @@ geometric parameter reuses the last poses), so a refinement costs a few grid sol
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -122,12 +123,27 @@ def _better_by_akaike(fit, richer):
     return richer if 2.0 * richer[0].cost + 2.0 * extra < 2.0 * fit[0].cost else fit
 
 
+def joint_objective(centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+                    sweep=None) -> _JointObjective:
+    """The residuals (standard errors) of the grid's Y and Z as a function of the mechanics'
+    three outer parameters and the map's seven geometric ones (the strengths solved inside)."""
+    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1,
+                           sweep)
+    return _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
+
+
+def fit_at(joint: _JointObjective, params: np.ndarray, like: MechanicsFit) -> MechanicsFit:
+    """``like`` with the suspension and map of outer parameters ``params`` (the map's strengths
+    refitted to the grid there): a neighbour of a joint fit, as its error estimate needs."""
+    suspension, poses, strengths, _ = joint.evaluate(params)
+    return replace(like, suspension=suspension, poses=poses,
+                   pose_map=MagnetPoseMap(params[3:].copy(), strengths, joint.orders, 2))
+
+
 def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
                sweep=None):
     """One joint refinement from mechanics ``theta``: (least-squares result, objective)."""
-    mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1,
-                           sweep)
-    joint = _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
+    joint = joint_objective(centers, fields, noise, rod_radius_mm, trace_length_mm, orders, sweep)
     first_map, _ = fit_magnet_map(joint.poses(theta)[1], fields, 1.0 / noise, orders)
     result = least_squares(joint, np.concatenate([theta, first_map.geometry]), diff_step=1e-5,
                            x_scale=0.1, xtol=1e-10, ftol=1e-10, max_nfev=JOINT_EVALUATIONS)
@@ -188,7 +204,10 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
                         np.sqrt(np.mean(residual ** 2, axis=0)), (0, 1),
                         time.perf_counter() - started, evaluations,
                         [{"joint_fits": len(fits), "joint_magnet_cost": float(result.cost),
-                          "ratio_profile": profile}])
+                          "params": result.x.copy(),
+                          "ratio_profile": [{k: v for k, v in p.items() if k != "params"}
+                                            for p in profile],
+                          "ratio_profile_params": [p["params"] for p in profile]}])
 
 
 def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> list[dict]:
@@ -196,7 +215,7 @@ def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> li
 
     Each point refits everything else (stub, translational compliance, the map's geometry);
     ``delta_chi2`` is twice the cost increase (residuals in standard errors): below about 9 the
-    grid cannot tell that ratio from the best one.
+    grid cannot tell that ratio from the best one; ``params``, the held fit's outer parameters.
     """
     out = []
     for factor in factors:
@@ -208,5 +227,6 @@ def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> li
         held = least_squares(residual, np.delete(result.x, 0), diff_step=1e-5, x_scale=0.1,
                              xtol=1e-8, ftol=1e-8, max_nfev=PROFILE_EVALUATIONS)
         out.append({"stiffness_ratio": float(np.exp(-fixed)),
-                    "delta_chi2": float(2.0 * (held.cost - result.cost))})
+                    "delta_chi2": float(2.0 * (held.cost - result.cost)),
+                    "params": np.insert(held.x, 0, fixed)})
     return out

@@ -81,8 +81,10 @@ def _summary(data, elapsed_s: float) -> dict:
               default="auto", show_default=True,
               help="Tip model shipped in the lookup: auto, the mechanics-informed fit "
               "(suspension + elastica solved for a frictionless tip contact) where the grid pins "
-              "the suspension down, else the paper's level set; or either one by name. The "
-              "mechanics is fitted either way for the error estimate (docs/calibration.md).")
+              "the suspension down, else the paper's level set, and the same fitted to Y and "
+              "Z with the (Y, Z) table where that is estimated closer still; or the first two "
+              "by name. The mechanics is fitted either way for the error estimate "
+              "(docs/calibration.md).")
 @click.option("--field-table/--no-field-table", default=True, show_default=True,
               help="Also fit the suspension and the magnet's field to the Y and Z axes and store "
               "a (Y, Z) -> tip table: the runtime then places tips pushed with friction or by "
