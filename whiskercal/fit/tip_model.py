@@ -33,6 +33,7 @@ from whiskercal.errors import UsageError
 from whiskercal.fit.options import TIP_MODELS
 from whiskercal.mechfit.identify import (MAX_CHI2_PER_DOF, MechanicsCalibration,
                                          calibrate_mechanics, tip_change_mm)
+from whiskercal.mechfit.joint_lookup import JointLookup
 from whiskercal.model.calibrate import Calibration, contact_mask
 from whiskercal.model.errors import ModelError
 from whiskercal.model.lookup import LookupReport
@@ -162,11 +163,12 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
     return calibration, choice
 
 
-def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice, joint,
-                       requested: str) -> tuple[Calibration, TipModelChoice]:
-    """With ``auto``, the (Y, Z) joint fit's z lookup (``mechfit.joint_lookup.JointLookup``,
-    from ``fit.field_table``) as the tip model when its estimated error is below the chosen
-    model's (or that one has none); else both unchanged.
+def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice,
+                       joint: JointLookup | None, requested: str
+                       ) -> tuple[Calibration, TipModelChoice]:
+    """With ``auto``, the (Y, Z) joint fit's z lookup (from ``fit.field_table``) as the tip
+    model when its estimated error is below the chosen model's (or that one has none); else
+    both unchanged.
 
     Z pins the suspension down where Y alone leaves it loose: on the family with the tip sweep
     its lookups came 2-300x closer to the true tips (docs/calibration.md).
