@@ -2,6 +2,7 @@
 and what ``fit`` does without options (the tip model ``auto`` chooses, the (Y, Z) table)."""
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +34,11 @@ def test_the_default_fit_of_the_default_grid_is_within_the_goals(raw):
     # fit's defaults (auto, the (Y, Z) table) against the twin's truth, with bounds that hold
     # wherever the iterative fits land (the regression runs the level set: data/README.md)
     result = fit(raw, FitOptions())
-    # the (Y, Z) joint fit's z lookup: 0.010 mm RMS, estimated 0.017; the Y fit's 0.025 mm,
-    # estimated 0.093 (docs/calibration.md)
-    assert result.metrics["tip_model"] == "mechanics-yz"
-    assert result.metrics["replaced_tip_model"] == "mechanics"
+    # the (Y, Z) joint fit leaves 1.8x the noise on Y here (the stage's position error, a
+    # significant misfit), so its own z lookup is not estimated and the Y fit's ships
+    # (docs/calibration.md)
+    assert result.metrics["tip_model"] == "mechanics"
+    assert math.isnan(result.metrics["field_table"]["z_lookup"]["estimated_tip_error_mm"])
     assert result.field_table is not None
     assert result.metrics["field_table_estimated_tip_error_mm"] <= 0.25
     # issue 13's goal on the default sensor: 0.15 mm RMS (the level set gives 0.44 mm)

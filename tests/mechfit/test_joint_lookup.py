@@ -5,6 +5,7 @@ meets the family goal, and its truth-free estimate does not fall below the truth
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -32,3 +33,27 @@ def test_the_thin_wires_joint_lookup_meets_the_goal_within_its_estimate():
     assert truth["rmse_mm"] <= 0.25 and truth["max_mm"] <= 0.5  # the family goal
     assert truth["rmse_mm"] <= joint.estimated_tip_error_mm < math.inf
     assert joint.estimated_tip_error_mm == max(joint.local_mm, joint.profile_mm)
+
+
+def test_a_fit_that_leaves_more_than_the_noise_gets_no_estimate(monkeypatch):
+    # the thin wire's seed 2, fitted at chi2/dof 1.18 (k_theta*L/EI 172 against 77), erred
+    # 1.56 mm under a 0.13 mm estimate: a significant misfit gets no estimate, and the lookup
+    # cannot be adopted
+    from whiskercal.mechfit import joint_lookup
+
+    monkeypatch.setattr(joint_lookup, "_lookup", lambda *args: "lookup")
+    n = 400  # readings: 200 contacts, Y and Z
+    chi2_per_dof = {"explained": 1.05, "misfit": 1.18}
+    results = {}
+    for name, level in chi2_per_dof.items():
+        residual = np.full(n, np.sqrt(level * (n - 14) / n))
+        monkeypatch.setattr(joint_lookup, "joint_objective", lambda *a, r=residual: lambda p: r)
+        monkeypatch.setattr(joint_lookup, "linearized_tip_change_mm", lambda *a: 0.01)
+        fit = SimpleNamespace(pose_map=SimpleNamespace(orders=(1, 2, 3, 4)),
+                              starts=[{"params": np.zeros(10)}])
+        results[name] = joint_lookup.joint_z_lookup(fit, np.zeros((n // 2, 2)),
+                                                    np.zeros((n // 2, 2)), (1.0, 1.6), 0.6,
+                                                    78.0, (-100.0, -1.0))
+    assert results["explained"].estimated_tip_error_mm == 0.01
+    assert math.isinf(results["misfit"].estimated_tip_error_mm)
+    assert all(math.isnan(v) for v in results["misfit"].metrics().values())

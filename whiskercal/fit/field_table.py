@@ -49,8 +49,8 @@ class FieldTableFit:
     metrics: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     tips: FieldTipTable | None = None
-    # the joint fit's own z lookup and its estimate (``mechfit.joint_lookup``), where the fit
-    # explains the grid: the tip model's candidate (``fit.tip_model.adopt_joint_lookup``)
+    # the joint fit's own z lookup and its estimate (``mechfit.joint_lookup``): the tip model's
+    # candidate (``fit.tip_model.adopt_joint_lookup``)
     z_lookup: JointLookup | None = None
 
 
@@ -156,8 +156,7 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     Y range. ``start``: the z lookup's mechanics (``MechanicsFit``) to start from (fitted on Y
     here when not given). Contacts the mechanics cannot be fitted to (a rigid root, rod
     positions the model refuses) get no table and one warning, as an untrusted table does.
-    The joint fit's own z lookup (``samples`` knots) comes along where the fit explains both
-    axes to twice their noise.
+    The joint fit's own z lookup (``samples`` knots) comes along, with its estimate.
     """
     started = time.perf_counter()
     c = contacts
@@ -189,10 +188,8 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
 
 
 def _joint_lookup(fit, contacts: TableContacts, length_mm, y_range, samples):
-    """The joint fit's z lookup with its estimate; None where it has none, or where the fit
-    leaves more than twice the noise (its estimate assumes the model explains the grid)."""
-    if not np.max(fit.rms_uT / contacts.noise_uT) <= MAX_RESIDUAL_RATIO:
-        return None
+    """The joint fit's z lookup with its estimate (``mechfit.joint_lookup``); None where the
+    fit has none over the grid's range."""
     c = contacts
     return joint_z_lookup(fit, c.rod_center_mm, c.fields_uT, c.noise_uT, c.rod_radius_mm,
                           length_mm, y_range, c.sweep, samples)

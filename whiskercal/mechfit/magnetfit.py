@@ -108,9 +108,16 @@ def _unexplained(result, n: int) -> bool:
 
 
 def _misfit(result, n: int, strengths: int) -> bool:
-    """χ² per degree of freedom well above 1 (``RICHER_ORDER_SIGMAS``)."""
-    dof = n - NONLINEAR_PARAMETERS - strengths
-    return 2.0 * result.cost / dof > 1.0 + RICHER_ORDER_SIGMAS * np.sqrt(2.0 / dof)
+    """χ² per degree of freedom well above 1 (``significant_misfit``)."""
+    return significant_misfit(2.0 * result.cost, n, strengths)
+
+
+def significant_misfit(chi2: float, n: int, strengths: int) -> bool:
+    """χ² (in standard errors) of ``n`` readings per degree of freedom more than
+    ``RICHER_ORDER_SIGMAS`` of its standard deviations (√(2/dof)) above 1: the model, or the
+    minimum the fit reached, leaves something the noise does not explain."""
+    dof = max(n - NONLINEAR_PARAMETERS - strengths, 1)
+    return chi2 / dof > 1.0 + RICHER_ORDER_SIGMAS * np.sqrt(2.0 / dof)
 
 
 def _one_order_more(orders) -> tuple[int, ...]:
