@@ -42,6 +42,8 @@ from whiskercal.model.lookup import LookupReport
 WARN_TIP_ERROR_MM = 0.25
 # the tip model's name when the (Y, Z) joint fit's z lookup ships (``adopt_joint_lookup``)
 JOINT_TIP_MODEL = "mechanics-yz"
+# how the warning that the mechanics stands in for an untraceable level set begins
+UNTRACEABLE_WARNING = "the level set cannot be traced"
 
 
 @dataclass
@@ -158,7 +160,7 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
     choice = TipModelChoice(name, estimate, metrics, mechanics=mechanics)
     choice.warnings = _warnings(choice, mechanics, why_not)
     if untraceable is not None:
-        choice.warnings.insert(0, f"the level set cannot be traced ({untraceable}): the "
+        choice.warnings.insert(0, f"{UNTRACEABLE_WARNING} ({untraceable}): the "
                                   "mechanics-informed tip model ships instead")
     return calibration, choice
 
@@ -181,7 +183,7 @@ def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice,
     metrics = {**choice.metrics, "tip_model": JOINT_TIP_MODEL, "estimated_tip_error_mm": estimate,
                "replaced_tip_model": choice.name, "replaced_estimated_tip_error_mm": current}
     adopted = TipModelChoice(JOINT_TIP_MODEL, estimate, metrics, mechanics=choice.mechanics)
-    kept = [w for w in choice.warnings if w.startswith("the level set cannot be traced")]
+    kept = [w for w in choice.warnings if w.startswith(UNTRACEABLE_WARNING)]
     adopted.warnings = kept + _estimate_warning(adopted)
     return _use_lookup(calibration, joint.lookup), adopted
 
