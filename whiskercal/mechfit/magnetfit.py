@@ -107,11 +107,6 @@ def _unexplained(result, n: int) -> bool:
     return 2.0 * result.cost / n > UNEXPLAINED_RATIO ** 2
 
 
-def _misfit(result, n: int, strengths: int) -> bool:
-    """χ² per degree of freedom well above 1 (``significant_misfit``)."""
-    return significant_misfit(2.0 * result.cost, n, strengths)
-
-
 def significant_misfit(chi2: float, n: int, strengths: int) -> bool:
     """χ² (in standard errors) of ``n`` readings per degree of freedom more than
     ``RICHER_ORDER_SIGMAS`` of its standard deviations (√(2/dof)) above 1: the model, or the
@@ -173,7 +168,8 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     # alone a misfit may come from the stage's position error, which a richer map absorbs into
     # the suspension (the recorded default grid's table took a fifth order and biased the
     # contour runs by 0.011 mm)
-    if sweep is not None and np.any(sweep) and _misfit(best[0], fields.size, len(orders)):
+    if sweep is not None and np.any(sweep) and significant_misfit(2.0 * best[0].cost,
+                                                                  fields.size, len(orders)):
         fits.append(_joint_fit(best[0].x[:3], centers, fields, noise, rod_radius_mm,
                                trace_length_mm, _one_order_more(orders), sweep))
         best = _better_by_akaike(best, fits[-1])
