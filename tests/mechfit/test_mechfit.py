@@ -128,3 +128,44 @@ def test_any_trial_parameters_give_a_representable_suspension(theta):
     suspension = objective.suspension(np.array(theta))
     assert 0.0 <= suspension.stub_mm <= 78.0 * MAX_STUB_FRACTION
     assert np.isfinite([suspension.rot_compliance, suspension.trans_compliance]).all()
+
+
+def _soft_root_build():
+    # a 100 mm x 0.30 mm wire on a root half the default's stiffness against turning: its
+    # frictionless tip curve folds back at about -14.3 mT, inside the range a grid reaches
+    from dataclasses import replace
+
+    from whiskercal.twin.physics.whisker import WhiskerParams
+
+    return replace(DEFAULT_SENSOR, sensor_id="soft-root-100x0.30",
+                   whisker=WhiskerParams(length_mm=100.0, diameter_mm=0.30,
+                                         root_rotational_stiffness_n_mm_per_rad=1.5))
+
+
+def _exact_model(sensor):
+    """A stand-in fit with the twin's own suspension and field: only the lookup is tested."""
+    from types import SimpleNamespace
+
+    from whiskercal.bench.tip_accuracy import pose_fields_of_poses
+
+    return SimpleNamespace(suspension=true_suspension(sensor),
+                           pose_map=lambda poses: pose_fields_of_poses(sensor, poses))
+
+
+@pytest.mark.parametrize("follow", [True, False])
+def test_the_z_lookup_ends_short_of_a_fold_its_knots_cannot_follow(follow, monkeypatch):
+    from whiskercal.mechfit import tables
+
+    if not follow:  # the check off: the knots cut across the fold's bend
+        monkeypatch.setattr(tables, "FOLLOW_TOLERANCE_MM", math.inf)
+    sensor = _soft_root_build()
+    z, tips = truth_tip_curve(sensor)
+    lookup = z_lookup(_exact_model(sensor), (-15000.0, -500.0))
+    inside = (z >= lookup.z_min_uT) & (z <= lookup.z_max_uT)
+    error = tip_error_mm(lookup(z[inside]), tips[inside])
+    if follow:
+        # the fold is at the curve's lowest z; the lookup keeps most of the range before it
+        assert z.min() < lookup.z_min_uT < 0.8 * z.min()
+        assert error["max_mm"] <= tables.FOLLOW_TOLERANCE_MM + 0.01
+    else:
+        assert error["max_mm"] > 0.5
