@@ -7,25 +7,29 @@ Measured with seed 0 (docs/calibration.md): 0.010 / 0.041 mm on the default sens
 """
 
 import math
-
+from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from whiskercal.artifacts.raw_grid import read_raw_grid
-from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, ROD_RADIUS_MM, simulate_fields,
+from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, ROD_RADIUS_MM,
+                                           pose_fields_of_poses, simulate_fields,
                                            true_suspension, truth_tip_curve)
 from whiskercal.bench.twin_grid import tip_error_mm
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fieldmap import exponents, fit_pose_map
 from whiskercal.mechfit.fit import fit_mechanics
 from whiskercal.mechfit.forward import Suspension, pose_of, rod_equilibria
+from whiskercal.mechfit import tables
 from whiskercal.mechfit.tables import FieldTipTable, monotone_z_range, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
 from whiskercal.model.calibrate import contact_mask
 from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR
+from whiskercal.twin.physics.whisker import WhiskerParams
 
 
 DATA = Path(__file__).resolve().parents[2] / "data"
@@ -133,10 +137,6 @@ def test_any_trial_parameters_give_a_representable_suspension(theta):
 def _soft_root_build():
     # a 100 mm x 0.30 mm wire on a root half the default's stiffness against turning: its
     # frictionless tip curve folds back at about -14.3 mT, inside the range a grid reaches
-    from dataclasses import replace
-
-    from whiskercal.twin.physics.whisker import WhiskerParams
-
     return replace(DEFAULT_SENSOR, sensor_id="soft-root-100x0.30",
                    whisker=WhiskerParams(length_mm=100.0, diameter_mm=0.30,
                                          root_rotational_stiffness_n_mm_per_rad=1.5))
@@ -144,18 +144,12 @@ def _soft_root_build():
 
 def _exact_model(sensor):
     """A stand-in fit with the twin's own suspension and field: only the lookup is tested."""
-    from types import SimpleNamespace
-
-    from whiskercal.bench.tip_accuracy import pose_fields_of_poses
-
     return SimpleNamespace(suspension=true_suspension(sensor),
                            pose_map=lambda poses: pose_fields_of_poses(sensor, poses))
 
 
 @pytest.mark.parametrize("follow", [True, False])
 def test_the_z_lookup_ends_short_of_a_fold_its_knots_cannot_follow(follow, monkeypatch):
-    from whiskercal.mechfit import tables
-
     if not follow:  # the check off: the knots cut across the fold's bend
         monkeypatch.setattr(tables, "FOLLOW_TOLERANCE_MM", math.inf)
     sensor = _soft_root_build()
@@ -166,6 +160,7 @@ def test_the_z_lookup_ends_short_of_a_fold_its_knots_cannot_follow(follow, monke
     if follow:
         # the fold is at the curve's lowest z; the lookup keeps most of the range before it
         assert z.min() < lookup.z_min_uT < 0.8 * z.min()
+        # + the forward tip family's own 5e-3 mm from the twin's curve (the first test)
         assert error["max_mm"] <= tables.FOLLOW_TOLERANCE_MM + 0.01
     else:
         assert error["max_mm"] > 0.5
