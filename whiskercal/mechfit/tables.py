@@ -53,8 +53,8 @@ def z_lookup(fit: MechanicsFit, z_range_uT: tuple[float, float], samples: int = 
     ``FOLLOW_TOLERANCE_MM`` (``_followed_low``); raises UsageError where it is not.
     """
     curve = _TipCurve(fit, family or tip_family(fit.suspension))
-    low, high = monotone_z_range(curve.z_samples)
-    low, high = max(low, z_range_uT[0]), min(high, z_range_uT[1])
+    # the one-to-one branch's ends within the grid's range
+    low, high = max(curve.z_samples[-1], z_range_uT[0]), min(curve.z_samples[0], z_range_uT[1])
     if not low < high:
         raise UsageError(NO_CURVE)
     lookup = curve.lookup(low, high, samples, kind)
