@@ -29,7 +29,7 @@ from whiskercal.errors import UsageError
 from whiskercal.mechfit.fit import MechanicsFit
 from whiskercal.mechfit.identify import (ProfilePoint, linearized_tip_change_mm,
                                          profile_estimate, tip_change_mm)
-from whiskercal.mechfit.magnetfit import (NONLINEAR_PARAMETERS, fit_at, joint_objective,
+from whiskercal.mechfit.magnetfit import (degrees_of_freedom, fit_at, joint_objective,
                                           significant_misfit)
 from whiskercal.mechfit.tables import DEFAULT_KIND, DEFAULT_SAMPLES, z_lookup
 from whiskercal.model.lookup import TipLookup
@@ -76,8 +76,7 @@ def joint_z_lookup(fit: MechanicsFit, rod_center_mm, fields_uT, noise_uT, rod_ra
     chi2 = float(np.sum(joint(params) ** 2))
     if significant_misfit(chi2, fields.size, len(fit.pose_map.orders)):
         return JointLookup(lookup, math.inf, math.inf, math.inf)
-    dof = fields.size - NONLINEAR_PARAMETERS - len(fit.pose_map.orders)
-    variance = max(chi2 / dof, 1.0)
+    variance = max(chi2 / degrees_of_freedom(fields.size, len(fit.pose_map.orders)), 1.0)
 
     def lookup_at(step):
         return _lookup(fit_at(joint, step, fit), z_range_uT, samples, kind)

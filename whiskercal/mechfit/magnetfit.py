@@ -107,11 +107,17 @@ def _unexplained(result, n: int) -> bool:
     return 2.0 * result.cost / n > UNEXPLAINED_RATIO ** 2
 
 
+def degrees_of_freedom(n: int, strengths: int) -> int:
+    """A joint fit's degrees of freedom: ``n`` readings less the outer parameters and the map's
+    ``strengths``."""
+    return max(n - NONLINEAR_PARAMETERS - strengths, 1)
+
+
 def significant_misfit(chi2: float, n: int, strengths: int) -> bool:
     """χ² (in standard errors) of ``n`` readings per degree of freedom more than
     ``RICHER_ORDER_SIGMAS`` of its standard deviations (√(2/dof)) above 1: the model, or the
     minimum the fit reached, leaves something the noise does not explain."""
-    dof = max(n - NONLINEAR_PARAMETERS - strengths, 1)
+    dof = degrees_of_freedom(n, strengths)
     return chi2 / dof > 1.0 + RICHER_ORDER_SIGMAS * np.sqrt(2.0 / dof)
 
 
