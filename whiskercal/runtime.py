@@ -25,7 +25,12 @@ fit withheld it) carries a (Y, Z) -> tip table (docs/calibration.md). Given the 
 the tracker reads the tip there (bilinear, a few microseconds), which tells a tip pushed with
 friction or by a slanted surface from one pushed square at the same Y; where the table has no
 tip (outside what tip loads reach) it falls back to the z lookup, whose out-of-range policy
-then applies (a z the table answers is never out of range). Without the table, or without
+then applies (a z the table answers is never out of range); except where Y lies within the
+table's span and Z more than one cell beyond every tip the table answers at that Y (a load past
+any the model tabulated, ``FieldTipTable.beyond_loads``): there the z lookup would place the tip
+on the frictionless curve tens of millimetres off, so the sample is out of range under every
+policy (raised under "raise"; no raw tip under "clip" and "nan", flagged -1 / +1 for Z below /
+above). Without the table, or without
 ``axial_uT``, the tracker is the z lookup alone, as for every older artifact.
 
 Out-of-range z in contact (``out_of_range``, per tracker):
@@ -55,7 +60,7 @@ from whiskercal.artifacts.calibration import (CalibrationData, collision_params_
 from whiskercal.errors import UsageError
 from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.collision import CollisionDetector
-from whiskercal.model.errors import ExtrapolationLimitError
+from whiskercal.model.errors import ExtrapolationLimitError, ZOutOfRangeError
 from whiskercal.model.kalman import ConstantStateKalman
 from whiskercal.model.lookup import TipLookup, check_out_of_range
 from whiskercal.model.trace import get_tracer
@@ -70,7 +75,8 @@ class TrackerState:
     ``extrapolated`` is True when the raw tip came from the part of the range marked as
     extrapolated past the grid (only when loaded with ``allow_extrapolated=True``).
     ``out_of_range`` is -1 (below) or +1 (above) when, in contact, z lay outside the range the
-    lookup answers (``Calibration.z_range_uT``) and a streaming policy handled it; else 0.
+    lookup answers (``Calibration.z_range_uT``), or the Z axis beyond every load the (Y, Z)
+    table answers at that z, and a streaming policy handled it; else 0.
     """
 
     contact: bool
@@ -116,6 +122,9 @@ class Tracker:
         x = y = float("nan")
         if table is not None and axial_uT is not None:
             x, y = table.tip_scalar(z_uT, float(axial_uT))
+            beyond = 0 if x == x else table.beyond_loads(z_uT, float(axial_uT))
+            if beyond:
+                return self._beyond_loads(z_uT, float(axial_uT), beyond)
         if x == x:  # the table answered: z lies inside its range
             side = 0
         else:
@@ -128,6 +137,17 @@ class Tracker:
         raw = np.array([x, y])
         flagged = self._calibration._flagged(z_uT)
         return TrackerState(True, raw, self._kalman.update(raw), flagged, side)
+
+
+    def _beyond_loads(self, z_uT: float, axial_uT: float, side: int) -> TrackerState:
+        """A (Y, Z) past every load the table was made from: no tip under any policy (there is
+        no edge to clip to), raised under "raise"; the filter keeps its state."""
+        if self._out_of_range == "raise":
+            raise ZOutOfRangeError(f"(Y, Z) = ({z_uT:.1f}, {axial_uT:.1f}) µT lies beyond every "
+                                   "tip load the (Y, Z) table was made from")
+        filtered = self._kalman.state_mm
+        return TrackerState(True, None, None if filtered is None else filtered.copy(), False,
+                            side)
 
 
 class Calibration:

@@ -2,7 +2,7 @@
 
 An artifact without ``/field_table`` (every older one) loads and tracks exactly as before; one
 with it reads the tip from the table when the tracker gets the Z axis too, and falls back to the
-z lookup where the table has no tip.
+z lookup where the table has no tip, except past every load the table was made from.
 """
 
 import math
@@ -15,6 +15,7 @@ import pytest
 from whiskercal import runtime
 from whiskercal.artifacts.calibration import read_calibration, write_calibration
 from whiskercal.errors import ArtifactError
+from whiskercal.model.errors import ZOutOfRangeError
 from whiskercal.model.field_table import FieldTipTable
 
 FIXTURE = Path(__file__).parents[1] / "fixtures" / "calibration-1.0.0.h5"
@@ -67,6 +68,36 @@ def test_the_tracker_reads_the_table_and_falls_back_to_the_lookup(with_table):
     np.testing.assert_allclose(outside.raw_tip_mm, calibration.tip(z), atol=1e-12)
     without = calibration.tracker().update(z)
     np.testing.assert_allclose(without.raw_tip_mm, calibration.tip(z), atol=1e-12)
+
+
+def test_at_the_edge_of_the_loads_the_corners_with_a_tip_answer(with_table):
+    # Z 120 µT: the cell's corners at 100 µT have tips, those at 150 µT none; the reading is
+    # within a cell of tabulated loads, so their tips answer (renormalized), not the z lookup
+    calibration = runtime.load(with_table)
+    z = float(np.mean(calibration.z_range_uT))
+    state = calibration.tracker().update(z, 120.0)
+    np.testing.assert_allclose(state.raw_tip_mm, [78.0 + 0.001 * z, 0.002 * z + 1.0], atol=1e-9)
+    assert math.isnan(calibration.field_table.tip_scalar(z, 160.0)[0])  # no corner has one
+
+
+def test_a_reading_beyond_every_tabulated_load_gets_no_tip_under_any_policy(with_table):
+    # Z 300 µT lies more than one cell (50 µT) above the highest Z the table answers at this Y
+    # (100 µT): a load past any the model tabulated, which the z lookup would place on the
+    # frictionless tip curve (a soft root's deep plane contacts: 20-50 mm off)
+    calibration = runtime.load(with_table)
+    z = float(np.mean(calibration.z_range_uT))
+    with pytest.raises(ZOutOfRangeError, match="beyond every tip load"):
+        calibration.tracker().update(z, 300.0)
+    for policy in ("clip", "nan"):
+        tracker = calibration.tracker(policy)
+        tracker.update(z, -60.0)
+        state = tracker.update(z, -300.0)
+        assert state.raw_tip_mm is None and state.out_of_range == -1
+        assert state.filtered_tip_mm is not None  # the filter keeps its state
+    table = calibration.field_table
+    assert table.beyond_loads(z, 300.0) == 1 and table.beyond_loads(z, 150.0) == 0
+    assert table.beyond_loads(calibration.z_range_uT[1] + 1.0, 300.0) == 0  # past Y's span
+    assert table.beyond_loads(float("nan"), 300.0) == 0
 
 
 def test_a_table_of_the_wrong_shape_is_refused(tmp_path):

@@ -15,9 +15,11 @@ from whiskercal.artifacts.calibration import read_calibration
 from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.cli import cli
 from whiskercal.fit import FitOptions, fit
+from whiskercal.fit import tip_model
 from whiskercal.fit.tip_model import TipModelChoice, adopt_joint_lookup
 from whiskercal.mechfit.joint_lookup import JointLookup
 from whiskercal.model.calibrate import CalibrationOptions, calibrate
+from whiskercal.model.errors import ModelError
 from whiskercal.model.lookup import TipLookup
 
 DATA = Path(__file__).resolve().parents[2] / "data"
@@ -157,3 +159,32 @@ def test_a_joint_lookup_over_the_goal_is_warned_and_untraceable_level_sets_still
     assert choice.name == "mechanics-yz"
     assert choice.warnings[0] == untraceable and len(choice.warnings) == 2
     assert "0.34 mm RMS (mechanics-yz" in choice.warnings[1]
+
+
+def _refused_choice():
+    """What ``choose_tip_model`` returns when the level set cannot be traced and the Y fit is
+    not identified (the soft 45 mm build, k_θ·L/EI 0.98)."""
+    return tip_model._refused(ModelError("the level sets at z = -3394 µT cannot be traced"),
+                              "", None)
+
+
+@pytest.mark.parametrize("requested", ["auto", "level-set", "mechanics"])
+def test_the_joint_fits_lookup_stands_in_for_a_refusal_whatever_was_asked(rigid_calibration,
+                                                                         requested):
+    joint = _joint(0.05)
+    calibration, choice = adopt_joint_lookup(rigid_calibration, _refused_choice(), joint,
+                                             requested)
+    assert tip_model.refuse_unless_resolved(choice) is choice
+    assert choice.name == "mechanics-yz" and calibration.lookup is joint.lookup
+    assert choice.warnings[0].startswith(tip_model.UNTRACEABLE_WARNING)
+    assert "joint fit's tip model ships instead" in choice.warnings[0]
+
+
+@pytest.mark.parametrize("joint", [None, float("inf")])
+def test_a_refusal_no_joint_fit_stands_in_for_is_raised(rigid_calibration, joint):
+    refused = _refused_choice()
+    _, choice = adopt_joint_lookup(rigid_calibration, refused,
+                                   None if joint is None else _joint(joint), "auto")
+    assert choice is refused
+    with pytest.raises(ModelError, match="nor can the mechanics-informed model stand in"):
+        tip_model.refuse_unless_resolved(choice)

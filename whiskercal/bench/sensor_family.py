@@ -27,7 +27,8 @@ from whiskercal.bench.timing import machine_info
 from whiskercal.bench.twin_grid import raw_like
 from whiskercal.errors import WhiskercalError
 from whiskercal.fit.field_table import FieldTableFit, TableContacts, field_table_from_contacts
-from whiskercal.fit.tip_model import WARN_TIP_ERROR_MM, adopt_joint_lookup, choose_tip_model
+from whiskercal.fit.tip_model import (WARN_TIP_ERROR_MM, adopt_joint_lookup, choose_tip_model,
+                                      refuse_unless_resolved)
 from whiskercal.fit.run import calibrate_grid
 from whiskercal.model.calibrate import CalibrationOptions
 from whiskercal.twin.params import DEFAULT_SENSOR
@@ -50,7 +51,8 @@ VARIANTS = ("grid", "grid+sweep")
 
 def calibrate_build(sensor, seed: int = 0, tip_sweep: bool = True):
     """A build's simulated grid (and tip sweep) calibrated as ``fit`` does:
-    (grid, sweep or None, calibration, choice, seconds)."""
+    (grid, sweep or None, calibration, choice, seconds); the choice may be a refusal the joint
+    fit can still stand in for (``fit.tip_model.refuse_unless_resolved``)."""
     grid = accuracy.simulate_fields(sensor, seed)
     sweep = accuracy.simulate_sweep(sensor, seed) if tip_sweep else None
     centers, z = grid.rod_center_mm, grid.fields_uT[:, 0]
@@ -108,12 +110,13 @@ def measure(sensor, seed: int = 0, tip_sweep: bool = True, with_table: bool = Fa
            "stiffness_ratio": accuracy.stiffness_ratio(sensor.whisker)}
     try:
         grid, sweep, calibration, choice, fit_s = calibrate_build(sensor, seed, tip_sweep)
+        table = field_table(sensor, grid, sweep, choice) if with_table else None
+        if table is not None:
+            calibration, choice = adopt_joint_lookup(calibration, choice, table.z_lookup, "auto")
+        refuse_unless_resolved(choice)
     except WhiskercalError as error:
         return {**row, "refused": f"{type(error).__name__}: {error}", "warned": True,
                 "silent_failure": False}
-    table = field_table(sensor, grid, sweep, choice) if with_table else None
-    if table is not None:
-        calibration, choice = adopt_joint_lookup(calibration, choice, table.z_lookup, "auto")
     z_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
     z_true, tips_true = accuracy.truth_tip_curve(sensor)
     curve = accuracy.lookup_errors(calibration.lookup, z_true, tips_true, z_range)

@@ -276,7 +276,8 @@ def lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
 def realistic_errors(candidate, contacts, z_range, seed: int = 0) -> dict:
     """Errors (mm) on the realistic contacts whose Y lies in the grid's range: Y only (the
     lookup), and with a (Y, Z) table as the runtime reads it (the lookup where the table has no
-    tip), noise-free and with one sample's noise (``SAMPLE_NOISE_UT``)."""
+    tip, none past every load it tabulated: ``beyond_loads`` counts those), noise-free and with
+    one sample's noise (``SAMPLE_NOISE_UT``)."""
     y, z = contacts["fields_uT"][:, 0], contacts["fields_uT"][:, 1]
     inside = (y >= z_range[0]) & (y <= z_range[1])
     lookup, tips = candidate["lookup"], contacts["tip_mm"][inside]
@@ -287,11 +288,16 @@ def realistic_errors(candidate, contacts, z_range, seed: int = 0) -> dict:
         for name, (yy, zz) in (("y_and_z", (y[inside], z[inside])),
                                ("y_and_z_sample_noise", (y[inside] + noise[:, 0],
                                                          z[inside] + noise[:, 1]))):
-            from_table = candidate["table"](yy, zz)
+            table = candidate["table"]
+            from_table = table(yy, zz)
             answered = np.isfinite(from_table[:, 0])
-            from_table[~answered] = _lookup_tips(lookup, yy[~answered])
+            # as the runtime reads them: no tip past every tabulated load (``beyond_loads``)
+            fallback = ~answered & ~np.array([table.beyond_loads(a, b) != 0
+                                              for a, b in zip(yy, zz)], bool)
+            from_table[fallback] = _lookup_tips(lookup, yy[fallback])
             out[name] = {**tip_error_mm(from_table, tips),
-                         "table_answered": float(answered.mean()) if len(yy) else float("nan")}
+                         "table_answered": float(answered.mean()) if len(yy) else float("nan"),
+                         "beyond_loads": int(np.sum(~answered & ~fallback))}
     return out
 
 

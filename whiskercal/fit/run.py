@@ -13,7 +13,8 @@ from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
 from whiskercal.fit.options import FitOptions
 from whiskercal.fit.result import FitResult
 from whiskercal.fit.shaft_surface import shaft_surface_for
-from whiskercal.fit.tip_model import adopt_joint_lookup, choose_tip_model
+from whiskercal.fit.tip_model import (adopt_joint_lookup, choose_tip_model,
+                                      refuse_unless_resolved)
 from whiskercal.fit.trace_length import resolve_trace_length
 from whiskercal.fit.truth import compare_with_twin_truth
 from whiskercal.model.calibrate import (Calibration, CalibrationOptions, calibrate,
@@ -58,6 +59,7 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     if table is not None:
         calibration, tip_model = adopt_joint_lookup(calibration, tip_model, table.z_lookup,
                                                     options.tip_model)
+    tip_model = refuse_unless_resolved(tip_model)
     grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
     truth = compare_with_twin_truth(grid, calibration)
     shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)

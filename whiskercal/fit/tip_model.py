@@ -57,6 +57,9 @@ class TipModelChoice:
     warnings: list[str] = field(default_factory=list)
     # the mechanics fitted to the grid, whichever model ships (the shaft surface uses it)
     mechanics: MechanicsCalibration | None = None
+    # neither the level set nor the Y fit can be trusted: raised by ``refuse_unless_resolved``
+    # unless the (Y, Z) joint fit's lookup stands in (``adopt_joint_lookup``)
+    refusal: ModelError | None = None
 
 
 def _mechanics(raw, length_mm: float, samples: int):
@@ -145,8 +148,7 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
         raise UsageError(f"the mechanics-informed tip model cannot be fitted: {why_not}")
     mech_error = mechanics.estimated_tip_error_mm if mechanics is not None else math.inf
     if untraceable is not None and not math.isfinite(mech_error):
-        raise type(untraceable)(f"{untraceable}; nor can the mechanics-informed model stand in: "
-                                f"{why_not or 'the grid does not identify the suspension'}")
+        return calibration, _refused(untraceable, why_not, mechanics)
     level_error = _level_set_estimate(calibration, mechanics)
     name = "mechanics" if untraceable is not None else \
         _pick(requested, mechanics, mech_error, level_error)
@@ -165,18 +167,39 @@ def choose_tip_model(raw, calibration: Calibration, requested: str, length_mm: f
     return calibration, choice
 
 
+def _refused(untraceable: ModelError, why_not: str, mechanics) -> TipModelChoice:
+    """The choice when the level set cannot be traced and the Y fit is not identified."""
+    why = why_not or "the grid does not identify the suspension"
+    refusal = type(untraceable)(f"{untraceable}; nor can the mechanics-informed model stand "
+                                f"in: {why}")
+    choice = TipModelChoice("none", math.inf, {"tip_model": "none"}, mechanics=mechanics,
+                            refusal=refusal)
+    choice.warnings = [f"{UNTRACEABLE_WARNING} ({untraceable}) and the Y fit does not identify "
+                       f"the suspension ({why}): the (Y, Z) joint fit's tip model ships instead"]
+    return choice
+
+
+def refuse_unless_resolved(choice: TipModelChoice) -> TipModelChoice:
+    """``choice``, unless it is a refusal no joint fit stood in for: then raise it."""
+    if choice.refusal is not None:
+        raise choice.refusal
+    return choice
+
+
 def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice,
                        joint: JointLookup | None, requested: str
                        ) -> tuple[Calibration, TipModelChoice]:
     """With ``auto``, the (Y, Z) joint fit's z lookup (from ``fit.field_table``) as the tip
     model when its estimated error is below the chosen model's (or that one has none); else
-    both unchanged.
+    both unchanged. Whatever was requested, it stands in for a refused choice (``refusal``)
+    when it has an estimate.
 
     Z pins the suspension down where Y alone leaves it loose: on the family with the tip sweep
     its lookups came 2-300x closer to the true tips (docs/calibration.md).
     """
     current = choice.estimated_tip_error_mm
-    if requested != "auto" or joint is None or not math.isfinite(joint.estimated_tip_error_mm) \
+    stands_in = choice.refusal is not None or requested == "auto"
+    if not stands_in or joint is None or not math.isfinite(joint.estimated_tip_error_mm) \
             or joint.estimated_tip_error_mm >= current:
         return calibration, choice
     estimate = joint.estimated_tip_error_mm

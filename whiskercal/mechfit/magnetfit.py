@@ -39,6 +39,9 @@ PROFILE_EVALUATIONS = 120
 # a χ² per degree of freedom this many of its standard deviations (√(2/dof)) above 1 tries one
 # more multipole order (as ``identify.RICHER_MAP_SIGMAS`` does for the polynomial map)
 RICHER_ORDER_SIGMAS = 2.0
+# the highest multipole order the fit grows to: a soft root's large shifts and turns need the
+# sixth (the 45 mm build on k_θ·L/EI 0.98: χ²/dof 1.29 at order 5, 1.06 at 6; docs/calibration.md)
+MAX_ORDER = 6
 # the mechanics (3) and the map's geometry (7)
 NONLINEAR_PARAMETERS = 10
 
@@ -160,8 +163,9 @@ def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, or
 
 def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
                     sweep):
-    """The best joint refinement over the start groups (``_start_groups``), with one more
-    multipole order where it pays: (least-squares result, objective, every fit tried)."""
+    """The best joint refinement over the start groups (``_start_groups``), with more multipole
+    orders, one at a time up to ``MAX_ORDER``, while each pays (Akaike) and a significant misfit
+    is left: (least-squares result, objective, every fit tried)."""
     fits = []
     for thetas in _start_groups(start, centers, fields[:, 0], noise[0], rod_radius_mm,
                                 trace_length_mm, sweep):
@@ -174,11 +178,13 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     # alone a misfit may come from the stage's position error, which a richer map absorbs into
     # the suspension (the recorded default grid's table took a fifth order and biased the
     # contour runs by 0.011 mm)
-    if sweep is not None and np.any(sweep) and significant_misfit(2.0 * best[0].cost,
-                                                                  fields.size, len(orders)):
+    while sweep is not None and np.any(sweep) and max(best[1].orders) < MAX_ORDER \
+            and significant_misfit(2.0 * best[0].cost, fields.size, len(best[1].orders)):
         fits.append(_joint_fit(best[0].x[:3], centers, fields, noise, rod_radius_mm,
-                               trace_length_mm, _one_order_more(orders), sweep))
-        best = _better_by_akaike(best, fits[-1])
+                               trace_length_mm, _one_order_more(best[1].orders), sweep))
+        if _better_by_akaike(best, fits[-1]) is best:
+            break
+        best = fits[-1]
     return best[0], best[1], fits
 
 

@@ -13,7 +13,8 @@ import numpy as np
 
 
 class FieldTipTable:
-    """(Y, Z) µT -> tip (mm) on a regular grid, bilinear; NaN outside the tip-load family.
+    """(Y, Z) µT -> tip (mm) on a regular grid, bilinear (the corners with a tip, at the edge
+    of the tip-load family); NaN outside it.
 
     Parameters
     ----------
@@ -30,9 +31,17 @@ class FieldTipTable:
         self._dz = float(self.z_uT[1] - self.z_uT[0])
         self._ny, self._nz = len(self.y_uT), len(self.z_uT)
         self._rows = self.tips_mm.tolist()
+        self._bands = [_answered_band(self.z_uT, row) for row in self.tips_mm[..., 0]]
 
     def tip_scalar(self, y_uT: float, z_uT: float) -> tuple[float, float]:
-        """One tip (x, y) mm in plain floats; NaN outside the table."""
+        """One tip (x, y) mm in plain floats; NaN outside the table and where no corner of the
+        reading's cell has a tip.
+
+        At the edge of the tip loads, where some corners have none, the others' bilinear
+        weights are renormalized: a reading there lies within a cell of tabulated loads, and
+        their tips are closer than the frictionless z lookup the runtime would fall back to
+        (the soft 45 mm build's deepest plane contacts: 0.09-0.15 mm against 20-40 mm).
+        """
         fy, fz = (y_uT - self._y0) / self._dy, (z_uT - self._z0) / self._dz
         i, j = int(math.floor(fy)), int(math.floor(fz))
         if not (0 <= i < self._ny - 1 and 0 <= j < self._nz - 1):
@@ -40,11 +49,46 @@ class FieldTipTable:
         ty, tz = fy - i, fz - j
         a, b, c, d = self._rows[i][j], self._rows[i + 1][j], self._rows[i][j + 1], self._rows[i + 1][j + 1]
         w00, w10, w01, w11 = (1 - ty) * (1 - tz), ty * (1 - tz), (1 - ty) * tz, ty * tz
-        return (w00 * a[0] + w10 * b[0] + w01 * c[0] + w11 * d[0],
-                w00 * a[1] + w10 * b[1] + w01 * c[1] + w11 * d[1])
+        x = w00 * a[0] + w10 * b[0] + w01 * c[0] + w11 * d[0]
+        if x == x:
+            return x, w00 * a[1] + w10 * b[1] + w01 * c[1] + w11 * d[1]
+        return _edge_tip(((a, w00), (b, w10), (c, w01), (d, w11)))
+
+    def beyond_loads(self, y_uT: float, z_uT: float) -> int:
+        """-1 or +1 where Y lies within the table's span but Z more than one cell below or
+        above every tip the table answers at that Y: a load past any the model tabulated (a
+        soft root turned past where Y folds back), which the z lookup, placing Y on the
+        frictionless tip curve, would put tens of millimetres off (docs/calibration.md);
+        0 elsewhere, NaN included."""
+        i = (y_uT - self._y0) / self._dy
+        if not 0.0 <= i < self._ny - 1:
+            return 0
+        bands = [b for b in self._bands[int(i):int(i) + 2] if b is not None]
+        if not bands:
+            return 0
+        low, high = min(b[0] for b in bands), max(b[1] for b in bands)
+        return -1 if z_uT < low - self._dz else 1 if z_uT > high + self._dz else 0
 
     def __call__(self, y_uT, z_uT) -> np.ndarray:
         """Tips (..., 2) mm for arrays of Y and Z (µT)."""
         y, z = np.broadcast_arrays(np.asarray(y_uT, float), np.asarray(z_uT, float))
         out = np.array([self.tip_scalar(a, b) for a, b in zip(y.ravel(), z.ravel())])
         return out.reshape(y.shape + (2,))
+
+
+def _edge_tip(corners) -> tuple[float, float]:
+    """The bilinear weights of a cell's corners that have a tip, renormalized (equal where
+    those weights are all zero: the reading sits on a corner without one); NaN where none do."""
+    kept = [(tip, weight) for tip, weight in corners if tip[0] == tip[0]]
+    if not kept:
+        return math.nan, math.nan
+    total = sum(weight for _, weight in kept)
+    if total <= 0.0:
+        kept, total = [(tip, 1.0) for tip, _ in kept], float(len(kept))
+    return (sum(tip[0] * w for tip, w in kept) / total, sum(tip[1] * w for tip, w in kept) / total)
+
+
+def _answered_band(z_axis: np.ndarray, row: np.ndarray) -> tuple[float, float] | None:
+    """The lowest and highest Z (µT) a table row answers, None where it answers none."""
+    answered = z_axis[np.isfinite(row)]
+    return (float(answered[0]), float(answered[-1])) if len(answered) else None
