@@ -14,6 +14,7 @@ from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, ROD_RADIUS_MM, look
                                            simulate_fields, simulate_sweep, truth_tip_curve)
 from whiskercal.mechfit.joint_lookup import joint_z_lookup
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
+from whiskercal.mechfit.tables import interpolation_error_mm
 
 
 @pytest.mark.slow
@@ -32,7 +33,8 @@ def test_the_thin_wires_joint_lookup_meets_the_goal_within_its_estimate():
     assert truth["coverage"] >= 0.95
     assert truth["rmse_mm"] <= 0.25 and truth["max_mm"] <= 0.5  # the family goal
     assert truth["rmse_mm"] <= joint.estimated_tip_error_mm < math.inf
-    assert joint.estimated_tip_error_mm == max(joint.local_mm, joint.profile_mm)
+    assert joint.estimated_tip_error_mm == pytest.approx(math.hypot(
+        max(joint.local_mm, joint.profile_mm), interpolation_error_mm(fit, joint.lookup)))
 
 
 def test_a_fit_that_leaves_more_than_the_noise_gets_no_estimate(monkeypatch):
@@ -42,6 +44,7 @@ def test_a_fit_that_leaves_more_than_the_noise_gets_no_estimate(monkeypatch):
     from whiskercal.mechfit import joint_lookup
 
     monkeypatch.setattr(joint_lookup, "_lookup", lambda *args: "lookup")
+    monkeypatch.setattr(joint_lookup, "with_interpolation_error", lambda estimate, *a: estimate)
     n = 400  # readings: 200 contacts, Y and Z
     chi2_per_dof = {"explained": 1.05, "misfit": 1.18}
     results = {}

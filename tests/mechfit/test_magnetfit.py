@@ -103,6 +103,29 @@ def test_a_swept_fit_left_above_the_noise_tries_one_more_order_kept_when_it_pays
     assert [t[1] for t in tried] == [(1, 2, 3, 4)] * 2
 
 
+def test_orders_grow_one_at_a_time_to_the_sixth_while_each_pays(monkeypatch):
+    # the soft 45 mm build (k_theta*L/EI 0.98) with the sweep: chi2/dof 1.29 at order 5, 1.06
+    # at order 6 (docs/calibration.md)
+    from whiskercal.mechfit import magnetfit
+
+    n = 200
+    costs = {(1, 2, 3, 4): 3.0 * n / 2, (1, 2, 3, 4, 5): 1.5 * n / 2,
+             (1, 2, 3, 4, 5, 6): 1.3 * n / 2, (1, 2, 3, 4, 5, 6, 7): 1.0 * n / 2}
+    joint_fit, tried = _fake_joint_fit(lambda _first, orders: costs[orders])
+    monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
+    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: _y_fit(1.0))
+    swept = np.arange(100) >= 90
+    assert magnetfit.MAX_ORDER == 6
+    # still above the noise at the sixth (chi2/dof 1.41), yet no seventh is tried
+    assert _best(magnetfit, swept)[1].orders == (1, 2, 3, 4, 5, 6)
+    assert (1, 2, 3, 4, 5, 6, 7) not in [t[1] for t in tried]
+    # an order that does not pay ends the growth, and the last that did is kept
+    tried.clear()
+    costs[(1, 2, 3, 4, 5, 6)] = 1.5 * n / 2
+    assert _best(magnetfit, swept)[1].orders == (1, 2, 3, 4, 5)
+    assert [t[1] for t in tried][-1] == (1, 2, 3, 4, 5, 6)
+
+
 @pytest.mark.slow
 def test_a_root_that_turns_far_gets_a_fifth_order_and_its_table_meets_the_goal():
     from whiskercal.bench.sensor_family import FAMILY

@@ -174,8 +174,10 @@ def _refused(untraceable: ModelError, why_not: str, mechanics) -> TipModelChoice
                                 f"in: {why}")
     choice = TipModelChoice("none", math.inf, {"tip_model": "none"}, mechanics=mechanics,
                             refusal=refusal)
-    choice.warnings = [f"{UNTRACEABLE_WARNING} ({untraceable}) and the Y fit does not identify "
-                       f"the suspension ({why}): the (Y, Z) joint fit's tip model ships instead"]
+    cause = f"the Y fit cannot be made ({why_not})" if why_not else \
+        "the Y fit does not identify the suspension"
+    choice.warnings = [f"{UNTRACEABLE_WARNING} ({untraceable}) and {cause}: the (Y, Z) joint "
+                       "fit's tip model ships instead"]
     return choice
 
 

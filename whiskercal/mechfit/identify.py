@@ -16,7 +16,8 @@ translational compliance refitted) and turns the profile into an error estimate:
   itself misses the grid by more than twice the noise (the model does not explain it);
 - a local, linearized estimate (``local_estimate``) covers all three parameters at once and
   the data that pin them down tighter than the profile's steps (a tip sweep does); the larger
-  of the two is reported.
+  of the two is reported, with the lookup's interpolation error against the model's own tip
+  curve added in quadrature (``tables.with_interpolation_error``).
 
 The profile doubles as a global search: when a profile point fits better than the local fit,
 the fit is refined from there before anything is estimated.
@@ -35,7 +36,8 @@ from whiskercal.errors import UsageError
 from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, MAX_SHIFT_ORDER, exponents
 from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, TRANS_SHARE_START, MechanicsFit, _Objective,
                                    fit_mechanics)
-from whiskercal.mechfit.tables import DEFAULT_KIND, DEFAULT_SAMPLES, monotone_z_range, z_lookup
+from whiskercal.mechfit.tables import (DEFAULT_KIND, DEFAULT_SAMPLES, monotone_z_range,
+                                      with_interpolation_error, z_lookup)
 from whiskercal.mechfit.tipcurve import tip_family
 from whiskercal.model.lookup import TipLookup
 
@@ -97,8 +99,8 @@ class MechanicsCalibration:
         Misfit of the best fit in the grid's standard errors (about 1 when the model and the
         noise explain the grid).
     estimated_tip_error_mm : float
-        The larger of the profile's estimate and the local one (mm); inf when the grid does not
-        identify the suspension.
+        The larger of the profile's estimate and the local one, with the lookup's interpolation
+        error in quadrature (mm); inf when the grid does not identify the suspension.
     profile : list of ProfilePoint
     local_tip_error_mm : float
         The linearized estimate alone (``local_estimate``), mm.
@@ -390,7 +392,7 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
     family_z = fit.pose_map(tip_family(fit.suspension).pose)[:, 0]
     chi2_per_dof = chi2 / problem.dof()
     local = local_estimate(problem, theta, lookup, chi2, samples, kind)
-    estimate = max(profile_estimate(profile), local) if chi2_per_dof <= MAX_CHI2_PER_DOF \
-        else math.inf
+    estimate = with_interpolation_error(max(profile_estimate(profile), local), fit, lookup) \
+        if chi2_per_dof <= MAX_CHI2_PER_DOF else math.inf
     return MechanicsCalibration(fit, lookup, monotone_z_range(family_z), chi2_per_dof, estimate,
                                 profile, local, int(problem.sweep.sum()))

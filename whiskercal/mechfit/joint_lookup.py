@@ -11,7 +11,10 @@ least squares): the larger of
   worst tip change at the edge of plausibility (Δχ² = 4), linearized;
 - the profile's: the fits with k_θ·L/EI held four times off either way (``ratio_profile``),
   their tip changes scaled to the edge of plausibility, which catches a second minimum the
-  linearization cannot see.
+  linearization cannot see;
+
+with the lookup's interpolation error against its own model's tip curve added in quadrature
+(``tables.with_interpolation_error``).
 
 Both assume the model explains the grid: where its χ² per degree of freedom lies significantly
 above 1 (``magnetfit.significant_misfit``) the estimate is not made (infinite; the tip model
@@ -31,7 +34,8 @@ from whiskercal.mechfit.identify import (ProfilePoint, linearized_tip_change_mm,
                                          profile_estimate, tip_change_mm)
 from whiskercal.mechfit.magnetfit import (degrees_of_freedom, fit_at, joint_objective,
                                           significant_misfit)
-from whiskercal.mechfit.tables import DEFAULT_KIND, DEFAULT_SAMPLES, z_lookup
+from whiskercal.mechfit.tables import (DEFAULT_KIND, DEFAULT_SAMPLES, with_interpolation_error,
+                                      z_lookup)
 from whiskercal.model.lookup import TipLookup
 
 
@@ -83,7 +87,8 @@ def joint_z_lookup(fit: MechanicsFit, rod_center_mm, fields_uT, noise_uT, rod_ra
 
     local = linearized_tip_change_mm(joint, lookup_at, params, lookup, variance)
     profile = _profile_mm(lookup_at, fit, lookup, variance)
-    return JointLookup(lookup, max(local, profile), local, profile)
+    return JointLookup(lookup, with_interpolation_error(max(local, profile), fit, lookup), local,
+                       profile)
 
 
 def _lookup(fit, z_range_uT, samples, kind) -> TipLookup | None:
