@@ -100,6 +100,18 @@ def test_a_reading_beyond_every_tabulated_load_gets_no_tip_under_any_policy(with
     assert table.beyond_loads(float("nan"), 300.0) == 0
 
 
+@pytest.mark.parametrize("policy", ["raise", "clip", "nan"])
+def test_a_non_finite_z_axis_reads_y_alone_and_never_crashes(with_table, policy):
+    # a dropped Z sample (NaN) used to raise ValueError inside the table's read
+    calibration = runtime.load(with_table)
+    z = float(np.mean(calibration.z_range_uT))
+    state = calibration.tracker(policy).update(z, float("nan"))
+    np.testing.assert_allclose(state.raw_tip_mm, calibration.tip(z), atol=1e-12)
+    table = calibration.field_table
+    for y, axial in ((float("nan"), 0.0), (float("inf"), 0.0), (z, float("-inf"))):
+        assert math.isnan(table.tip_scalar(y, axial)[0])
+
+
 def test_a_table_of_the_wrong_shape_is_refused(tmp_path):
     data = read_calibration(FIXTURE)
     table = _table(data)

@@ -43,9 +43,10 @@ class FieldTipTable:
         (the soft 45 mm build's deepest plane contacts: 0.09-0.15 mm against 20-40 mm).
         """
         fy, fz = (y_uT - self._y0) / self._dy, (z_uT - self._z0) / self._dz
-        i, j = int(math.floor(fy)), int(math.floor(fz))
-        if not (0 <= i < self._ny - 1 and 0 <= j < self._nz - 1):
+        # compared before any int(): NaN and ±inf fail the comparison and get no tip
+        if not (0.0 <= fy < self._ny - 1 and 0.0 <= fz < self._nz - 1):
             return math.nan, math.nan
+        i, j = int(fy), int(fz)
         ty, tz = fy - i, fz - j
         a, b, c, d = self._rows[i][j], self._rows[i + 1][j], self._rows[i][j + 1], self._rows[i + 1][j + 1]
         w00, w10, w01, w11 = (1 - ty) * (1 - tz), ty * (1 - tz), (1 - ty) * tz, ty * tz
