@@ -83,8 +83,10 @@ def _summary(data, elapsed_s: float) -> dict:
               "(suspension + elastica solved for a frictionless tip contact) where the grid pins "
               "the suspension down, else the paper's level set, and the same fitted to Y and "
               "Z with the (Y, Z) table where that is estimated closer still; or the first two "
-              "by name. The mechanics is fitted either way for the error estimate "
-              "(docs/calibration.md).")
+              "by name. The mechanics is fitted either way for the error estimate. Where the "
+              "level set cannot be traced, an identified model ships whatever is asked (the Y "
+              "fit, else the Y and Z fit's with the table on), and fit refuses only when "
+              "none is (docs/calibration.md).")
 @click.option("--field-table/--no-field-table", default=True, show_default=True,
               help="Also fit the suspension and the magnet's field to the Y and Z axes and store "
               "a (Y, Z) -> tip table: the runtime then places tips pushed with friction or by "
