@@ -121,33 +121,35 @@ class Tracker:
         lookup, table = self._calibration.lookup, self._calibration.field_table
         x = y = float("nan")
         if table is not None and axial_uT is not None:
-            x, y = table.tip_scalar(z_uT, float(axial_uT))
-            beyond = 0 if x == x else table.beyond_loads(z_uT, float(axial_uT))
+            axial_uT = float(axial_uT)
+            x, y = table.tip_scalar(z_uT, axial_uT)
+            beyond = 0 if x == x else table.beyond_loads(z_uT, axial_uT)
             if beyond:
-                return self._beyond_loads(z_uT, float(axial_uT), beyond)
+                return self._beyond_loads(z_uT, axial_uT, beyond)
         if x == x:  # the table answered: z lies inside its range
             side = 0
         else:
             x, y = lookup.tip_scalar(z_uT, self._out_of_range)
             side = -1 if z_uT < lookup.z_min_uT else 1 if z_uT > lookup.z_max_uT else 0
         if x != x:  # NaN: a non-finite z, or out of range under the "nan" policy
-            filtered = self._kalman.state_mm
-            return TrackerState(True, None, None if filtered is None else filtered.copy(),
-                                False, side)
+            return self._no_tip(side)
         raw = np.array([x, y])
         flagged = self._calibration._flagged(z_uT)
         return TrackerState(True, raw, self._kalman.update(raw), flagged, side)
 
-
-    def _beyond_loads(self, z_uT: float, axial_uT: float, side: int) -> TrackerState:
-        """A (Y, Z) past every load the table was made from: no tip under any policy (there is
-        no edge to clip to), raised under "raise"; the filter keeps its state."""
-        if self._out_of_range == "raise":
-            raise ZOutOfRangeError(f"(Y, Z) = ({z_uT:.1f}, {axial_uT:.1f}) µT lies beyond every "
-                                   "tip load the (Y, Z) table was made from")
+    def _no_tip(self, side: int) -> TrackerState:
+        """In contact with no raw tip: the filter keeps its state, the sample flagged ``side``."""
         filtered = self._kalman.state_mm
         return TrackerState(True, None, None if filtered is None else filtered.copy(), False,
                             side)
+
+    def _beyond_loads(self, z_uT: float, axial_uT: float, side: int) -> TrackerState:
+        """A (Y, Z) past every load the table was made from: no tip under any policy (there is
+        no edge to clip to), raised under "raise"."""
+        if self._out_of_range == "raise":
+            raise ZOutOfRangeError(f"(Y, Z) = ({z_uT:.1f}, {axial_uT:.1f}) µT lies beyond every "
+                                   "tip load the (Y, Z) table was made from")
+        return self._no_tip(side)
 
 
 class Calibration:
