@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 
 from whiskercal.fit.field_table import REFUSE_ESTIMATE_MM, WARN_ESTIMATE_MM, trust_verdict
-from whiskercal.mechfit.table_error import (ambiguity_tip_error_mm, noise_propagation_mm,
+from whiskercal.mechfit.table_error import (HELD_SAMPLES, ambiguity_tip_error_mm,
+                                            estimated_tip_error_mm, noise_propagation_mm,
                                             z_lookup_tip_error_mm)
+from whiskercal.mechfit.tables import tabulate
 
 NOISE_UT = (5.6, 9.0)  # one sample's Y and Z noise
 
@@ -28,7 +30,7 @@ def test_a_smooth_map_is_estimated_at_its_noise_through_its_slope():
     estimate = ambiguity_tip_error_mm(fields, tips, NOISE_UT)
     # neighbours within twice one sample's noise lie at most 2 |noise| * slope away: 0.021 mm
     assert 0.001 < estimate < 0.0212
-    assert trust_verdict(estimate, (1.0, 1.0)) == (True, [])
+    assert trust_verdict(estimate, estimate, (1.0, 1.0)) == (True, [])
 
 
 def test_two_branches_with_the_same_fields_are_estimated_at_their_distance():
@@ -38,17 +40,39 @@ def test_two_branches_with_the_same_fields_are_estimated_at_their_distance():
                                       np.concatenate([tips, other]), NOISE_UT)
     # half of each load's neighbours lie on the other branch: about 10 / sqrt(2) mm RMS
     assert 6.0 < estimate < 8.0
-    write, warnings = trust_verdict(estimate, (1.0, 1.0))
+    write, warnings = trust_verdict(estimate, estimate, (1.0, 1.0))
     assert not write and len(warnings) == 1 and "no (Y, Z) table written" in warnings[0]
 
 
 def test_the_rule_warns_between_the_goal_and_the_refusal_and_refuses_a_poor_residual():
     between = 0.5 * (WARN_ESTIMATE_MM + REFUSE_ESTIMATE_MM)  # warned, written
-    write, warnings = trust_verdict(between, (1.0, 1.0))
+    write, warnings = trust_verdict(between, between / 2, (1.0, 1.0))
     assert write and len(warnings) == 1 and "estimated tip error" in warnings[0]
-    write, warnings = trust_verdict(0.05, (2.5, 1.0))
+    write, warnings = trust_verdict(0.05, 0.05, (2.5, 1.0))
     assert not write and "2.5x the noise" in warnings[0]
-    assert trust_verdict(float("nan"), (1.0, 1.0))[0] is False
+    assert trust_verdict(float("nan"), float("nan"), (1.0, 1.0))[0] is False
+
+
+def test_the_held_estimate_decides_and_one_readings_is_warned():
+    # one reading past the bound, held within it: noise the runtime's filter averages
+    write, warnings = trust_verdict(1.6, 0.28, (1.0, 1.0))
+    assert write and len(warnings) == 1
+    assert "1.60 mm RMS for one reading, 0.28 mm for a contact held" in warnings[0]
+    write, warnings = trust_verdict(1.6, 0.6, (1.0, 1.0))
+    assert not write and f"0.60 mm RMS for a contact held {HELD_SAMPLES} samples" in warnings[0]
+
+
+def test_a_held_contact_shrinks_a_slopes_noise_but_not_two_branches():
+    fields, tips = _smooth_loads(mm_per_uT=0.1)  # steep: one reading's noise costs about 1 mm
+    y_range = (-2000.0, 0.0)
+    smooth = estimated_tip_error_mm(fields, tips, tabulate(fields, tips, y_range), NOISE_UT)
+    assert smooth["estimate_mm"] > REFUSE_ESTIMATE_MM
+    ratio = smooth["held_estimate_mm"] / smooth["estimate_mm"]
+    assert ratio == pytest.approx(1 / np.sqrt(HELD_SAMPLES), rel=0.2)
+    both = np.concatenate([fields, fields])
+    branches = np.concatenate([tips, tips + np.array([10.0, 0.0])])
+    folded = estimated_tip_error_mm(both, branches, tabulate(both, branches, y_range), NOISE_UT)
+    assert folded["held_estimate_mm"] > 5.0
 
 
 def test_the_noise_through_a_linear_tables_slope_is_its_slope_times_the_noise():
@@ -61,12 +85,12 @@ def test_the_noise_through_a_linear_tables_slope_is_its_slope_times_the_noise():
 
 
 def test_a_withheld_table_names_what_y_alone_costs_on_its_loads():
-    write, warnings = trust_verdict(1.6, (1.0, 1.0), 10.6)
+    write, warnings = trust_verdict(1.6, 1.6, (1.0, 1.0), 10.6)
     assert not write and len(warnings) == 1
     assert warnings[0].endswith("the runtime uses the z lookup (Y alone errs 10.6 mm RMS on the "
                                 "table's loads: expect millimetres on contacts with friction or "
                                 "at a slant)")
-    assert trust_verdict(1.6, (1.0, 1.0))[1][0].endswith("the runtime uses the z lookup")
+    assert trust_verdict(1.6, 1.6, (1.0, 1.0))[1][0].endswith("the runtime uses the z lookup")
 
 
 class _FlatLookup:

@@ -37,6 +37,7 @@ from whiskercal.errors import WhiskercalError
 from whiskercal.mechfit.fit import fit_mechanics
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.forward import Suspension
+from whiskercal.mechfit.table_error import HELD_SAMPLES
 from whiskercal.mechfit.tables import field_tip_table, z_lookup
 from whiskercal.mechfit.tipcurve import tip_family
 from whiskercal.model.calibrate import CalibrationOptions, calibrate
@@ -276,29 +277,49 @@ def lookup_errors(lookup, z_true, tips_true, z_range) -> dict:
 def realistic_errors(candidate, contacts, z_range, seed: int = 0) -> dict:
     """Errors (mm) on the realistic contacts whose Y lies in the grid's range: Y only (the
     lookup), and with a (Y, Z) table as the runtime reads it (the lookup where the table has no
-    tip, none past every load it tabulated: ``beyond_loads`` counts those), noise-free and with
-    one sample's noise (``SAMPLE_NOISE_UT``)."""
+    tip, none past every load it tabulated: ``beyond_loads`` counts those), noise-free, with
+    one sample's noise (``SAMPLE_NOISE_UT``), and held (``HELD_SAMPLES`` noisy samples' tips
+    averaged)."""
     y, z = contacts["fields_uT"][:, 0], contacts["fields_uT"][:, 1]
     inside = (y >= z_range[0]) & (y <= z_range[1])
     lookup, tips = candidate["lookup"], contacts["tip_mm"][inside]
     out = {"y_only": tip_error_mm(_lookup_tips(lookup, y[inside]), tips), "n": int(inside.sum())}
     if "table" in candidate:
-        noise = np.random.default_rng(seed).normal(0.0, 1.0, (int(inside.sum()), 2)) \
-            * np.array(SAMPLE_NOISE_UT)
-        for name, (yy, zz) in (("y_and_z", (y[inside], z[inside])),
-                               ("y_and_z_sample_noise", (y[inside] + noise[:, 0],
-                                                         z[inside] + noise[:, 1]))):
-            table = candidate["table"]
-            from_table = table(yy, zz)
-            answered = np.isfinite(from_table[:, 0])
-            # as the runtime reads them: no tip past every tabulated load (``beyond_loads``)
-            fallback = ~answered & ~np.array([table.beyond_loads(a, b) != 0
-                                              for a, b in zip(yy, zz)], bool)
-            from_table[fallback] = _lookup_tips(lookup, yy[fallback])
+        rng = np.random.default_rng(seed)
+        noises = [rng.normal(0.0, 1.0, (int(inside.sum()), 2)) * np.array(SAMPLE_NOISE_UT)
+                  for _ in range(HELD_SAMPLES)]
+        y, z = y[inside], z[inside]
+        reads = [_read_as_runtime(candidate["table"], lookup, y + n[:, 0], z + n[:, 1])
+                 for n in noises]
+        for name, (from_table, answered, beyond) in (
+                ("y_and_z", _read_as_runtime(candidate["table"], lookup, y, z)),
+                ("y_and_z_sample_noise", reads[0])):
             out[name] = {**tip_error_mm(from_table, tips),
-                         "table_answered": float(answered.mean()) if len(yy) else float("nan"),
-                         "beyond_loads": int(np.sum(~answered & ~fallback))}
+                         "table_answered": float(answered.mean()) if len(y) else float("nan"),
+                         "beyond_loads": int(beyond.sum())}
+        out["y_and_z_held"] = {**tip_error_mm(_mean_of_answers([r[0] for r in reads]), tips),
+                               "samples": HELD_SAMPLES}
     return out
+
+
+def _read_as_runtime(table, lookup, y: np.ndarray, z: np.ndarray):
+    """Tips (n, 2) mm read from the table, the lookup where it has no tip but none past every
+    load it tabulated (``beyond_loads``: NaN); which the table answered; which lay beyond."""
+    from_table = table(y, z)
+    answered = np.isfinite(from_table[:, 0])
+    beyond = ~answered & np.array([table.beyond_loads(a, b) != 0 for a, b in zip(y, z)], bool)
+    fallback = ~answered & ~beyond
+    from_table[fallback] = _lookup_tips(lookup, y[fallback])
+    return from_table, answered, beyond
+
+
+def _mean_of_answers(reads: list[np.ndarray]) -> np.ndarray:
+    """Each contact's mean tip (n, 2) over the samples that gave one (NaN where none did)."""
+    stack = np.array(reads)
+    answered = np.isfinite(stack[..., 0])
+    total = np.where(answered[..., None], stack, 0.0).sum(axis=0)
+    count = answered.sum(axis=0)[:, None]
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
 def _lookup_tips(lookup, y: np.ndarray) -> np.ndarray:

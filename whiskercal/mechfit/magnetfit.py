@@ -24,9 +24,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from whiskercal.errors import UsageError
-from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, ROT_COMPLIANCE_STARTS,
-                                    TRANS_SHARE_START, MechanicsFit, _Objective, _theta_start,
-                                    fit_mechanics)
+from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, TRANS_SHARE_START, MechanicsFit,
+                                    _Objective, _theta_start, fit_mechanics)
 from whiskercal.mechfit.magnetmap import (DEFAULT_ORDERS, MagnetPoseMap, _linear_strengths,
                                           fit_magnet_map, relative_basis)
 
@@ -44,6 +43,10 @@ RICHER_ORDER_SIGMAS = 2.0
 MAX_ORDER = 6
 # the mechanics (3) and the map's geometry (7)
 NONLINEAR_PARAMETERS = 10
+# the generic starts' EI/(L·k_θ): the Y fit's decades and 0.3, for soft roots whose minimum has
+# a narrow basin (k_θ·L/EI 1.8 is reached from 1.5-3, not from 1 or 10: at 1 the fit stops at
+# 2.08 and 26x the noise, at 10 a sweep contact leaves the rod)
+JOINT_ROT_COMPLIANCE_STARTS = (0.01, 0.1, 0.3, 1.0)
 
 
 class _JointObjective:
@@ -102,7 +105,7 @@ def _start_groups(start, centers, y_uT, noise_y_uT, rod_radius_mm, trace_length_
                                       sweep=sweep))
     if start is not None:
         yield _joint_starts(start)
-    yield [_theta_start(trace_length_mm, rot) for rot in ROT_COMPLIANCE_STARTS]
+    yield [_theta_start(trace_length_mm, rot) for rot in JOINT_ROT_COMPLIANCE_STARTS]
 
 
 def _unexplained(result, n: int) -> bool:
@@ -166,6 +169,32 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     """The best joint refinement over the start groups (``_start_groups``), with more multipole
     orders, one at a time up to ``MAX_ORDER``, while each pays (Akaike) and a significant misfit
     is left: (least-squares result, objective, every fit tried)."""
+    args = (centers, fields, noise, rod_radius_mm, trace_length_mm)
+    best, fits = _best_from_starts(start, *args, orders, sweep)
+    # as for the polynomial map (``identify._richer_map``), only with a tip sweep: on a grid
+    # alone a misfit may come from the stage's position error, which a richer map absorbs into
+    # the suspension (the recorded default grid's table took a fifth order and biased the
+    # contour runs by 0.011 mm)
+    while sweep is not None and np.any(sweep) and max(best[1].orders) < MAX_ORDER \
+            and significant_misfit(2.0 * best[0].cost, fields.size, len(best[1].orders)):
+        richer = _one_order_more(best[1].orders)
+        more = [_joint_fit(best[0].x[:3], *args, richer, sweep)]
+        if _unexplained(best[0], fields.size):
+            # no start's minimum explained the grid: the truncated map may have chosen the
+            # basin (a soft root's turns need the richer map), so every start goes again too
+            more += _best_from_starts(start, *args, richer, sweep)[1]
+        candidate = min(more, key=lambda f: f[0].cost)
+        fits += more
+        if _better_by_akaike(best, candidate) is best:
+            break
+        best = candidate
+    return best[0], best[1], fits
+
+
+def _best_from_starts(start, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+                      sweep):
+    """The best joint refinement at ``orders`` over the start groups, tried in turn until one
+    explains the grid: (the best (result, objective), every fit tried)."""
     fits = []
     for thetas in _start_groups(start, centers, fields[:, 0], noise[0], rod_radius_mm,
                                 trace_length_mm, sweep):
@@ -173,19 +202,7 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
                             orders, sweep) for theta in thetas]
         if not _unexplained(min(fits, key=lambda f: f[0].cost)[0], fields.size):
             break
-    best = min(fits, key=lambda f: f[0].cost)
-    # as for the polynomial map (``identify._richer_map``), only with a tip sweep: on a grid
-    # alone a misfit may come from the stage's position error, which a richer map absorbs into
-    # the suspension (the recorded default grid's table took a fifth order and biased the
-    # contour runs by 0.011 mm)
-    while sweep is not None and np.any(sweep) and max(best[1].orders) < MAX_ORDER \
-            and significant_misfit(2.0 * best[0].cost, fields.size, len(best[1].orders)):
-        fits.append(_joint_fit(best[0].x[:3], centers, fields, noise, rod_radius_mm,
-                               trace_length_mm, _one_order_more(best[1].orders), sweep))
-        if _better_by_akaike(best, fits[-1]) is best:
-            break
-        best = fits[-1]
-    return best[0], best[1], fits
+    return min(fits, key=lambda f: f[0].cost), fits
 
 
 def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,

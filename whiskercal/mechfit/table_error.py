@@ -11,6 +11,10 @@ One reading of Y and Z carries one sample's noise. Two parts, added in quadratur
   (Y, Z) (a thin wire bent both ways past the axis, a suspension fitted wrong whose loads fold
   over) it is the distance between the branches.
 
+The same two parts at the noise of a contact held for ``HELD_SAMPLES`` samples (one reading's
+noise over the square root of their number) give the held estimate: the part of the error that
+averaging readings cannot remove (folds between loads stay; noise through the slope shrinks).
+
 It cannot see a model that is wrong everywhere in the same smooth way: the fit's residual and
 identification profile are the checks for that (``fit.field_table``).
 """
@@ -24,6 +28,9 @@ from scipy.spatial import cKDTree
 AMBIGUITY_RADIUS = 2.0
 # loads used at most (a random, seeded subset keeps the estimate well under a second)
 MAX_POINTS = 4000
+# a held contact's samples (0.1 s at 300 Hz) whose tips are averaged; once settled, the
+# runtime's filter (q 1e-5 mm²) weighs about σ/√q samples: 300 for tips scattered by 1 mm
+HELD_SAMPLES = 30
 
 
 def ambiguity_tip_error_mm(fields_uT: np.ndarray, tips_mm: np.ndarray, sample_noise_uT,
@@ -71,12 +78,21 @@ def z_lookup_tip_error_mm(fields_uT: np.ndarray, tips_mm: np.ndarray, lookup) ->
 
 
 def estimated_tip_error_mm(fields_uT, tips_mm, table, sample_noise_uT, lookup=None) -> dict:
-    """The table's estimated tip error (mm RMS) for one reading, and its two parts; with the
-    model's z ``lookup``, the same loads' error read from Y alone (``z_lookup_mm``)."""
-    spread = ambiguity_tip_error_mm(fields_uT, tips_mm, sample_noise_uT)
-    slope = noise_propagation_mm(table.y_uT, table.z_uT, table.tips_mm, sample_noise_uT)
-    out = {"estimate_mm": float(np.hypot(spread, slope)), "ambiguity_mm": spread,
-           "noise_through_slope_mm": slope}
+    """The table's estimated tip error (mm RMS) for one reading, and its two parts; the same for
+    a contact held ``HELD_SAMPLES`` samples (``held_estimate_mm``); with the model's z
+    ``lookup``, the same loads' error read from Y alone (``z_lookup_mm``)."""
+    one = _estimate(fields_uT, tips_mm, table, np.asarray(sample_noise_uT, float))
+    held = _estimate(fields_uT, tips_mm, table,
+                     np.asarray(sample_noise_uT, float) / np.sqrt(HELD_SAMPLES))
+    out = {**one, "held_estimate_mm": held["estimate_mm"], "held_samples": HELD_SAMPLES}
     if lookup is not None:
         out["z_lookup_mm"] = z_lookup_tip_error_mm(fields_uT, tips_mm, lookup)
     return out
+
+
+def _estimate(fields_uT, tips_mm, table, noise_uT) -> dict:
+    """The two parts at a reading's noise ``noise_uT`` (Y, Z µT), and their sum in quadrature."""
+    spread = ambiguity_tip_error_mm(fields_uT, tips_mm, noise_uT)
+    slope = noise_propagation_mm(table.y_uT, table.z_uT, table.tips_mm, noise_uT)
+    return {"estimate_mm": float(np.hypot(spread, slope)), "ambiguity_mm": spread,
+            "noise_through_slope_mm": slope}
