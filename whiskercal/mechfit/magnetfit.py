@@ -170,7 +170,10 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     orders, one at a time up to ``MAX_ORDER``, while each pays (Akaike) and a significant misfit
     is left: (least-squares result, objective, every fit tried)."""
     args = (centers, fields, noise, rod_radius_mm, trace_length_mm)
-    best, fits = _best_from_starts(start, *args, orders, sweep)
+    # the groups' starts once: the Y fit that makes the first takes seconds
+    groups = list(_start_groups(start, centers, fields[:, 0], noise[0], rod_radius_mm,
+                                trace_length_mm, sweep))
+    best, fits = _best_from_starts(groups, *args, orders, sweep)
     # as for the polynomial map (``identify._richer_map``), only with a tip sweep: on a grid
     # alone a misfit may come from the stage's position error, which a richer map absorbs into
     # the suspension (the recorded default grid's table took a fifth order and biased the
@@ -182,7 +185,7 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
         if _unexplained(best[0], fields.size):
             # no start's minimum explained the grid: the truncated map may have chosen the
             # basin (a soft root's turns need the richer map), so every start goes again too
-            more += _best_from_starts(start, *args, richer, sweep)[1]
+            more += _best_from_starts(groups, *args, richer, sweep)[1]
         candidate = min(more, key=lambda f: f[0].cost)
         fits += more
         if _better_by_akaike(best, candidate) is best:
@@ -191,13 +194,12 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     return best[0], best[1], fits
 
 
-def _best_from_starts(start, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+def _best_from_starts(groups, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
                       sweep):
-    """The best joint refinement at ``orders`` over the start groups, tried in turn until one
-    explains the grid: (the best (result, objective), every fit tried)."""
+    """The best joint refinement at ``orders`` over the start ``groups``, tried in turn until
+    one explains the grid: (the best (result, objective), every fit tried)."""
     fits = []
-    for thetas in _start_groups(start, centers, fields[:, 0], noise[0], rod_radius_mm,
-                                trace_length_mm, sweep):
+    for thetas in groups:
         fits += [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm,
                             orders, sweep) for theta in thetas]
         if not _unexplained(min(fits, key=lambda f: f[0].cost)[0], fields.size):
