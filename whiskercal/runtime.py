@@ -33,6 +33,14 @@ policy (raised under "raise"; no raw tip under "clip" and "nan", flagged -1 / +1
 above). Without the table, or without
 ``axial_uT``, the tracker is the z lookup alone, as for every older artifact.
 
+Where the fit withheld the table because one (Y, Z) reading fits tip loads far apart (a stiff
+suspension), the artifact may carry the model's loads instead (``/load_branches``, 1.5): given
+the Z axis, the tracker follows the load through every sample, from rest
+(:class:`~whiskercal.model.load_branches.BranchFollower`, tens of microseconds a sample), so it
+must be fed every sample, in contact or not, with the Z axis. A reading no load near the
+followed one explains (the contact left the loads) gets no tip under every policy, as past the
+table's loads.
+
 Out-of-range z in contact (``out_of_range``, per tracker):
 
 - ``"raise"`` (the default, strict): :class:`ZOutOfRangeError`, the tracker stays usable;
@@ -59,6 +67,7 @@ from whiskercal.artifacts.calibration import (CalibrationData, collision_params_
                                               read_calibration)
 from whiskercal.errors import UsageError
 from whiskercal.model.field_table import FieldTipTable
+from whiskercal.model.load_branches import LoadBranches
 from whiskercal.model.collision import CollisionDetector
 from whiskercal.model.errors import ExtrapolationLimitError, ZOutOfRangeError
 from whiskercal.model.kalman import ConstantStateKalman
@@ -96,6 +105,8 @@ class Tracker:
         self._out_of_range = out_of_range
         self._detector = CollisionDetector(calibration.collision_params)
         self._kalman = ConstantStateKalman(calibration.kalman_params)
+        branches = calibration.load_branches
+        self._follower = None if branches is None else branches.follower()
 
     def update(self, z_uT: float, axial_uT: float | None = None) -> TrackerState:
         """Feed one deflection sample (µT, relative to static), and optionally the chip's Z axis
@@ -114,6 +125,7 @@ class Tracker:
             z_uT = _z_scalar(z_uT)
         was_in_contact = self._detector.contact
         contact = self._detector.update(z_uT)
+        followed = self._follow(z_uT, axial_uT, contact)
         if not contact:
             if was_in_contact:
                 self._kalman.reset()
@@ -126,6 +138,11 @@ class Tracker:
             beyond = 0 if x == x else table.beyond_loads(z_uT, axial_uT)
             if beyond:
                 return self._beyond_loads(z_uT, axial_uT, beyond)
+        elif followed is not None:
+            x, y = followed
+            low, high = self._follower.branches.y_range_uT
+            if x != x and low <= z_uT <= high:
+                return self._beyond_loads(z_uT, float(axial_uT), 1)
         if x == x:  # the table answered: z lies inside its range
             side = 0
         else:
@@ -137,6 +154,17 @@ class Tracker:
         flagged = self._calibration._flagged(z_uT)
         return TrackerState(True, raw, self._kalman.update(raw), flagged, side)
 
+    def _follow(self, z_uT: float, axial_uT, contact: bool):
+        """The followed load's tip for this sample, or None without loads or the Z axis. Every
+        sample is followed, in contact or not, so a contact is followed from rest; out of
+        contact, a reading at rest starts the follower over."""
+        if self._follower is None or axial_uT is None:
+            return None
+        axial_uT = float(axial_uT)
+        if not contact and self._follower.branches.at_rest(z_uT, axial_uT):
+            self._follower.reset()
+        return self._follower.tip_scalar(z_uT, axial_uT)
+
     def _no_tip(self, side: int) -> TrackerState:
         """In contact with no raw tip: the filter keeps its state, the sample flagged ``side``."""
         filtered = self._kalman.state_mm
@@ -144,11 +172,11 @@ class Tracker:
                             side)
 
     def _beyond_loads(self, z_uT: float, axial_uT: float, side: int) -> TrackerState:
-        """A (Y, Z) past every load the table was made from: no tip under any policy (there is
-        no edge to clip to), raised under "raise"."""
+        """A (Y, Z) past every load the table (or the followed loads) was made from: no tip
+        under any policy (there is no edge to clip to), raised under "raise"."""
         if self._out_of_range == "raise":
             raise ZOutOfRangeError(f"(Y, Z) = ({z_uT:.1f}, {axial_uT:.1f}) µT lies beyond every "
-                                   "tip load the (Y, Z) table was made from")
+                                   "tip load the calibration's (Y, Z) model was made from")
         return self._no_tip(side)
 
 
@@ -168,6 +196,9 @@ class Calibration:
         The optimal deflection target once the optimal-depth study has written one.
     field_table : FieldTipTable or None
         The (Y, Z) -> tip table when the artifact carries one (``fit``'s default).
+    load_branches : LoadBranches or None
+        The tip loads a tracker follows through each contact, where the fit withheld the table
+        because the (Y, Z) readings fold (module docstring).
 
     Raises
     ------
@@ -188,6 +219,7 @@ class Calibration:
         self.target_z_uT = data.target_z_uT
         self.sensor_id = data.sensor_id
         self.field_table = _field_table(data)
+        self.load_branches = _load_branches(data)
         self._problem = None
 
     def tip(self, z_uT, out_of_range: str = "raise") -> np.ndarray:
@@ -277,6 +309,11 @@ def _field_table(data: CalibrationData) -> FieldTipTable | None:
     if table is None:
         return None
     return FieldTipTable(table["y_uT"], table["axial_uT"], table["tip_mm"])
+
+
+def _load_branches(data: CalibrationData) -> LoadBranches | None:
+    """The artifact's followed tip loads, or None (a table, Y only, older artifacts)."""
+    return None if data.load_branches is None else LoadBranches.from_arrays(data.load_branches)
 
 
 def _lookup(data: CalibrationData, allow_extrapolated: bool) -> TipLookup:

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from whiskercal import runtime
-from whiskercal.artifacts.calibration import read_calibration, write_calibration
+from whiskercal.artifacts.calibration import SCHEMA_VERSION, read_calibration, write_calibration
 from whiskercal.errors import ArtifactError
 from whiskercal.model.errors import ZOutOfRangeError
 from whiskercal.model.field_table import FieldTipTable
@@ -51,7 +51,7 @@ def test_an_old_artifact_has_no_table_and_tracks_on_z_alone(tmp_path):
 
 def test_the_table_round_trips_and_bumps_the_minor_version(with_table):
     data = read_calibration(with_table)
-    assert data.schema_version == "1.4.0"
+    assert data.schema_version == SCHEMA_VERSION
     expected = _table(read_calibration(FIXTURE))
     for key in ("y_uT", "axial_uT"):
         np.testing.assert_array_equal(data.field_table[key], expected[key])

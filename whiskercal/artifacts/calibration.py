@@ -20,6 +20,11 @@ Layout (docs/formats.md, "Calibration artifact"), every dataset with a ``units``
   evenly spaced axes of the deflection (Y) and the chip-normal (Z) axis from their static
   readings, and ``tip_mm`` (ny, nz, 2), NaN outside what tip loads reach. A runtime given both
   axes reads the tip there and falls back to ``/lookup`` where the table has none.
+- ``/load_branches`` (optional, 1.5): where the table is withheld because one (Y, Z) reading
+  fits tip loads far apart, the model's tip loads on a (direction, size) grid that the runtime
+  follows through each contact from rest (``whiskercal.model.load_branches``): ``fields_uT``
+  (na, nm, 2) (Y, Z) from rest and ``tip_mm`` (na, nm, 2), NaN where no load, float32;
+  ``noise_uT`` (2,) and ``y_range_uT`` (2,).
 - ``/shaft_surface`` (optional, 1.4): the shaft localizer's own surface, radial patches
   (``whiskercal.artifacts.shaft_surface``); without it the localizer uses ``/surface``.
 - ``/target`` (optional, added by the optimal-depth study in a minor version): ``z_uT``,
@@ -55,7 +60,8 @@ SCHEMA = "whiskercal.calibration"
 # 1.1: /target (the study); 1.2: extrapolation marks; 1.3 is a 1.2 with a target; 1.4: the
 # shaft localizer's own surface, /shaft_surface (whiskercal.artifacts.shaft_surface), and the
 # (Y, Z) -> tip table, /field_table: both optional, found by their presence
-SCHEMA_VERSION = "1.4.0"
+# 1.5: the loads a runtime follows where the (Y, Z) readings fold, /load_branches (optional)
+SCHEMA_VERSION = "1.5.0"
 SUPPORTED_MAJOR = 1
 BASIS = "legendre-total-degree"
 TARGET_GROUP = "target"
@@ -117,6 +123,9 @@ class CalibrationData:
     field_table: dict[str, np.ndarray] | None = None
     # 1.4: the shaft localizer's own surface (None in older artifacts)
     shaft_surface: ShaftSurfaceData | None = None
+    # 1.5: tip loads followed through a contact: {"fields_uT", "tip_mm", "noise_uT",
+    # "y_range_uT"} arrays (None: a table, or Y only)
+    load_branches: dict[str, np.ndarray] | None = None
 
     @property
     def target_z_uT(self) -> float | None:
@@ -161,6 +170,8 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
             _write_metrics(handle.create_group("metrics"), data)
             if data.field_table is not None:
                 _write_field_table(handle.create_group("field_table"), data.field_table)
+            if data.load_branches is not None:
+                _write_load_branches(handle.create_group("load_branches"), data.load_branches)
             if data.shaft_surface is not None:
                 shaft_surface_group.write(handle, data.shaft_surface)
     except OSError as error:
@@ -214,6 +225,23 @@ def _read_field_table(handle: h5py.File, path: Path) -> dict[str, np.ndarray] | 
         return None
     group = handle["field_table"]
     return {name: read_array(group, name, path) for name in ("y_uT", "axial_uT", "tip_mm")}
+
+
+BRANCH_ARRAYS = {"fields_uT": "µT", "tip_mm": "mm", "noise_uT": "µT", "y_range_uT": "µT"}
+
+
+def _write_load_branches(group: h5py.Group, branches: dict[str, np.ndarray]) -> None:
+    for name, units in BRANCH_ARRAYS.items():
+        large = name in ("fields_uT", "tip_mm")  # float32 halves them (0.3 MB each)
+        write_array(group, name, np.asarray(branches[name], np.float32 if large else float),
+                    units)
+
+
+def _read_load_branches(handle: h5py.File, path: Path) -> dict[str, np.ndarray] | None:
+    if "load_branches" not in handle:
+        return None
+    group = handle["load_branches"]
+    return {name: np.asarray(read_array(group, name, path), float) for name in BRANCH_ARRAYS}
 
 
 def _write_settings(handle: h5py.File, data: CalibrationData) -> None:
@@ -302,6 +330,7 @@ def _read(handle: h5py.File, path: Path) -> CalibrationData:
         whiskercal_version=as_text(handle.attrs.get("whiskercal_version", "")),
         **_read_extrapolation(trace, lookup),
         field_table=_read_field_table(handle, path),
+        load_branches=_read_load_branches(handle, path),
     )
 
 
@@ -380,6 +409,8 @@ def validate(data: CalibrationData, path: str | Path = "") -> None:
          "a trusted z range inside the lookup's"),
         (_field_table_ok(data.field_table), "a field table of shape (ny, nz, 2) on increasing, "
          "evenly spaced axes"),
+        (_load_branches_ok(data.load_branches), "load branches: fields and tips of one shape "
+         "(na, nm, 2), a positive noise (2,) and an increasing Y range (2,)"),
     ]
     for ok, expectation in checks:
         if not ok:
@@ -393,6 +424,15 @@ def _field_table_ok(table: dict[str, np.ndarray] | None) -> bool:
     even = all(a.ndim == 1 and len(a) >= 2 and np.all(np.diff(a) > 0)
                and np.allclose(np.diff(a), a[1] - a[0], rtol=1e-6) for a in (y, z))
     return bool(even and tips.shape == (len(y), len(z), 2))
+
+
+def _load_branches_ok(branches: dict[str, np.ndarray] | None) -> bool:
+    if branches is None:
+        return True
+    fields, tips, noise, span = (np.asarray(branches[k], float) for k in BRANCH_ARRAYS)
+    return bool(fields.ndim == 3 and fields.shape[2] == 2 and tips.shape == fields.shape
+                and noise.shape == (2,) and np.all(noise > 0) and span.shape == (2,)
+                and span[0] < span[1])
 
 
 # --- the target: a new version of an existing artifact ------------------------------------------

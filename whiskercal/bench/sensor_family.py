@@ -22,6 +22,7 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.bench import pressed_contacts as pressed
 from whiskercal.bench import tip_accuracy as accuracy
 from whiskercal.bench.timing import machine_info
 from whiskercal.bench.twin_grid import raw_like
@@ -30,6 +31,7 @@ from whiskercal.fit.field_table import FieldTableFit, TableContacts, field_table
 from whiskercal.fit.tip_model import (WARN_TIP_ERROR_MM, adopt_joint_lookup, choose_tip_model,
                                       refuse_unless_resolved)
 from whiskercal.fit.run import calibrate_grid
+from whiskercal.model.load_branches import LoadBranches
 from whiskercal.model.calibrate import CalibrationOptions
 from whiskercal.twin.params import DEFAULT_SENSOR
 from whiskercal.twin.physics.whisker import WhiskerParams
@@ -104,6 +106,25 @@ def _table_row(table: FieldTableFit, y_only: dict, contacts: dict, lookup, z_ran
             "silent_failure": shipped["rmse_mm"] > WARN_TIP_ERROR_MM and not table.warnings}
 
 
+def _followed_row(sensor, table: FieldTableFit, lookup, z_range) -> dict:
+    """Where the fit wrote load branches instead of the table: the runtime's follower on the
+    twin's planes pressed in from first touch (``pressed_contacts``), beside Y alone there."""
+    branches = LoadBranches.from_arrays(table.branches)
+    planes = pressed.presses(sensor)
+
+    def follow(readings):
+        follower = branches.follower()
+        return np.array([follower.tip_scalar(float(y), float(z)) for y, z in readings])
+
+    started = time.perf_counter()
+    followed = pressed.pressed_errors(follow, planes, z_range)
+    samples = sum(len(pressed.stream(p, np.random.default_rng(0))[0]) for p in planes)
+    return {"pressed": followed, "per_sample_s": (time.perf_counter() - started) / samples,
+            "pressed_y_only": pressed.pressed_errors(
+                lambda r: accuracy._lookup_tips(lookup, r[:, 0]), planes, z_range),
+            "estimate": table.metrics["field_table"]["load_branches"]}
+
+
 def measure(sensor, seed: int = 0, tip_sweep: bool = True, with_table: bool = False) -> dict:
     """One build's row: the choice, its estimate, the truth on the tip curve and on planes;
     with ``with_table``, the (Y, Z) table's too (``field_table``, about a minute a build), and
@@ -132,6 +153,14 @@ def measure(sensor, seed: int = 0, tip_sweep: bool = True, with_table: bool = Fa
     if table is not None:
         row["field_table"] = _table_row(table, realistic["y_only"], contacts, calibration.lookup,
                                         z_range)
+        if table.branches is not None:
+            followed = _followed_row(sensor, table, calibration.lookup, z_range)
+            # the runtime follows these loads: what it reads on the pressed planes ships
+            shipped = followed["pressed"]["one_sample"]
+            row["field_table"].update(
+                followed=followed, shipped_realistic=shipped, shipped_on="pressed planes",
+                shipped_realistic_held=followed["pressed"]["held"],
+                silent_failure=shipped["rmse_mm"] > WARN_TIP_ERROR_MM and not table.warnings)
     return {**row, "tip_model": choice.name, "fit_s": fit_s,
             "grid_points": len(grid.rod_center_mm),
             "sweep_points": 0 if sweep is None else len(sweep.rod_center_mm),

@@ -7,6 +7,9 @@ every direction (``mechfit.tables.field_tip_table``), and the tips resampled on 
 (Y, Z) grid that the artifact carries in ``/field_table`` and the runtime reads bilinearly.
 The table's tip error is estimated without the truth (``mechfit.table_error``): warned above the
 goal, and the table withheld (the runtime then reads the z lookup) where it cannot be trusted.
+Where it is withheld because one reading fits tip loads far apart, with the model at the noise,
+the model's loads are written instead for the runtime to follow through each contact from rest
+(``followed_branches``; docs/calibration.md, "Where one reading folds").
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import numpy as np
 
 from whiskercal.artifacts.raw_grid import baseline_y_at
 from whiskercal.errors import UsageError
+from whiskercal.mechfit.branch_surface import followed_tip_error_mm, load_branches
 from whiskercal.mechfit.joint_lookup import JointLookup, joint_z_lookup
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.table_error import HELD_SAMPLES, estimated_tip_error_mm
@@ -40,6 +44,8 @@ WARN_ESTIMATE_MM = 0.25
 # alone). The estimate runs low where the table is wrong (docs/calibration.md: 0.6 mm for 2.8 mm,
 # 3.4 mm for 10 mm), and on every family build past this bound the z lookup erred less.
 REFUSE_ESTIMATE_MM = 0.5
+# the most of the pressed directions the branch follower may lose for its loads to be written
+MAX_LOST_FRACTION = 0.1
 
 
 @dataclass
@@ -55,6 +61,9 @@ class FieldTableFit:
     # the joint fit's own z lookup and its estimate (``mechfit.joint_lookup``): the tip model's
     # candidate (``fit.tip_model.adopt_joint_lookup``)
     z_lookup: JointLookup | None = None
+    # the loads the runtime follows through a contact where the table is withheld because one
+    # reading fits loads far apart (``followed_branches``), for the artifact; None otherwise
+    branches: dict[str, np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -183,16 +192,67 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     metrics = _fit_metrics(fit, c, table)
     if lookup is not None:
         metrics["z_lookup"] = lookup.metrics()
-    write, verdict = trust_verdict(estimate, error["held_estimate_mm"], fit.rms_uT / c.noise_uT,
+    residual_ratio = fit.rms_uT / c.noise_uT
+    write, verdict = trust_verdict(estimate, error["held_estimate_mm"], residual_ratio,
                                    error.get("z_lookup_mm", float("nan")))
+    branches = None
+    if not write and np.max(residual_ratio) <= MAX_RESIDUAL_RATIO:  # withheld: readings fold
+        branches, verdict = followed_branches(fit, y_range, c.sample_noise_uT, verdict)
+        metrics["load_branches"] = branches.pop("metrics")
     warnings = _identification_warnings(metrics["ratio_profile"]) + verdict
     metrics.update(field_table_estimated_tip_error_mm=estimate, estimated_error_parts=error,
                    field_table_written=write, fit_s=time.perf_counter() - started)
     arrays = {"y_uT": table.y_uT, "axial_uT": table.z_uT, "tip_mm": table.tips_mm}
-    return FieldTableFit(arrays if write else None,
-                         {"field_table": metrics, "field_table_estimated_tip_error_mm": estimate,
-                          "field_table_held_estimated_tip_error_mm": error["held_estimate_mm"]},
-                         warnings, table, lookup)
+    top = {"field_table": metrics, "field_table_estimated_tip_error_mm": estimate,
+           "field_table_held_estimated_tip_error_mm": error["held_estimate_mm"]}
+    if branches is not None:
+        top.update(_branch_summary(metrics["load_branches"]))
+    return FieldTableFit(arrays if write else None, top, warnings, table, lookup,
+                         branches.get("arrays") if branches else None)
+
+
+def followed_branches(fit, y_range, sample_noise_uT, verdict: list[str]) -> tuple[dict, list]:
+    """The model's loads for the branch follower (``model.load_branches``) where the table is
+    withheld, its estimated error on the model's own presses, and the warnings that replace
+    the table's: ``({"metrics": ..., "arrays": ... or absent}, warnings)``. The loads are
+    written when the follower's held estimate passes ``REFUSE_ESTIMATE_MM`` and it kept to its
+    branch on all but ``MAX_LOST_FRACTION`` of the directions pressed."""
+    started = time.perf_counter()
+    branches = load_branches(fit, y_range, sample_noise_uT)
+    error = followed_tip_error_mm(branches, sample_noise_uT)
+    lost = error["lost_directions_deg"]
+    write = (error["held_estimate_mm"] <= REFUSE_ESTIMATE_MM
+             and len(lost) <= MAX_LOST_FRACTION * error["presses"])
+    metrics = {**error, "written": write, "shape": list(branches.shape),
+               "fit_s": time.perf_counter() - started}
+    if not write:
+        return {"metrics": metrics}, verdict + [
+            "no load branches written either: following a contact from rest is estimated to "
+            f"err {error['held_estimate_mm']:.2f} mm RMS held, and loses its branch on "
+            f"{len(lost)} of {error['presses']} directions"]
+    arrays = {"fields_uT": branches.fields_uT, "tip_mm": branches.tips_mm,
+              "noise_uT": branches.noise_uT, "y_range_uT": np.array(branches.y_range_uT)}
+    return {"metrics": metrics, "arrays": arrays}, _branch_warnings(error)
+
+
+def _branch_warnings(error: dict) -> list[str]:
+    """What the fit says when the runtime will follow loads instead of reading a table."""
+    lost = error["lost_directions_deg"]
+    said = [f"no (Y, Z) table written: one reading fits tip loads far apart; the runtime "
+            "follows each contact's load from rest instead (feed it every sample with the Z "
+            f"axis), estimated tip error {error['estimate_mm']:.2f} mm RMS for one reading, "
+            f"{error['held_estimate_mm']:.2f} mm held {HELD_SAMPLES} samples"]
+    if lost:
+        said.append("the load follower loses its branch on pushes at "
+                    + ", ".join(f"{a:g}" for a in lost) + " degrees from the wire's normal, "
+                    "where a press's readings retrace their path")
+    return said
+
+
+def _branch_summary(metrics: dict) -> dict:
+    return {"load_branches_written": metrics["written"],
+            "load_branches_estimated_tip_error_mm": metrics["estimate_mm"],
+            "load_branches_held_estimated_tip_error_mm": metrics["held_estimate_mm"]}
 
 
 def _joint_lookup(fit, contacts: TableContacts, length_mm, y_range, samples):

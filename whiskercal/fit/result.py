@@ -54,6 +54,8 @@ class FitResult:
     field_table: dict[str, Any] | None = None
     """The (Y, Z) -> tip table's arrays (``fit.field_table``), None without ``--field-table``."""
     shaft_surface: ShaftSurfaceFit | None = None
+    load_branches: dict[str, Any] | None = None
+    """The loads the runtime follows where the table is withheld (``fit.field_table``)."""
 
     def artifact_data(self):
         """The calibration artifact's content (a :class:`~whiskercal.artifacts.calibration.CalibrationData`)."""
@@ -72,6 +74,8 @@ class FitResult:
             inputs=self.inputs, config=self.config)
         if self.field_table is not None:
             data = replace(data, field_table=self.field_table)
+        if self.load_branches is not None:
+            data = replace(data, load_branches=self.load_branches)
         if self.shaft_surface is not None:
             from whiskercal.artifacts.shaft_surface import data_of
 

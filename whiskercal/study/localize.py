@@ -4,8 +4,8 @@ The study judges the calibration exactly as a robot would use it: one ``whiskerc
 tracker per trial, fed one sample at a time (collision detection, the lookup z -> tip, the
 constant-state Kalman filter). Samples whose z the calibration cannot map (outside its
 calibrated range) get no estimate and are counted. The chip's Z axis goes along when the
-calibration carries a (Y, Z) table (``fit``'s default); otherwise Y alone, as the lookup
-takes it.
+calibration carries a (Y, Z) table (``fit``'s default) or loads to follow (``load_branches``);
+otherwise Y alone, as the lookup takes it.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None) -> 
         The deflection per sample (µT).
     axial_uT
         The chip's Z axis per sample (µT from its static reading), used when the calibration
-        has a ``field_table``.
+        has a ``field_table`` or ``load_branches``.
     """
     # "nan": a z outside the calibrated range gives no raw tip, and the tracker goes on
     tracker = calibration.tracker(out_of_range="nan")
@@ -47,7 +47,7 @@ def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None) -> 
     raw = np.full((n, 2), np.nan)
     filtered = np.full((n, 2), np.nan)
     axial = None
-    if axial_uT is not None and getattr(calibration, "field_table", None) is not None:
+    if axial_uT is not None and _reads_z_axis(calibration):
         axial = np.asarray(axial_uT, float)
     for i, z in enumerate(np.asarray(z_uT, float)):
         state = tracker.update(float(z)) if axial is None else \
@@ -59,3 +59,8 @@ def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None) -> 
             filtered[i] = state.filtered_tip_mm
     unmapped = int(np.sum(contact & np.isnan(raw[:, 0])))
     return Estimates(contact=contact, raw_tip_mm=raw, filtered_tip_mm=filtered, unmapped=unmapped)
+
+
+def _reads_z_axis(calibration) -> bool:
+    return any(getattr(calibration, name, None) is not None
+               for name in ("field_table", "load_branches"))

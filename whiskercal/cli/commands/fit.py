@@ -42,6 +42,11 @@ def _summary(data, elapsed_s: float) -> dict:
                     "field_table_held_estimated_tip_error_mm"):
             summary[key] = float(m.get(key, float("nan")))
         summary["field_table_written"] = data.field_table is not None
+    if "load_branches_written" in m:  # the table withheld because the readings fold
+        for key in ("load_branches_estimated_tip_error_mm",
+                    "load_branches_held_estimated_tip_error_mm"):
+            summary[key] = float(m[key])
+        summary["load_branches_written"] = data.load_branches is not None
     return summary
 
 
@@ -113,7 +118,10 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     cannot be estimated. By default it also writes the (Y, Z) -> tip table and estimates that
     table's error the same way, for one reading (field_table_estimated_tip_error_mm) and for a
     contact held 30 samples (field_table_held_estimated_tip_error_mm); the table is withheld
-    when the held estimate exceeds 0.5 mm or the (Y, Z) model leaves twice the noise.
+    when the held estimate exceeds 0.5 mm or the (Y, Z) model leaves twice the noise. Where it
+    is withheld because one (Y, Z) reading fits tip loads far apart, the model's loads are
+    written instead (load_branches_*: the runtime follows each contact's load from its start),
+    when following them is estimated to err 0.5 mm or less held.
 
     Refuses a grid that stops so far short of the tip that the trace would extrapolate more
     than --max-extension-mm past it (unless --allow-extrapolation), and warns, with the numbers,
@@ -164,6 +172,12 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
         click.echo(f"(Y, Z)    table {'written' if summary['field_table_written'] else 'withheld'}"
                    f", estimated tip error {summary['field_table_estimated_tip_error_mm']:.3f}"
                    f" mm RMS ({summary['field_table_held_estimated_tip_error_mm']:.3f} held)")
+    if "load_branches_written" in summary:
+        click.echo(f"(Y, Z)    load branches "
+                   f"{'written' if summary['load_branches_written'] else 'withheld'}, followed "
+                   f"from each contact's start, estimated tip error "
+                   f"{summary['load_branches_estimated_tip_error_mm']:.3f} mm RMS "
+                   f"({summary['load_branches_held_estimated_tip_error_mm']:.3f} held)")
     if "lookup_vs_truth_rmse_mm" in summary:
         click.echo(f"truth     lookup vs the twin's true tips: RMSE "
                    f"{summary['lookup_vs_truth_rmse_mm']:.3f} mm, max "
