@@ -41,7 +41,7 @@ FITS_SIGMAS = 6.0
 """How near (noise units) a reading placed between a load's neighbours must lie to fit it."""
 REACH = (3, 20)
 """Rows and columns the held load may move by when its window has no load that fits."""
-NEAR_REST_SIGMAS = 30.0
+NEAR_REST_SIGMAS = 100.0
 """A held load reading within this of rest (noise units) may have the wrong direction: with
 nothing near it that fits, the contact starts over."""
 MAX_CANDIDATES = 256
