@@ -11,7 +11,6 @@ magnet would strike the chip.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -19,10 +18,7 @@ import numpy as np
 
 from whiskercal.bench import tip_accuracy as accuracy
 from whiskercal.bench.twin_grid import tip_error_mm
-from whiskercal.errors import WhiskercalError
 from whiskercal.mechfit.table_error import HELD_SAMPLES
-from whiskercal.twin.physics import obstacles
-from whiskercal.twin.physics.plane import solve_plane
 
 DEPTH_STEP = 0.005  # of the whisker's length, between solved depths
 SAMPLES_PER_STEP = 3
@@ -40,20 +36,15 @@ class Press:
 
 def presses(sensor) -> list[Press]:
     """Every plane of ``tip_accuracy``'s realistic contacts, pressed in from first touch."""
-    whisker, out = sensor.whisker, []
+    out = []
     depths = np.arange(DEPTH_STEP, max(accuracy.DEPTH_FRACTIONS) + 1e-9, DEPTH_STEP)
     measured = np.array([min(abs(d - f) for f in accuracy.DEPTH_FRACTIONS) < 1e-9
                          for d in depths])
-    for tilt in accuracy.TILTS_DEG:
-        for mu in accuracy.MUS:
-            for sign in (1, -1):
-                if tilt == 0 and mu == 0.0:
-                    continue  # as tip_accuracy: an end-on push on the straight wire
-                states = _pressed_states(sensor, depths, tilt, mu, sign)
-                if len(states) >= 2:
-                    n = len(states)
-                    out.append(Press(accuracy.pose_fields(sensor, states),
-                                     np.array([s.tip_mm for s in states]), measured[:n]))
+    for tilt, mu, sign in accuracy.plane_conditions():
+        states = _pressed_states(sensor, depths, tilt, mu, sign)
+        if len(states) >= 2:
+            out.append(Press(accuracy.pose_fields(sensor, states),
+                             np.array([s.tip_mm for s in states]), measured[:len(states)]))
     return out
 
 
@@ -61,14 +52,8 @@ def _pressed_states(sensor, depths, tilt, mu, sign) -> list:
     """The tip contacts of one plane at each depth, up to the first that is not one."""
     states = []
     for fraction in depths:
-        plane = obstacles.plane_for_depth(sensor.whisker, fraction * sensor.whisker.length_mm,
-                                          0.0, math.radians(tilt), mu_static=mu,
-                                          mu_kinetic=mu, motion_sign=sign)
-        try:
-            state = solve_plane(sensor.whisker, plane)
-        except WhiskercalError:
-            break
-        if state.kind != "tip" or not accuracy._reachable(sensor, state):
+        state = accuracy.plane_tip_contact(sensor, tilt, mu, sign, fraction)
+        if state is None:
             break
         states.append(state)
     return states

@@ -183,24 +183,38 @@ def pose_fields_of_poses(sensor: SensorParams, poses: np.ndarray) -> np.ndarray:
     return (field_uT(sensor.magnet, poses[:, 0], poses[:, 1:]) - static_fields(sensor))[:, 1:]
 
 
-def _plane_contacts(sensor: SensorParams):
-    """(tilt, mu, sign, depth fraction, equilibrium) of every reachable plane tip contact."""
-    whisker, rows = sensor.whisker, []
+def plane_conditions():
+    """(tilt °, mu, sliding sense) of every realistic plane."""
     for tilt in TILTS_DEG:
         for mu in MUS:
             for sign in (1, -1):
                 if tilt == 0 and mu == 0.0:
                     continue  # an end-on push on the straight wire: the twin has no buckling
-                for fraction in DEPTH_FRACTIONS:
-                    plane = mechanics.plane_for_depth(
-                        whisker, fraction * whisker.length_mm, 0.0, math.radians(tilt),
-                        mu_static=mu, mu_kinetic=mu, motion_sign=sign)
-                    try:
-                        eq = mechanics.solve_plane(whisker, plane)
-                    except WhiskercalError:
-                        continue
-                    if eq.kind == "tip" and _reachable(sensor, eq):
-                        rows.append((tilt, mu, sign, fraction, eq))
+                yield tilt, mu, sign
+
+
+def plane_tip_contact(sensor: SensorParams, tilt, mu, sign, fraction):
+    """The equilibrium of a plane pushed in to ``fraction`` of the length while sliding, or
+    None where it is no reachable tip contact."""
+    whisker = sensor.whisker
+    plane = mechanics.plane_for_depth(whisker, fraction * whisker.length_mm, 0.0,
+                                      math.radians(tilt), mu_static=mu, mu_kinetic=mu,
+                                      motion_sign=sign)
+    try:
+        eq = mechanics.solve_plane(whisker, plane)
+    except WhiskercalError:
+        return None
+    return eq if eq.kind == "tip" and _reachable(sensor, eq) else None
+
+
+def _plane_contacts(sensor: SensorParams):
+    """(tilt, mu, sign, depth fraction, equilibrium) of every reachable plane tip contact."""
+    rows = []
+    for tilt, mu, sign in plane_conditions():
+        for fraction in DEPTH_FRACTIONS:
+            eq = plane_tip_contact(sensor, tilt, mu, sign, fraction)
+            if eq is not None:
+                rows.append((tilt, mu, sign, fraction, eq))
     return rows
 
 
