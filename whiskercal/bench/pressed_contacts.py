@@ -83,9 +83,10 @@ def pressed_errors(read_stream: Callable[[np.ndarray], np.ndarray], pressed: lis
     starts a new contact each call) at the measured depths whose Y lies in ``z_range``: the
     first held sample (one reading) and the mean of the held samples' tips."""
     rng = np.random.default_rng(seed)
-    one, held, truth = [], [], []
+    one, held, truth, fed = [], [], [], 0
     for press in pressed:
         readings, marks = stream(press, rng)
+        fed += len(readings)
         tips = read_stream(readings)
         for k in np.flatnonzero(press.measured):
             if not z_range[0] <= press.fields_uT[k, 0] <= z_range[1]:
@@ -99,4 +100,4 @@ def pressed_errors(read_stream: Callable[[np.ndarray], np.ndarray], pressed: lis
     return {"one_sample": tip_error_mm(np.array(one).reshape(-1, 2), truth),
             "held": {**tip_error_mm(np.array(held).reshape(-1, 2), truth),
                      "samples": HELD_SAMPLES},
-            "presses": len(pressed), "n": len(truth)}
+            "presses": len(pressed), "n": len(truth), "readings": fed}

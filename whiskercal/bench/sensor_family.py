@@ -118,8 +118,8 @@ def _followed_row(sensor, table: FieldTableFit, lookup, z_range) -> dict:
 
     started = time.perf_counter()
     followed = pressed.pressed_errors(follow, planes, z_range)
-    samples = sum(len(pressed.stream(p, np.random.default_rng(0))[0]) for p in planes)
-    return {"pressed": followed, "per_sample_s": (time.perf_counter() - started) / samples,
+    per_sample_s = (time.perf_counter() - started) / max(followed["readings"], 1)
+    return {"pressed": followed, "per_sample_s": per_sample_s,
             "pressed_y_only": pressed.pressed_errors(
                 lambda r: accuracy._lookup_tips(lookup, r[:, 0]), planes, z_range),
             "estimate": table.metrics["field_table"]["load_branches"]}
