@@ -48,6 +48,9 @@ def test_the_default_fit_of_the_default_grid_is_within_the_goals(raw):
     estimate = result.metrics["estimated_tip_error_mm"]
     assert result.metrics["lookup_vs_truth_rmse_mm"] <= estimate <= 0.25
     assert not any("tip error" in w for w in result.warnings)
+    # the paper's collision threshold stays on the paper's sensor (fit.contact_threshold)
+    assert result.metrics["collision_threshold_source"] == "paper"
+    assert result.artifact_data().collision["threshold_uT"] == 300.0
     low, high = result.metrics["one_to_one_z_uT"]
     assert low < result.calibration.lookup.z_min_uT < result.calibration.lookup.z_max_uT <= high
 

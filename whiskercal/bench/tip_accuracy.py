@@ -50,8 +50,8 @@ from whiskercal.twin.physics.whisker import WhiskerParams
 
 ROD_RADIUS_MM = 1.5
 NOISE_UT = (1.0, 1.6)    # averaged Y and Z readings (5.6 and 9.0 µT over 30 samples)
-SAMPLE_NOISE_UT = (5.6, 9.0)
-REALISTIC_GOAL_MM = 0.3  # RMS on plane contacts with friction (issue 13)  # one sample of Y and Z, as the runtime sees a contact
+SAMPLE_NOISE_UT = (5.6, 9.0)  # one sample of Y and Z, as the runtime sees a contact
+REALISTIC_GOAL_MM = 0.3  # the goal's RMS on plane contacts with friction (mm)
 OVERLOAD_UT = 15000.0    # collect's default overload guard on |Y|
 DEFAULT_TRACE_MM = 78.0  # the trace length the default plan's bands were chosen for
 TILTS_DEG = (0, 10, 20, 30, 40)

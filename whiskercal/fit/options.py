@@ -7,7 +7,6 @@ from dataclasses import dataclass
 from whiskercal.checks import number, positive
 from whiskercal.errors import UsageError
 from whiskercal.model.calibrate import MAX_EXTENSION_MM, CalibrationOptions
-from whiskercal.model.collision import CollisionParams
 
 COORDINATES = ("polar", "cartesian")
 TRACERS = ("fast", "paper")
@@ -48,8 +47,10 @@ class FitOptions:
         Keep a calibration whose tips lie farther past the grid, with that z range marked.
     rod_correction : bool
         Move the rod centres by the rod radius onto the shaft before the final fit.
-    threshold_uT : float
-        Collision threshold stored for the runtime, µT from the static reading.
+    threshold_uT : float or None
+        Collision threshold stored for the runtime, µT from the static reading; None: the
+        paper's 300 µT, lowered on builds where 300 µT is a tip moved more than 3 mm
+        (``fit.contact_threshold``).
     tip_model : str
         The lookup shipped: "auto" (default: the mechanics-informed model where the grid
         identifies it, else the level set; the (Y, Z) joint fit's where the table's fit
@@ -73,7 +74,7 @@ class FitOptions:
     max_extension_mm: float | None = None
     allow_extrapolation: bool = False
     rod_correction: bool = True
-    threshold_uT: float = CollisionParams.threshold_uT
+    threshold_uT: float | None = None
     tip_model: str = "auto"
     field_table: bool = True
 
@@ -92,7 +93,8 @@ class FitOptions:
             raise UsageError(f"samples must be an integer {low}..{high}, not {self.samples!r}")
         if self.max_extension_mm is not None:
             number(self.max_extension_mm, "max_extension_mm", low=0, unit="mm")
-        positive(self.threshold_uT, "threshold_uT (the collision threshold)", unit="µT")
+        if self.threshold_uT is not None:
+            positive(self.threshold_uT, "threshold_uT (the collision threshold)", unit="µT")
         if self.trace_length_mm is not None:
             positive(self.trace_length_mm, "trace_length_mm (root to tip)", high=1000, unit="mm")
 

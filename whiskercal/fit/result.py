@@ -56,6 +56,8 @@ class FitResult:
     shaft_surface: ShaftSurfaceFit | None = None
     load_branches: dict[str, Any] | None = None
     """The loads the runtime follows where the table is withheld (``fit.field_table``)."""
+    collision_threshold_uT: float = 300.0
+    """The collision threshold stored for the runtime, µT (``fit.contact_threshold``)."""
 
     def artifact_data(self):
         """The calibration artifact's content (a :class:`~whiskercal.artifacts.calibration.CalibrationData`)."""
@@ -68,7 +70,7 @@ class FitResult:
         data = data_from_calibration(
             self.calibration, sensor_id=self.sensor_id, rod_radius_mm=self.rod_radius_mm,
             tracer=self.calibration_options.tracer, kalman=KalmanParams(),
-            collision=CollisionParams(threshold_uT=self.options.threshold_uT),
+            collision=CollisionParams(threshold_uT=self.collision_threshold_uT),
             metrics={**self.metrics, "warnings": list(self.warnings)},
             truth=None if self.truth is None else self.truth.arrays(),
             inputs=self.inputs, config=self.config)

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from whiskercal.fit.contact_threshold import contact_threshold, threshold_warnings
 from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
                                     surface_and_lookup_metrics)
 from whiskercal.fit.options import FitOptions
@@ -63,18 +64,22 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
     truth = compare_with_twin_truth(grid, calibration)
     shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
+    threshold = contact_threshold(options.threshold_uT, tip_model.mechanics,
+                                  float(np.median(raw.z_std_uT)))
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
-               **raw_metrics(raw), **tip_model.metrics,
+               **raw_metrics(raw), **tip_model.metrics, **threshold.metrics(),
                **(truth.metrics() if truth is not None else {}),
                **(table.metrics if table is not None else {}), **_shaft_metrics(shaft)}
     return FitResult(calibration, options, model_options, metrics,
                      length_warnings + calibration.warnings + tip_model.warnings
-                     + (table.warnings if table is not None else []), truth,
+                     + (table.warnings if table is not None else [])
+                     + threshold_warnings(threshold), truth,
                      raw.sensor_id,
                      raw.rod_radius_mm, inputs={"raw_grid": raw.sha256},
                      config=_provenance(model_options, raw.path),
                      field_table=None if table is None else table.table, shaft_surface=shaft,
-                     load_branches=None if table is None else table.branches)
+                     load_branches=None if table is None else table.branches,
+                     collision_threshold_uT=threshold.threshold_uT)
 
 
 def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress, mechanics):
