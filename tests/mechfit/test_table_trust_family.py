@@ -1,7 +1,7 @@
 """The (Y, Z) table's truth-free estimate on simulated builds (seed 0): the default sensor's
-table is written without a warning, the 4x stiffer root's (10.6 mm RMS against the twin's truth
+table is written without a warning, the 4x stiffer root's (10.5 mm RMS against the twin's truth
 with one sample's noise, however long the contact is held; its residual at the noise) is
-withheld, and its loads are written instead, followed through each press from rest (0.30 mm for
+withheld with the tip sweep, and its loads are written instead, followed through each press from rest (0.30 mm for
 one sample, 0.08 held, against 4.3 from Y alone, on the twin's planes pressed in); the thin 120
 mm wire's (noise-limited: 0.73 mm for one sample, 0.15 held, against 4.9 mm from Y alone) is
 written, warned."""
@@ -41,13 +41,6 @@ def test_the_default_sensors_table_is_written_without_a_warning():
 
 
 @pytest.mark.slow
-def test_the_stiff_roots_table_is_withheld():
-    estimate, (write, warnings) = _verdict("default-stiff-root")
-    assert estimate > 0.5  # the twin's truth: 10.6 mm RMS
-    assert not write and "no (Y, Z) table written" in warnings[0]
-
-
-@pytest.mark.slow
 def test_the_thin_wires_noisy_table_is_written_warned_and_beats_y_alone():
     sensor = next(b for b in FAMILY if b.sensor_id == "thin-120x0.15")
     grid, sweep, calibration, choice, _ = sensor_family.calibrate_build(sensor, 0, True)
@@ -66,7 +59,10 @@ def test_the_stiff_roots_loads_are_written_and_followed_through_a_press():
     sensor = next(b for b in FAMILY if b.sensor_id == "default-stiff-root")
     grid, sweep, calibration, choice, _ = sensor_family.calibrate_build(sensor, 0, True)
     table = sensor_family.field_table(sensor, grid, sweep, choice)
-    assert table.table is None and table.branches is not None
+    # the table is withheld (its estimate, 7.6 mm, against 10.5 on the twin's truth)...
+    assert table.table is None and table.metrics["field_table_estimated_tip_error_mm"] > 0.5
+    # ...and its loads are written instead
+    assert table.branches is not None
     assert "follows each contact's load from rest" in table.warnings[0]
     y_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
     row = sensor_family._followed_row(sensor, table, calibration.lookup, y_range)
