@@ -20,8 +20,10 @@ $(INSTALLED): pyproject.toml $(LOCK)
 	$(PY) -m pip install --quiet -c $(LOCK) -e '.[dev]'
 	touch $@
 
+# worksteal: an idle worker takes queued tests from a busy one, so a few minute-long fits
+# queued on one worker do not leave the other idle at the end
 test: $(INSTALLED)
-	$(PY) -m pytest -n 2 -q
+	$(PY) -m pytest -n 2 --dist worksteal -q
 
 # The suite against the newest versions pyproject.toml allows, in a venv of their own (no lock).
 test-latest:
@@ -29,7 +31,7 @@ test-latest:
 	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e '.[dev]'
 	$(LATEST_VENV)/bin/python -m pip freeze --exclude-editable
-	$(LATEST_VENV)/bin/python -m pytest -n 2 -q
+	$(LATEST_VENV)/bin/python -m pytest -n 2 --dist worksteal -q
 
 # Write LOCK from the packages installed in VENV: after `make test-latest` passed,
 # `make lock VENV=.venv-latest` makes the newest versions the tested ones.

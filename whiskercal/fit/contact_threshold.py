@@ -31,8 +31,9 @@ NOISE_FLOOR_SIGMAS = 20.0
 # a threshold the tip must move further than this (mm) to pass is warned: shallower contacts
 # read as no contact at all
 WARN_TIP_MOTION_MM = TIP_MOTION_MM
-# tip slopes (rad) the curve is followed to: past a millimetre of motion on every build
-CURVE_MAX_SLOPE_RAD = 0.2
+# tip slopes (rad) the curve is followed to: past 3 mm of tip motion, and past where the noise
+# floor is passed, on every build of the family (a 45 mm wire bent 0.4 rad: about 12 mm)
+CURVE_MAX_SLOPE_RAD = 0.4
 
 
 @dataclass(frozen=True)

@@ -184,9 +184,10 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
                    f"from each contact's start, estimated tip error "
                    f"{summary['load_branches_estimated_tip_error_mm']:.3f} mm RMS "
                    f"({summary['load_branches_held_estimated_tip_error_mm']:.3f} held)")
+    motion = summary["collision_tip_motion_mm"]
     click.echo(f"contact   above {summary['collision_threshold_uT']:.0f} µT "
-               f"({summary['collision_threshold_source']}), a tip moved "
-               f"{summary['collision_tip_motion_mm']:.1f} mm")
+               f"({summary['collision_threshold_source']})"
+               + (f", a tip moved {motion:.1f} mm" if motion == motion else ""))
     if "lookup_vs_truth_rmse_mm" in summary:
         click.echo(f"truth     lookup vs the twin's true tips: RMSE "
                    f"{summary['lookup_vs_truth_rmse_mm']:.3f} mm, max "
