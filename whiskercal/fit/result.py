@@ -25,7 +25,8 @@ class FitResult:
     calibration_options : CalibrationOptions
         What the model ran with: ``options`` with the trace length resolved.
     metrics : dict
-        The artifact's /metrics (µT, mm), warnings apart.
+        The artifact's /metrics (µT, mm), warnings apart; ``collision_threshold_uT`` is the
+        threshold the artifact stores (``fit.contact_threshold``).
     warnings : list of str
         Sentences with their numbers: a recorded trace length overridden, an under-fitting
         surface, a marked extrapolated range, a large tip spread.
@@ -56,8 +57,6 @@ class FitResult:
     shaft_surface: ShaftSurfaceFit | None = None
     load_branches: dict[str, Any] | None = None
     """The loads the runtime follows where the table is withheld (``fit.field_table``)."""
-    collision_threshold_uT: float = 300.0
-    """The collision threshold stored for the runtime, µT (``fit.contact_threshold``)."""
 
     def artifact_data(self):
         """The calibration artifact's content (a :class:`~whiskercal.artifacts.calibration.CalibrationData`)."""
@@ -70,7 +69,7 @@ class FitResult:
         data = data_from_calibration(
             self.calibration, sensor_id=self.sensor_id, rod_radius_mm=self.rod_radius_mm,
             tracer=self.calibration_options.tracer, kalman=KalmanParams(),
-            collision=CollisionParams(threshold_uT=self.collision_threshold_uT),
+            collision=CollisionParams(threshold_uT=self.metrics["collision_threshold_uT"]),
             metrics={**self.metrics, "warnings": list(self.warnings)},
             truth=None if self.truth is None else self.truth.arrays(),
             inputs=self.inputs, config=self.config)

@@ -78,8 +78,7 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
                      raw.rod_radius_mm, inputs={"raw_grid": raw.sha256},
                      config=_provenance(model_options, raw.path),
                      field_table=None if table is None else table.table, shaft_surface=shaft,
-                     load_branches=None if table is None else table.branches,
-                     collision_threshold_uT=threshold.threshold_uT)
+                     load_branches=None if table is None else table.branches)
 
 
 def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress, mechanics):
