@@ -20,11 +20,9 @@ from whiskercal.twin.params import DEFAULT_SENSOR
 
 
 @pytest.mark.slow
-def test_the_yz_table_places_tips_on_planes_with_friction():
+def test_the_yz_table_places_tips_on_planes_with_friction(default_sensor_joint_fit):
     sensor = DEFAULT_SENSOR
-    grid = simulate_fields(sensor, seed=0)
-    fit = fit_mechanics_magnet(grid.rod_center_mm, grid.fields_uT, ROD_RADIUS_MM,
-                               sensor.whisker.reach_mm, NOISE_UT)
+    grid, fit = default_sensor_joint_fit
     assert np.all(fit.rms_uT < 2.0 * np.array(NOISE_UT))
     # the grid's Z pins the suspension down: k_θ·L/EI within 5 % of the twin's
     assert 1.0 / fit.suspension.rot_compliance == pytest.approx(

@@ -11,20 +11,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from whiskercal.bench import pressed_contacts, sensor_family
-from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, ROD_RADIUS_MM, SAMPLE_NOISE_UT,
-                                           realistic_contacts, realistic_errors, simulate_fields)
+from whiskercal.bench import sensor_family
+from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, SAMPLE_NOISE_UT, realistic_contacts,
+                                           realistic_errors)
 from whiskercal.fit.field_table import trust_verdict
-from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.table_error import estimated_tip_error_mm
 from whiskercal.mechfit.tables import table_load_points, tabulate
 
 
-def _verdict(sensor_id: str):
-    sensor = next(b for b in FAMILY if b.sensor_id == sensor_id)
-    grid = simulate_fields(sensor, 0)
-    fit = fit_mechanics_magnet(grid.rod_center_mm, grid.fields_uT, ROD_RADIUS_MM,
-                               sensor.whisker.reach_mm, NOISE_UT)
+def _verdict(grid, fit):
+    """The table's estimate (mm) and ``trust_verdict`` for a joint fit to ``grid``."""
     y_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
     fields, tips = table_load_points(fit, y_range)
     error = estimated_tip_error_mm(fields, tips, tabulate(fields, tips, y_range),
@@ -34,8 +30,8 @@ def _verdict(sensor_id: str):
 
 
 @pytest.mark.slow
-def test_the_default_sensors_table_is_written_without_a_warning():
-    estimate, (write, warnings) = _verdict("twin-paper-75mm")
+def test_the_default_sensors_table_is_written_without_a_warning(default_sensor_joint_fit):
+    estimate, (write, warnings) = _verdict(*default_sensor_joint_fit)
     assert estimate < 0.1  # the twin's truth: 0.042 mm RMS
     assert write and warnings == []
 

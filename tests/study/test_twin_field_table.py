@@ -12,18 +12,13 @@ import pytest
 
 from whiskercal import runtime
 from whiskercal.artifacts.calibration import read_calibration, write_calibration
-from whiskercal.bench.tip_accuracy import NOISE_UT, ROD_RADIUS_MM, simulate_fields
-from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.tables import field_tip_table
 from whiskercal.study.report import build_report
-from whiskercal.twin.params import DEFAULT_SENSOR
 
 
 @pytest.fixture(scope="module")
-def table_calibration(tmp_path_factory, twin_calibration):
-    grid = simulate_fields(DEFAULT_SENSOR, seed=0)
-    fit = fit_mechanics_magnet(grid.rod_center_mm, grid.fields_uT, ROD_RADIUS_MM,
-                               DEFAULT_SENSOR.whisker.reach_mm, NOISE_UT)
+def table_calibration(tmp_path_factory, twin_calibration, default_sensor_joint_fit):
+    grid, fit = default_sensor_joint_fit
     table = field_tip_table(fit, (float(grid.fields_uT[:, 0].min()),
                                   float(grid.fields_uT[:, 0].max())))
     data = replace(read_calibration(twin_calibration),
