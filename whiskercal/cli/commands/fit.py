@@ -187,7 +187,7 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
     motion = summary["collision_tip_motion_mm"]
     click.echo(f"contact   above {summary['collision_threshold_uT']:.0f} µT "
                f"({summary['collision_threshold_source']})"
-               + (f", a tip moved {motion:.1f} mm" if motion == motion else ""))
+               + (f", a tip moved {motion:.1f} mm" if np.isfinite(motion) else ""))
     if "lookup_vs_truth_rmse_mm" in summary:
         click.echo(f"truth     lookup vs the twin's true tips: RMSE "
                    f"{summary['lookup_vs_truth_rmse_mm']:.3f} mm, max "
