@@ -2,7 +2,7 @@
 
 Issue 13's rule: every build whose true RMS tip error exceeds 0.25 mm is warned. Measured with
 seed 0 (docs/calibration.md): default sensor 0.028 mm true, 0.063 mm estimated; the thin 120 mm
-build is not identified by its grid (estimate infinite).
+build is not identified by its grid (6.35 mm true, 6.29 estimated).
 """
 
 import math
@@ -60,13 +60,17 @@ def test_on_the_default_sensor_the_estimate_is_small_and_above_the_true_error():
 
 
 @pytest.mark.slow
-def test_a_grid_that_does_not_pin_the_suspension_down_has_no_finite_estimate():
+def test_a_grid_that_does_not_pin_the_suspension_down_is_estimated_far_off():
     grid = simulate_fields(THIN, seed=0)
     model = calibrate_mechanics(grid.rod_center_mm, grid.fields_uT[:, 0], ROD_RADIUS_MM,
                                 THIN.whisker.reach_mm, 1.0)
-    assert model.estimated_tip_error_mm == math.inf
     low, high = model.plausible_ratios()
     assert high / low > 10  # k_theta*L/EI over an order of magnitude fits the grid
+    # the estimate spans those suspensions' tips: far past the goal, and at the true error
+    # (6.35 mm; infinite, or within a few per cent below, as the profile reaches its end or not)
+    true_rms = _true_rms(THIN, model.lookup, grid)
+    assert true_rms > 1.0
+    assert model.estimated_tip_error_mm >= 0.95 * true_rms
 
 
 @pytest.mark.slow

@@ -37,6 +37,18 @@ def test_the_thin_wires_joint_lookup_meets_the_goal_within_its_estimate():
         max(joint.local_mm, joint.profile_mm), interpolation_error_mm(fit, joint.lookup)))
 
 
+class _FixedResidual:
+    """A stand-in joint objective leaving ``residual`` anywhere, without a stage offset."""
+
+    offset_axes = ()
+
+    def __init__(self, residual):
+        self.residual = residual
+
+    def __call__(self, params):
+        return self.residual
+
+
 def test_a_fit_that_leaves_more_than_the_noise_gets_no_estimate(monkeypatch):
     # the thin wire's seed 2, fitted at chi2/dof 1.18 (k_theta*L/EI 172 against 77), erred
     # 1.56 mm under a 0.13 mm estimate: a significant misfit gets no estimate, and the lookup
@@ -50,7 +62,8 @@ def test_a_fit_that_leaves_more_than_the_noise_gets_no_estimate(monkeypatch):
     results = {}
     for name, level in chi2_per_dof.items():
         residual = np.full(n, np.sqrt(level * (n - 14) / n))
-        monkeypatch.setattr(joint_lookup, "joint_objective", lambda *a, r=residual: lambda p: r)
+        monkeypatch.setattr(joint_lookup, "joint_objective",
+                            lambda *a, r=residual: _FixedResidual(r))
         monkeypatch.setattr(joint_lookup, "linearized_tip_change_mm", lambda *a: 0.01)
         fit = SimpleNamespace(pose_map=SimpleNamespace(orders=(1, 2, 3, 4)),
                               starts=[{"params": np.zeros(10)}])

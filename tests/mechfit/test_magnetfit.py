@@ -11,7 +11,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, realistic_contacts,
+from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
+                                           realistic_contacts,
                                            realistic_errors, simulate_fields, simulate_sweep,
                                            stiffness_ratio)
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
@@ -24,6 +25,9 @@ def test_the_yz_table_places_tips_on_planes_with_friction(default_sensor_joint_f
     sensor = DEFAULT_SENSOR
     grid, fit = default_sensor_joint_fit
     assert np.all(fit.rms_uT < 2.0 * np.array(NOISE_UT))
+    # a grid alone fits the stage's offset across the wire (y) only
+    offset = fit.starts[-1]["stage_offset_mm"]
+    assert offset[0] == 0.0 and offset[1] == pytest.approx(STAGE_OFFSET_MM[1], abs=0.002)
     # the grid's Z pins the suspension down: k_θ·L/EI within 5 % of the twin's
     assert 1.0 / fit.suspension.rot_compliance == pytest.approx(
         stiffness_ratio(sensor.whisker), rel=0.05)
@@ -53,7 +57,8 @@ def _fake_joint_fit(cost_of):
         key = (round(float(theta[0]), 6), tuple(orders))
         tried.append(key)
         return SimpleNamespace(cost=cost_of(*key), x=np.asarray(theta, float)), SimpleNamespace(
-            orders=tuple(orders), mechanics=SimpleNamespace(evaluations=1))
+            orders=tuple(orders), mechanics=SimpleNamespace(evaluations=1), solved_count=3,
+            offset_axes=(), stage_offset_mm=lambda params: np.zeros(2))
     return joint_fit, tried
 
 
@@ -149,7 +154,7 @@ def test_a_richer_order_tries_every_start_again_when_none_explained_the_grid(mon
 
 
 @pytest.mark.slow
-def test_a_root_that_turns_far_gets_a_fifth_order_and_its_table_meets_the_goal():
+def test_a_root_that_turns_far_is_explained_and_its_table_meets_the_goal():
     from whiskercal.bench.sensor_family import FAMILY
 
     sensor = next(s for s in FAMILY if s.sensor_id == "medium-90x0.30")
@@ -158,10 +163,53 @@ def test_a_root_that_turns_far_gets_a_fifth_order_and_its_table_meets_the_goal()
     swept = np.arange(len(centers)) >= len(grid.rod_center_mm)
     fit = fit_mechanics_magnet(centers, np.vstack([grid.fields_uT, sweep.fields_uT]),
                                ROD_RADIUS_MM, sensor.whisker.reach_mm, NOISE_UT, sweep=swept)
-    # four orders left twice the noise on Y (docs/calibration.md); five explain grid and sweep
-    assert fit.pose_map.orders == (1, 2, 3, 4, 5)
+    # without the stage's offset four orders left twice the noise on Y and a fifth explained
+    # grid and sweep (docs/calibration.md); with it four do, the offset the rig's
     assert np.all(fit.rms_uT < 1.5 * np.array(NOISE_UT))
+    assert fit.starts[-1]["stage_offset_mm"] == pytest.approx(STAGE_OFFSET_MM, abs=0.002)
     z_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
     candidate = {"lookup": z_lookup(fit, z_range), "table": field_tip_table(fit, z_range)}
     errors = realistic_errors(candidate, realistic_contacts(sensor), z_range, seed=0)
     assert errors["y_and_z_sample_noise"]["rmse_mm"] <= 0.3  # against the twin's truth
+
+
+def test_the_joint_fit_solves_each_rod_where_the_stage_offset_puts_it():
+    from whiskercal.mechfit import magnetfit
+    from whiskercal.mechfit.fit import _theta_start
+
+    centers = np.array([[40.0, -1.0], [50.0, -2.0], [60.0, -3.0]])
+    swept = np.array([False, False, True])
+    offset = np.array([-0.08, 0.05])
+
+    def joint(recorded, sweep):
+        return magnetfit.joint_objective(recorded, np.zeros((3, 2)), np.ones(2), ROD_RADIUS_MM,
+                                         78.0, (1, 2, 3, 4), sweep)
+
+    theta = _theta_start(78.0, 0.1)
+    with_offset = joint(centers - offset, swept)
+    # x only with a tip sweep: shaft contacts alone barely see it
+    assert with_offset.offset_axes == (0, 1) and joint(centers, None).offset_axes == (1,)
+    params = np.concatenate([theta, offset / magnetfit.MAX_STAGE_OFFSET_MM,
+                             np.zeros(7)])
+    assert np.allclose(with_offset.stage_offset_mm(params), offset)
+    _, poses, in_contact = with_offset.poses(params)
+    _, expected, _ = joint(centers, swept).poses(np.concatenate([theta, [0.0, 0.0]]))
+    assert in_contact.all() and np.allclose(poses, expected)
+
+
+def test_a_refinement_whose_offset_stays_at_its_bound_is_ended_and_not_settled():
+    from whiskercal.mechfit import magnetfit
+
+    joint = magnetfit.joint_objective(np.array([[40.0, -1.0]]), np.zeros((1, 2)), np.ones(2),
+                                      ROD_RADIUS_MM, 78.0, (1, 2, 3, 4), np.array([True]))
+    inside, at_bound = np.zeros(12), np.zeros(12)
+    at_bound[3] = 1.0  # x at +MAX_STAGE_OFFSET_MM
+    callback = magnetfit._stop_at_bound(joint)
+    for params in [at_bound] * (magnetfit.BOUND_PATIENCE - 1) + [inside]:
+        callback(SimpleNamespace(x=params))  # a return inside the bounds starts the count over
+    for _ in range(magnetfit.BOUND_PATIENCE - 1):
+        callback(SimpleNamespace(x=at_bound))
+    with pytest.raises(StopIteration):
+        callback(SimpleNamespace(x=at_bound))
+    assert magnetfit._settled((SimpleNamespace(cost=0.5, x=inside), joint), 2)
+    assert not magnetfit._settled((SimpleNamespace(cost=0.5, x=at_bound), joint), 2)

@@ -7,7 +7,8 @@ the degree-3 polynomial fitted to the same grid is off by orders of magnitude mo
 
 import numpy as np
 
-from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, pose_fields_of_poses,
+from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
+                                           pose_fields_of_poses,
                                            realistic_pose_contacts, simulate_fields,
                                            true_suspension)
 from whiskercal.mechfit.fieldmap import fit_pose_map
@@ -39,7 +40,9 @@ def test_the_basis_is_finite_away_from_the_source():
 
 def test_on_the_twin_the_map_extrapolates_to_plane_contacts():
     grid = simulate_fields(DEFAULT_SENSOR, seed=0)
-    equilibria = rod_equilibria(true_suspension(DEFAULT_SENSOR), grid.rod_center_mm, ROD_RADIUS_MM)
+    # the twin's poses, each rod where it sat (off its recorded place by the stage's offset)
+    rods = grid.rod_center_mm + np.array(STAGE_OFFSET_MM)
+    equilibria = rod_equilibria(true_suspension(DEFAULT_SENSOR), rods, ROD_RADIUS_MM)
     poses = np.array([pose_of(e) for e in equilibria])
     contacts = realistic_pose_contacts(DEFAULT_SENSOR, (grid.fields_uT[:, 0].min(), 0.0))
     truth = pose_fields_of_poses(DEFAULT_SENSOR, contacts)

@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from whiskercal.fit.field_table import REFUSE_ESTIMATE_MM, WARN_ESTIMATE_MM, trust_verdict
+from whiskercal.fit.field_table import (REFUSE_ESTIMATE_MM, WARN_ESTIMATE_MM, offset_warnings,
+                                       trust_verdict)
 from whiskercal.mechfit.table_error import (HELD_SAMPLES, ambiguity_tip_error_mm,
                                             estimated_tip_error_mm, noise_propagation_mm,
                                             z_lookup_tip_error_mm)
@@ -108,3 +109,9 @@ def test_y_alone_on_the_tables_loads_is_measured_where_the_lookup_answers():
     # the same Y, two tips 1 mm either side of the lookup's; the third load is outside its range
     assert z_lookup_tip_error_mm(fields, tips, _FlatLookup()) == pytest.approx(1.0)
     assert np.isnan(z_lookup_tip_error_mm(fields[2:], tips[2:], _FlatLookup()))
+
+
+def test_a_stage_offset_at_the_fits_bound_is_warned_and_a_belts_is_not():
+    assert offset_warnings([-0.01, 0.0099]) == []  # half the twin's belt dead band
+    warning, = offset_warnings([0.1, -0.027])  # the thin wire's wrong basin (seed 1)
+    assert "stage's offset at its bound (+0.100, -0.027 mm" in warning

@@ -94,7 +94,8 @@ def _table_row(table: FieldTableFit, y_only: dict, contacts: dict, lookup, z_ran
            "held_estimated_tip_error_mm": table.metrics[
                "field_table_held_estimated_tip_error_mm"],
            "fitted_stiffness_ratio": metrics.get("stiffness_ratio"),
-           "residual_rms_uT": metrics.get("residual_rms_uT"), "fit_s": metrics.get("fit_s")}
+           "residual_rms_uT": metrics.get("residual_rms_uT"),
+           "stage_offset_mm": metrics.get("stage_offset_mm"), "fit_s": metrics.get("fit_s")}
     if table.tips is not None:
         measured = accuracy.realistic_errors({"lookup": lookup, "table": table.tips}, contacts,
                                              z_range)
@@ -199,7 +200,8 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
         "units": {"time": "s", "error": "mm"},
         "setup": {"builds": [s.sensor_id for s in builds], "variants": list(variants),
                   "tip_sweep": asdict(accuracy.tip_sweep_config()),
-                  "noise_uT": accuracy.NOISE_UT[0], "goal_rmse_mm": WARN_TIP_ERROR_MM,
+                  "noise_uT": accuracy.NOISE_UT[0],
+                  "stage_offset_mm": list(accuracy.STAGE_OFFSET_MM), "goal_rmse_mm": WARN_TIP_ERROR_MM,
                   "goal_max_mm": 0.5, "seed": seed},
         "rows": rows,
         "pareto": {"x": "fit_s", "y": "error_vs_truth_mm", "series": ["variant"],

@@ -23,7 +23,8 @@ from whiskercal.artifacts.raw_grid import baseline_y_at
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.branch_surface import followed_tip_error_mm, load_branches
 from whiskercal.mechfit.joint_lookup import JointLookup, joint_z_lookup
-from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
+from whiskercal.mechfit.magnetfit import (MAX_STAGE_OFFSET_MM, fit_mechanics_magnet,
+                                          offset_at_bound)
 from whiskercal.mechfit.table_error import HELD_SAMPLES, estimated_tip_error_mm
 from whiskercal.mechfit.tables import DEFAULT_SAMPLES, table_load_points, tabulate
 from whiskercal.model.calibrate import contact_mask
@@ -88,6 +89,18 @@ def axial_deflection_uT(raw) -> np.ndarray:
                                          raw.baseline_before.field_uT[SENSOR_AXIS_Z]),
                            None if after is None else (after.t_s, after.field_uT[SENSOR_AXIS_Z]))
     return raw.field_mean_uT[:, SENSOR_AXIS_Z] - static
+
+
+def offset_warnings(offset_mm) -> list[str]:
+    """A warning when the joint fit's stage offset (x, y mm) reached its bound: no belt's dead
+    band is that wide, so the origin was set wrong or the fit made up for a wrong suspension."""
+    if not offset_at_bound(offset_mm):
+        return []
+    x, y = offset_mm
+    return [f"the (Y, Z) model put the stage's offset at its bound ({x:+.3f}, {y:+.3f} mm; at "
+            f"most {MAX_STAGE_OFFSET_MM} mm an axis): check the stage's backlash and the "
+            "whisker origin's position; the model may have found the wrong suspension and its "
+            "estimates may be low"]
 
 
 def _identification_warnings(profile: list[dict]) -> list[str]:
@@ -199,7 +212,8 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     if not write and np.max(residual_ratio) <= MAX_RESIDUAL_RATIO:  # withheld: readings fold
         branches, verdict = followed_branches(fit, y_range, c.sample_noise_uT, verdict)
         metrics["load_branches"] = branches.pop("metrics")
-    warnings = _identification_warnings(metrics["ratio_profile"]) + verdict
+    warnings = (_identification_warnings(metrics["ratio_profile"])
+                + offset_warnings(metrics["stage_offset_mm"]) + verdict)
     metrics.update(field_table_estimated_tip_error_mm=estimate, estimated_error_parts=error,
                    field_table_written=write, fit_s=time.perf_counter() - started)
     arrays = {"y_uT": table.y_uT, "axial_uT": table.z_uT, "tip_mm": table.tips_mm}
@@ -272,4 +286,5 @@ def _fit_metrics(fit, contacts: TableContacts, table: FieldTipTable) -> dict:
             "magnet_map": fit.pose_map.as_dict(), "tip_sweep_points": int(contacts.sweep.sum()),
             "table_shape": list(table.tips_mm.shape[:2]),
             "table_answered_fraction": float(np.mean(np.isfinite(table.tips_mm[..., 0]))),
+            "stage_offset_mm": fit.starts[-1]["stage_offset_mm"],
             "ratio_profile": fit.starts[-1].get("ratio_profile", [])}

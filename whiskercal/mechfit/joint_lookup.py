@@ -78,9 +78,10 @@ def joint_z_lookup(fit: MechanicsFit, rod_center_mm, fields_uT, noise_uT, rod_ra
                             trace_length_mm, fit.pose_map.orders, sweep)
     params = np.asarray(fit.starts[-1]["params"], float)
     chi2 = float(np.sum(joint(params) ** 2))
-    if significant_misfit(chi2, fields.size, len(fit.pose_map.orders)):
+    counts = (fields.size, len(fit.pose_map.orders), len(joint.offset_axes))
+    if significant_misfit(chi2, *counts):
         return JointLookup(lookup, math.inf, math.inf, math.inf)
-    variance = max(chi2 / degrees_of_freedom(fields.size, len(fit.pose_map.orders)), 1.0)
+    variance = max(chi2 / degrees_of_freedom(*counts), 1.0)
 
     def lookup_at(step):
         return _lookup(fit_at(joint, step, fit), z_range_uT, samples, kind)

@@ -3,16 +3,21 @@
 The polynomial fit (``fit.py``) identifies the suspension from Y; its pose map cannot be trusted
 off the shaft-contact manifold. Here the suspension starts from that fit, the magnet map
 (``magnetmap.py``) is fitted to both axes on its poses, and then both are refined together: the
-outer least squares runs over the three mechanical parameters and the map's seven geometric ones,
+outer least squares runs over the three mechanical parameters, the stage's constant offset (the
+rods' places as the grid saw them, ``stage_offset_axes``) and the map's seven geometric ones,
 the map's strengths follow by linear least squares at every evaluation (variable projection),
 from two starts (a Y fit's suspension as it is, and with the usual translational compliance),
 the better kept; a Y fit made here first, then the Y fit given (the z lookup's mechanics), then
-the generic starts, while the best leaves more than twice the noise (``_start_groups``).
+the generic starts, until the best has settled: explained the grid (within twice the noise)
+with its stage offset inside the bounds (``_start_groups``, ``_settled``). A refinement whose
+offset runs into its bound is ended there (``_stop_at_bound``).
 With a tip sweep, where the best still leaves more than the noise, one more multipole order is
-tried from it and kept when it pays for its term (on the 90 mm x 0.30 mm build, whose root turns
-furthest, and on the stiff 60 mm wire, four orders left 2-3x the noise).
-The rod contacts are solved only when the mechanics change (a finite-difference step in a
-geometric parameter reuses the last poses), so a refinement costs a few grid solves an iteration.
+tried from it and kept when it pays for its term (without the stage offset, on the 90 mm x 0.30
+mm build, whose root turns furthest, and on the stiff 60 mm wire, four orders left 2-3x the
+noise; the 4x stiffer root's sweep takes six).
+The rod contacts are solved only when the mechanics or the offset change (a finite-difference
+step in a geometric parameter reuses the last poses), so a refinement costs a few grid solves an
+iteration.
 """
 
 from __future__ import annotations
@@ -41,7 +46,15 @@ RICHER_ORDER_SIGMAS = 2.0
 # the highest multipole order the fit grows to: a soft root's large shifts and turns need the
 # sixth (the 45 mm build on k_θ·L/EI 0.98: χ²/dof 1.29 at order 5, 1.06 at 6; docs/calibration.md)
 MAX_ORDER = 6
-# the mechanics (3) and the map's geometry (7)
+# the largest stage offset (mm, per axis) the joint fit may find: a few belt dead bands. Its
+# parameter is the offset in these units, bounded to ±1 in the least squares, so a trial step
+# cannot carry a rod millimetres off, onto the rigid stub (which the contact solver refuses)
+MAX_STAGE_OFFSET_MM = 0.1
+# an offset parameter this close to its bound (in units of MAX_STAGE_OFFSET_MM) is at it
+OFFSET_AT_BOUND = 0.99
+# a refinement whose offset sits at its bound this many iterations running is ended there
+BOUND_PATIENCE = 5
+# the mechanics (3) and the map's geometry (7), the stage offset's apart
 NONLINEAR_PARAMETERS = 10
 # the generic starts' EI/(L·k_θ): the Y fit's decades and 0.3, for soft roots whose minimum has
 # a narrow basin (k_θ·L/EI 1.8 is reached from 1.5-3, not from 1 or 10: at 1 the fit stops at
@@ -50,21 +63,48 @@ JOINT_ROT_COMPLIANCE_STARTS = (0.01, 0.1, 0.3, 1.0)
 
 
 class _JointObjective:
-    """Residuals (standard errors) of (mechanics theta (3), geometry (7)); poses cached per theta."""
+    """Residuals (standard errors) of (mechanics theta (3), the stage offset (one per axis in
+    ``offset_axes``, in units of MAX_STAGE_OFFSET_MM), geometry (7)); poses cached per mechanics
+    and offset."""
 
-    def __init__(self, mechanics: _Objective, fields, weights, orders):
+    def __init__(self, mechanics: _Objective, fields, weights, orders, offset_axes=()):
         self.mechanics, self.fields, self.weights, self.orders = mechanics, fields, weights, orders
-        self._theta, self._solved = None, None
+        self.offset_axes = tuple(offset_axes)
+        self.recorded_centers = mechanics.centers.copy()
+        self._key, self._solved = None, None
 
-    def poses(self, theta: np.ndarray):
-        if self._theta is None or not np.array_equal(theta, self._theta):
-            self._solved = self.mechanics.solve(theta)
-            self._theta = theta.copy()
+    @property
+    def solved_count(self) -> int:
+        """How many of the outer parameters need the contacts solved again: theta's and the
+        offset's (the map's geometry reuses the poses)."""
+        return 3 + len(self.offset_axes)
+
+    def stage_offset_mm(self, params: np.ndarray) -> np.ndarray:
+        """Where the rods sat less where the stage recorded them (x, y) mm, of ``params``."""
+        offset = np.zeros(2)
+        offset[list(self.offset_axes)] = MAX_STAGE_OFFSET_MM * params[3:self.solved_count]
+        return offset
+
+    def bounds(self, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """The least squares' bounds on ``count`` outer parameters: the offset's only."""
+        high = np.full(count, np.inf)
+        high[3:self.solved_count] = 1.0
+        return -high, high
+
+    def geometry(self, params: np.ndarray) -> np.ndarray:
+        return params[self.solved_count:]
+
+    def poses(self, params: np.ndarray):
+        key = params[:self.solved_count]
+        if self._key is None or not np.array_equal(key, self._key):
+            self.mechanics.centers = self.recorded_centers + self.stage_offset_mm(params)
+            self._solved = self.mechanics.solve(params[:3])
+            self._key = key.copy()
         return self._solved
 
     def evaluate(self, params: np.ndarray):
-        suspension, poses, in_contact = self.poses(params[:3])
-        basis = relative_basis(params[3:], poses, self.orders)
+        suspension, poses, in_contact = self.poses(params)
+        basis = relative_basis(self.geometry(params), poses, self.orders)
         if not np.all(np.isfinite(basis)):
             return suspension, poses, None, np.full(self.fields.size, 1e6)
         strengths, scaled = _linear_strengths(basis, self.fields, self.weights)
@@ -113,17 +153,43 @@ def _unexplained(result, n: int) -> bool:
     return 2.0 * result.cost / n > UNEXPLAINED_RATIO ** 2
 
 
-def degrees_of_freedom(n: int, strengths: int) -> int:
-    """A joint fit's degrees of freedom: ``n`` readings less the outer parameters and the map's
-    ``strengths``."""
-    return max(n - NONLINEAR_PARAMETERS - strengths, 1)
+def _settled(fit, n: int) -> bool:
+    """A joint refinement (result, objective) that explains the grid with its stage offset
+    inside the bounds: one at a bound is the fit making up with the stage for a suspension in
+    the wrong basin (the thin 120 mm wire's seed 1 from the Y fit's start: x at +0.1 mm for the
+    rig's -0.01, k_θ·L/EI 282 for the twin's 77, 1.45x the noise left on Y)."""
+    result, joint = fit
+    return not _unexplained(result, n) and not offset_at_bound(joint.stage_offset_mm(result.x))
 
 
-def significant_misfit(chi2: float, n: int, strengths: int) -> bool:
+def offset_at_bound(offset_mm) -> bool:
+    """Whether a fitted stage offset (x, y mm) reached the joint fit's bound on either axis."""
+    return bool(np.any(np.abs(offset_mm) >= OFFSET_AT_BOUND * MAX_STAGE_OFFSET_MM))
+
+
+def stage_offset_axes(sweep) -> tuple[int, ...]:
+    """The stage axes (x 0, y 1) whose constant offset the joint fit finds with the rest. The
+    rods sit off their recorded places by the drive's backlash (taken up the same way at every
+    point, ``collect.plan``) and the error in the whisker origin's stage position; left out,
+    0.01 mm moved the stiff root's fit (k_θ·L/EI 62.6) to 45-48, and its follower read 0.50 mm
+    RMS against 0.30 with it (docs/calibration.md). Across the wire (y) always; along it (x)
+    only with a tip sweep, whose contacts push along x too: shaft contacts alone barely see it
+    (the recorded grids put it at -0.05 to -0.15 mm for -0.01, and the 110 mm grid's lookup 5x
+    further off)."""
+    return (0, 1) if sweep is not None and np.any(sweep) else (1,)
+
+
+def degrees_of_freedom(n: int, strengths: int, offsets: int) -> int:
+    """A joint fit's degrees of freedom: ``n`` readings less the outer parameters (with
+    ``offsets`` stage axes) and the map's ``strengths``."""
+    return max(n - NONLINEAR_PARAMETERS - offsets - strengths, 1)
+
+
+def significant_misfit(chi2: float, n: int, strengths: int, offsets: int) -> bool:
     """χ² (in standard errors) of ``n`` readings per degree of freedom more than
     ``RICHER_ORDER_SIGMAS`` of its standard deviations (√(2/dof)) above 1: the model, or the
     minimum the fit reached, leaves something the noise does not explain."""
-    dof = degrees_of_freedom(n, strengths)
+    dof = degrees_of_freedom(n, strengths, offsets)
     return chi2 / dof > 1.0 + RICHER_ORDER_SIGMAS * np.sqrt(2.0 / dof)
 
 
@@ -140,10 +206,12 @@ def _better_by_akaike(fit, richer):
 def joint_objective(centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
                     sweep=None) -> _JointObjective:
     """The residuals (standard errors) of the grid's Y and Z as a function of the mechanics'
-    three outer parameters and the map's seven geometric ones (the strengths solved inside)."""
+    three outer parameters, the stage offset's (``stage_offset_axes``) and the map's seven
+    geometric ones (the strengths solved inside)."""
     mechanics = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise, 1,
                            sweep)
-    return _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders))
+    return _JointObjective(mechanics, fields, 1.0 / noise, tuple(orders),
+                           stage_offset_axes(sweep))
 
 
 def fit_at(joint: _JointObjective, params: np.ndarray, like: MechanicsFit) -> MechanicsFit:
@@ -151,17 +219,38 @@ def fit_at(joint: _JointObjective, params: np.ndarray, like: MechanicsFit) -> Me
     refitted to the grid there): a neighbour of a joint fit, as its error estimate needs."""
     suspension, poses, strengths, _ = joint.evaluate(params)
     return replace(like, suspension=suspension, poses=poses,
-                   pose_map=MagnetPoseMap(params[3:].copy(), strengths, joint.orders, 2))
+                   pose_map=MagnetPoseMap(joint.geometry(params).copy(), strengths,
+                                          joint.orders, 2))
 
 
-def _joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
+def _joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
                sweep=None):
-    """One joint refinement from mechanics ``theta``: (least-squares result, objective)."""
+    """One joint refinement from mechanics ``start`` (theta, then the stage offset's
+    parameters where given; none at first): (least-squares result, objective)."""
     joint = joint_objective(centers, fields, noise, rod_radius_mm, trace_length_mm, orders, sweep)
-    first_map, _ = fit_magnet_map(joint.poses(theta)[1], fields, 1.0 / noise, orders)
-    result = least_squares(joint, np.concatenate([theta, first_map.geometry]), diff_step=1e-5,
-                           x_scale=0.1, xtol=1e-10, ftol=1e-10, max_nfev=JOINT_EVALUATIONS)
+    solved = np.zeros(joint.solved_count)
+    solved[:len(start)] = start
+    first_map, _ = fit_magnet_map(joint.poses(solved)[1], fields, 1.0 / noise, orders)
+    params = np.concatenate([solved, first_map.geometry])
+    result = least_squares(joint, params, bounds=joint.bounds(params.size), diff_step=1e-5,
+                           x_scale=0.1, xtol=1e-10, ftol=1e-10, max_nfev=JOINT_EVALUATIONS,
+                           callback=_stop_at_bound(joint))
     return result, joint
+
+
+def _stop_at_bound(joint: _JointObjective):
+    """A least-squares callback ending a refinement whose stage offset has sat at its bound for
+    ``BOUND_PATIENCE`` iterations running: it is making up with the stage for a suspension in
+    the wrong basin, will not be ``_settled``, and would run to its evaluation limit (five of
+    the stiff root's fourteen refinements with its sweep, 40 s each)."""
+    streak = [0]
+
+    def callback(intermediate_result) -> None:
+        at_bound = offset_at_bound(joint.stage_offset_mm(intermediate_result.x))
+        streak[0] = streak[0] + 1 if at_bound else 0
+        if streak[0] >= BOUND_PATIENCE:
+            raise StopIteration  # least_squares ends there and returns the iterate
+    return callback
 
 
 def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_mm, orders,
@@ -179,9 +268,10 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     # the suspension (the recorded default grid's table took a fifth order and biased the
     # contour runs by 0.011 mm)
     while sweep is not None and np.any(sweep) and max(best[1].orders) < MAX_ORDER \
-            and significant_misfit(2.0 * best[0].cost, fields.size, len(best[1].orders)):
+            and significant_misfit(2.0 * best[0].cost, fields.size, len(best[1].orders),
+                                   len(best[1].offset_axes)):
         richer = _one_order_more(best[1].orders)
-        more = [_joint_fit(best[0].x[:3], *args, richer, sweep)]
+        more = [_joint_fit(best[0].x[:best[1].solved_count], *args, richer, sweep)]
         if _unexplained(best[0], fields.size):
             # no start's minimum explained the grid: the truncated map may have chosen the
             # basin (a soft root's turns need the richer map), so every start goes again too
@@ -202,7 +292,7 @@ def _best_from_starts(groups, centers, fields, noise, rod_radius_mm, trace_lengt
     for thetas in groups:
         fits += [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm,
                             orders, sweep) for theta in thetas]
-        if not _unexplained(min(fits, key=lambda f: f[0].cost)[0], fields.size):
+        if _settled(min(fits, key=lambda f: f[0].cost), fields.size):
             break
     return min(fits, key=lambda f: f[0].cost), fits
 
@@ -231,7 +321,7 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
                                           trace_length_mm, orders, sweep)
     evaluations = sum(f[1].mechanics.evaluations for f in fits)
     suspension, poses, strengths, scaled = joint.evaluate(result.x)
-    pose_map = MagnetPoseMap(result.x[3:].copy(), strengths, joint.orders, 2)
+    pose_map = MagnetPoseMap(joint.geometry(result.x).copy(), strengths, joint.orders, 2)
     residual = scaled.reshape(fields.shape) / (1.0 / noise)
     profile = ratio_profile(result, joint) if profile_factors else []
     return MechanicsFit(suspension, pose_map, poses, residual,
@@ -239,6 +329,7 @@ def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_r
                         time.perf_counter() - started, evaluations,
                         [{"joint_fits": len(fits), "joint_magnet_cost": float(result.cost),
                           "params": result.x.copy(),
+                          "stage_offset_mm": joint.stage_offset_mm(result.x).tolist(),
                           "ratio_profile": [{k: v for k, v in p.items() if k != "params"}
                                             for p in profile],
                           "ratio_profile_params": [p["params"] for p in profile]}])
@@ -258,8 +349,10 @@ def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> li
         def residual(rest, fixed=fixed):
             return joint(np.insert(rest, 0, fixed))
 
-        held = least_squares(residual, np.delete(result.x, 0), diff_step=1e-5, x_scale=0.1,
-                             xtol=1e-8, ftol=1e-8, max_nfev=PROFILE_EVALUATIONS)
+        low, high = joint.bounds(result.x.size)
+        held = least_squares(residual, np.delete(result.x, 0),
+                             bounds=(np.delete(low, 0), np.delete(high, 0)), diff_step=1e-5,
+                             x_scale=0.1, xtol=1e-8, ftol=1e-8, max_nfev=PROFILE_EVALUATIONS)
         out.append({"stiffness_ratio": float(np.exp(-fixed)),
                     "delta_chi2": float(2.0 * (held.cost - result.cost)),
                     "params": np.insert(held.x, 0, fixed)})
