@@ -233,3 +233,27 @@ def test_fit_in_cartesian_degree_8_on_the_recorded_grid(tmp_path):
     assert result.exit_code == 0
     summary = json.loads(result.output)
     assert summary["degree"] == 8 and summary["lookup_vs_truth_rmse_mm"] < 1.0
+
+
+def test_the_fit_summary_names_the_stage_offset_the_yz_model_found(capsys):
+    from dataclasses import replace
+
+    from whiskercal.artifacts.calibration import read_calibration
+    from whiskercal.cli.commands.fit import _report
+
+    data = read_calibration(FIXTURE.with_name("calibration-1.3.0-target.h5"))
+    data = replace(data, metrics={**data.metrics, "field_table_estimated_tip_error_mm": 0.04,
+                                  "field_table_held_estimated_tip_error_mm": 0.007,
+                                  "field_table": {"stage_offset_mm": [-0.0096, 0.0102],
+                                                  "tip_sweep_points": 21}})
+    _report(data, 1.0, "cal.h5", as_json=True)
+    assert json.loads(capsys.readouterr().out)["stage_offset_mm"] == [-0.0096, 0.0102]
+    _report(data, 1.0, "cal.h5", as_json=False)
+    assert "stage     rods found y +0.0102 mm off their recorded places (x -0.0096 mm" in \
+        capsys.readouterr().out
+    # from a grid alone x is not fitted: the summary says so rather than print a zero
+    data.metrics["field_table"]["tip_sweep_points"] = 0
+    _report(data, 1.0, "cal.h5", as_json=True)
+    assert json.loads(capsys.readouterr().out)["stage_offset_mm"] == [None, 0.0102]
+    _report(data, 1.0, "cal.h5", as_json=False)
+    assert "(x not fitted: no tip sweep; backlash, origin)" in capsys.readouterr().out

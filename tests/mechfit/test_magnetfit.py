@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 
 from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
-                                           realistic_contacts,
-                                           realistic_errors, simulate_fields, simulate_sweep,
-                                           stiffness_ratio)
+                                           realistic_contacts, realistic_errors, simulate_fields,
+                                           simulate_sweep, stiffness_ratio)
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.tables import field_tip_table, z_lookup
 from whiskercal.twin.params import DEFAULT_SENSOR
@@ -189,8 +188,7 @@ def test_the_joint_fit_solves_each_rod_where_the_stage_offset_puts_it():
     with_offset = joint(centers - offset, swept)
     # x only with a tip sweep: shaft contacts alone barely see it
     assert with_offset.offset_axes == (0, 1) and joint(centers, None).offset_axes == (1,)
-    params = np.concatenate([theta, offset / magnetfit.MAX_STAGE_OFFSET_MM,
-                             np.zeros(7)])
+    params = np.concatenate([theta, offset / magnetfit.MAX_STAGE_OFFSET_MM, np.zeros(7)])
     assert np.allclose(with_offset.stage_offset_mm(params), offset)
     _, poses, in_contact = with_offset.poses(params)
     _, expected, _ = joint(centers, swept).poses(np.concatenate([theta, [0.0, 0.0]]))

@@ -45,6 +45,11 @@ def _summary(data, elapsed_s: float) -> dict:
                     "field_table_held_estimated_tip_error_mm"):
             summary[key] = float(m.get(key, float("nan")))
         summary["field_table_written"] = data.field_table is not None
+        table = m.get("field_table", {})
+        if "stage_offset_mm" in table:  # absent where the (Y, Z) model could not be fitted
+            x, y = (float(v) for v in table["stage_offset_mm"])
+            # x is fitted only with a tip sweep (mechfit.magnetfit.stage_offset_axes)
+            summary["stage_offset_mm"] = [x if table.get("tip_sweep_points") else None, y]
     if "load_branches_written" in m:  # the table withheld because the readings fold
         for key in ("load_branches_estimated_tip_error_mm",
                     "load_branches_held_estimated_tip_error_mm"):
@@ -178,6 +183,11 @@ def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
         click.echo(f"(Y, Z)    table {'written' if summary['field_table_written'] else 'withheld'}"
                    f", estimated tip error {summary['field_table_estimated_tip_error_mm']:.3f}"
                    f" mm RMS ({summary['field_table_held_estimated_tip_error_mm']:.3f} held)")
+    if "stage_offset_mm" in summary:
+        x, y = summary["stage_offset_mm"]
+        along = "x not fitted: no tip sweep" if x is None else f"x {x:+.4f} mm"
+        click.echo(f"stage     rods found y {y:+.4f} mm off their recorded places ({along}; "
+                   "backlash, origin)")
     if "load_branches_written" in summary:
         click.echo(f"(Y, Z)    load branches "
                    f"{'written' if summary['load_branches_written'] else 'withheld'}, followed "
