@@ -122,14 +122,15 @@ def simulate_fields(sensor: SensorParams, seed: int = 0,
     recorded for it; keep contacts under the overload guard."""
     points = lattice_points(scaled_grid(sensor))
     points = points[visiting_order(points)]
+    offset = np.asarray(stage_offset_mm, float)
     kept, equilibria, previous, column, stopped = [], [], None, None, False
     for center in points:
         if center[0] != column:
             previous, column, stopped = None, center[0], False
         if stopped:
             continue  # past the overload guard the rest of the column is deeper still
-        equilibrium = mechanics.solve_rod(sensor.whisker, center + np.asarray(stage_offset_mm),
-                                          ROD_RADIUS_MM, previous=previous)
+        equilibrium = mechanics.solve_rod(sensor.whisker, center + offset, ROD_RADIUS_MM,
+                                          previous=previous)
         previous = equilibrium if equilibrium.in_contact else None
         stopped = abs(pose_fields(sensor, [equilibrium])[0, 0]) >= OVERLOAD_UT
         if equilibrium.kind == "shaft" and not stopped:
@@ -155,10 +156,10 @@ def simulate_sweep(sensor: SensorParams, seed: int = 0, config: SweepConfig | No
     no contact and is left out)."""
     config = config or tip_sweep_config(sensor.whisker.reach_mm)
     points = sweep_points(config, sensor.whisker.reach_mm)
+    offset = np.asarray(stage_offset_mm, float)
     kept, equilibria = [], []
     for center in points:
-        equilibrium = mechanics.solve_rod(sensor.whisker, center + np.asarray(stage_offset_mm),
-                                          ROD_RADIUS_MM)
+        equilibrium = mechanics.solve_rod(sensor.whisker, center + offset, ROD_RADIUS_MM)
         if equilibrium.in_contact and abs(pose_fields(sensor, [equilibrium])[0, 0]) < OVERLOAD_UT:
             kept.append(center), equilibria.append(equilibrium)
     fields = pose_fields(sensor, equilibria).reshape(-1, 2)
