@@ -1,7 +1,7 @@
 """The (Y, Z) table's truth-free estimate on simulated builds (seed 0): the default sensor's
 table is written without a warning, the 4x stiffer root's (10.5 mm RMS against the twin's truth
 with one sample's noise, however long the contact is held; its residual at the noise) is
-withheld with the tip sweep, and its loads are written instead, followed through each press from rest (0.30 mm for
+withheld with the tip sweep, and its loads are written instead, followed through each press from rest (0.29 mm for
 one sample, 0.08 held, against 4.3 from Y alone, on the twin's planes pressed in); the thin 120
 mm wire's (noise-limited: 0.73 mm for one sample, 0.15 held, against 4.9 mm from Y alone) is
 written, warned."""

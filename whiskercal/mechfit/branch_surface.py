@@ -2,8 +2,8 @@
 the model's own presses (no truth).
 
 ``load_branches`` solves the model's space-fixed tip loads (``loadgrid.load_grid``) on a
-(direction, size) grid, 1° apart in direction, and keeps those within the pose envelope the
-table keeps (``tables.POSE_ENVELOPE`` times the grid's largest pose). ``followed_tip_error_mm``
+(direction, size) grid, 1° apart in direction, and keeps those whose root pose lies near the
+poses the magnet map was fitted on (``near_fitted_poses``). ``followed_tip_error_mm``
 presses the model along each direction from rest, as a plane sliding on the tip does, reads
 the noisy (Y, Z) it gives through a follower and compares the tips: one reading's error, and
 a held contact's (``table_error.HELD_SAMPLES`` samples averaged).
@@ -17,7 +17,6 @@ import numpy as np
 
 from whiskercal.mechfit.loadgrid import load_grid
 from whiskercal.mechfit.table_error import HELD_SAMPLES
-from whiskercal.mechfit.tables import POSE_ENVELOPE
 from whiskercal.model.load_branches import LoadBranches
 
 ALPHAS_DEG = tuple(np.arange(0.0, 115.01, 1.0))
@@ -31,6 +30,9 @@ DEEPEST_PRESS = 0.6
 SNAP_MM = 2.0  # a tip moving this far between neighbouring sizes has snapped
 LOST_MM = 5.0  # a press on which a reading's tip is this far off has lost its branch
 MIN_ANSWERED = 0.95  # or on which fewer of its readings (all on the model's loads) got a tip
+# a load is kept where each component of its root pose lies within the fitted contacts' range
+# widened by this share of that range either way
+POSE_MARGIN = 0.25
 
 
 def load_branches(fit, y_range_uT, noise_uT) -> LoadBranches:
@@ -39,8 +41,7 @@ def load_branches(fit, y_range_uT, noise_uT) -> LoadBranches:
     sizes = np.unique(grid.magnitude)
     rows = np.rint(np.degrees(grid.alpha_rad) - ALPHAS_DEG[0]).astype(int)
     cols = np.searchsorted(sizes, grid.magnitude) + 1  # column 0: rest
-    limit = POSE_ENVELOPE * np.max(np.abs(fit.poses), axis=0)
-    inside = np.all(np.abs(grid.pose) <= limit, axis=1)
+    inside = near_fitted_poses(grid.pose, fit.poses)
     fields = np.full((len(ALPHAS_DEG), len(sizes) + 1, 2), np.nan)
     tips = np.full_like(fields, np.nan)
     # at rest every direction reads nothing (the fields are from rest) and the tip is straight
@@ -49,6 +50,22 @@ def load_branches(fit, y_range_uT, noise_uT) -> LoadBranches:
     fields[rows[inside], cols[inside]] = fit.pose_map(grid.pose[inside])[:, :2]
     tips[rows[inside], cols[inside]] = grid.tip_mm[inside]
     return LoadBranches(fields, tips, noise_uT, y_range_uT)
+
+
+def near_fitted_poses(poses: np.ndarray, fitted: np.ndarray) -> np.ndarray:
+    """Which ``poses`` (n, 3) lie within the ``fitted`` poses' range on every component,
+    widened by ``POSE_MARGIN`` of it.
+
+    Signed, unlike the table's envelope (``tables.POSE_ENVELOPE`` times the largest pose either
+    way): a grid pushes the wire one way, so every contact turns and shifts the root one way,
+    while a push past the axis bends the wire the other way, where the map was never fitted.
+    With the table's envelope the 4x stiffer root's follower, fed the twin's end-on plane
+    dragged toward +y with friction 0.4 (112° from the normal), drifted to loads up to 10°
+    away and read the deepest tips 3.9 and 5.0 mm off on two of three simulated grids
+    (docs/calibration.md, "Where one reading folds"); such readings now get no tip."""
+    low, high = fitted.min(axis=0), fitted.max(axis=0)
+    margin = POSE_MARGIN * (high - low)
+    return np.all((poses >= low - margin) & (poses <= high + margin), axis=1)
 
 
 def followed_tip_error_mm(branches: LoadBranches, sample_noise_uT, seed: int = 0) -> dict:
