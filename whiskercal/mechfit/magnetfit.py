@@ -54,10 +54,11 @@ MAX_STAGE_OFFSET_MM = 0.1
 OFFSET_AT_BOUND = 0.99
 # a refinement whose offset sits at its bound this many iterations running is ended there
 BOUND_PATIENCE = 5
-# a chosen fit is refined again from its own mechanics with k_θ·L/EI at these multiples (the
-# ratio a grid pins least), the map fitted afresh, while that lowers χ² by more than POLISH_GAIN,
-# at most POLISH_PASSES times, each refinement on at most POLISH_EVALUATIONS (a start this near
-# a minimum reaches it in 40-70 on the 4x stiffer root's grid)
+# a chosen fit leaving a significant misfit is refined again from its own mechanics with
+# k_θ·L/EI at these multiples (the ratio a grid pins least), the map fitted afresh, while that
+# lowers χ² by more than POLISH_GAIN, at most POLISH_PASSES times, each refinement on at most
+# POLISH_EVALUATIONS (a start this near a minimum reached it in 37 and 72 on the 4x stiffer
+# root's collected grid)
 POLISH_FACTORS = (0.8, 1.25)
 POLISH_GAIN = 1.0
 POLISH_PASSES = 3
@@ -266,7 +267,8 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
                     sweep):
     """The best joint refinement over the start groups (``_start_groups``), with more multipole
     orders, one at a time up to ``MAX_ORDER``, while each pays (Akaike) and a significant misfit
-    is left, then polished (``_polished``): (least-squares result, objective, every fit tried)."""
+    is left, then polished where a significant misfit is still left (``_polished``):
+    (least-squares result, objective, every fit tried)."""
     args = (centers, fields, noise, rod_radius_mm, trace_length_mm)
     # the groups' starts once: the Y fit that makes the first takes seconds
     groups = list(_start_groups(start, centers, fields[:, 0], noise[0], rod_radius_mm,
@@ -290,8 +292,11 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
         if _better_by_akaike(best, candidate) is best:
             break
         best = candidate
-    best, polished = _polished(best, args, sweep)
-    return best[0], best[1], fits + polished
+    if significant_misfit(2.0 * best[0].cost, fields.size, len(best[1].orders),
+                          len(best[1].offset_axes)):
+        best, polished = _polished(best, args, sweep)
+        fits += polished
+    return best[0], best[1], fits
 
 
 def _polished(best, args, sweep):
