@@ -156,7 +156,7 @@ def test_a_richer_order_tries_every_start_again_when_none_explained_the_grid(mon
     assert soft in richer and len(richer) > 1  # every start again, not the best's alone
 
 
-def test_a_fit_left_above_the_noise_is_polished_from_a_lower_ratio_while_that_pays(monkeypatch):
+def test_a_swept_fit_left_above_the_noise_is_polished_from_a_lower_ratio_while_it_pays(monkeypatch):
     # the 4x stiffer root's collected grid: its start groups settled at k_theta*L/EI 52 (chi2
     # 755) and a refinement from 0.8 of that reached 61.3 (chi2 636; docs/calibration.md)
     from whiskercal.mechfit import magnetfit
@@ -167,26 +167,30 @@ def test_a_fit_left_above_the_noise_is_polished_from_a_lower_ratio_while_that_pa
     joint_fit, tried = _fake_joint_fit(lambda first, _orders: costs.get(first, 2.0 * n / 2))
     monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
     monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: _y_fit(1.0))
-    result, _, fits = _best(magnetfit, None)
+    swept = np.arange(100) >= 90
+    result, _, fits = _best(magnetfit, swept)
     assert result.cost == 1.2 * n / 2 and result.x[0] == pytest.approx(lower, abs=1e-6)
-    # the start group's two, a pass that finds the lower ratio, a pass that finds nothing more
-    assert len(tried) == len(fits) == 2 + 2 + 2
-    assert {t[0] for t in tried[2:4]} == {lower, round(-np.log(1.25), 6)}
-    # a fit at the noise is not polished
+    # the start group's two, a richer order that does not pay, a pass that finds the lower
+    # ratio, a pass that finds nothing more
+    assert len(tried) == len(fits) == 2 + 1 + 2 + 2
+    assert {t[0] for t in tried[3:5]} == {lower, round(-np.log(1.25), 6)}
+    # a grid alone is not polished (its misfit is the stage's), nor a fit at the noise
+    tried.clear()
+    assert _best(magnetfit, None)[0].cost == 1.5 * n / 2 and len(tried) == 2
     tried.clear()
     costs[0.0] = 0.9 * n / 2
-    assert _best(magnetfit, None)[0].cost == 0.9 * n / 2 and len(tried) == 2
+    assert _best(magnetfit, swept)[0].cost == 0.9 * n / 2 and len(tried) == 2
     # a gain below POLISH_GAIN in chi2 is not taken
     costs[0.0] = 1.5 * n / 2
     costs[lower] = 1.5 * n / 2 - 0.25
-    assert _best(magnetfit, None)[0].cost == 1.5 * n / 2
+    assert _best(magnetfit, swept)[0].cost == 1.5 * n / 2
     # nor one whose stage offset sits at its bound
     costs[lower] = 1.2 * n / 2
     at_bound = np.array([0.0, magnetfit.MAX_STAGE_OFFSET_MM])
     joint_fit, _ = _fake_joint_fit(lambda first, _orders: costs.get(first, 2.0 * n / 2),
                                    lambda first: at_bound if first == lower else np.zeros(2))
     monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
-    assert _best(magnetfit, None)[0].cost == 1.5 * n / 2
+    assert _best(magnetfit, swept)[0].cost == 1.5 * n / 2
 
 
 @pytest.mark.slow
