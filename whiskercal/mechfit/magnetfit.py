@@ -54,11 +54,11 @@ MAX_STAGE_OFFSET_MM = 0.1
 OFFSET_AT_BOUND = 0.99
 # a refinement whose offset sits at its bound this many iterations running is ended there
 BOUND_PATIENCE = 5
-# a chosen fit leaving a significant misfit with a tip sweep is refined again from its own mechanics with
-# k_θ·L/EI at these multiples (the ratio a grid pins least), the map fitted afresh, while that
-# lowers χ² by more than POLISH_GAIN, at most POLISH_PASSES times, each refinement on at most
-# POLISH_EVALUATIONS (a start this near a minimum reached it in 37 and 72 on the 4x stiffer
-# root's collected grid)
+# a chosen fit leaving a significant misfit with a tip sweep is refined again from its own
+# mechanics with k_θ·L/EI at these multiples (the ratio a grid pins least), the map fitted
+# afresh, while that lowers χ² by more than POLISH_GAIN, at most POLISH_PASSES times, each
+# refinement on at most POLISH_EVALUATIONS (a start this near a minimum reached it in 37 and 72
+# on the 4x stiffer root's collected grid)
 POLISH_FACTORS = (0.8, 1.25)
 POLISH_GAIN = 1.0
 POLISH_PASSES = 3
