@@ -183,9 +183,8 @@ def stage_offset_axes(sweep) -> tuple[int, ...]:
     0.01 mm moved the stiff root's fit (k_θ·L/EI 62.6) to 45-48, and its follower through
     collect and fit read 0.50 mm RMS against 0.34 with it, 0.30 polished (docs/calibration.md).
     Across the wire (y) always; along it (x) only with a tip sweep, whose contacts push along x
-    too: shaft contacts alone barely see it
-    (the recorded grids put it at -0.05 to -0.15 mm for -0.01, and the 110 mm grid's lookup 5x
-    further off)."""
+    too: shaft contacts alone barely see it (the recorded grids put it at -0.05 to -0.15 mm for
+    -0.01, and the 110 mm grid's lookup 5x further off)."""
     return (0, 1) if sweep is not None and np.any(sweep) else (1,)
 
 
