@@ -167,8 +167,18 @@ def _settled(fit, n: int) -> bool:
     inside the bounds: one at a bound is the fit making up with the stage for a suspension in
     the wrong basin (the thin 120 mm wire's seed 1 from the Y fit's start: x at +0.1 mm for the
     rig's -0.01, k_θ·L/EI 282 for the twin's 77, 1.45x the noise left on Y)."""
+    return not _unexplained(fit[0], n) and not _fit_at_bound(fit)
+
+
+def _fit_at_bound(fit) -> bool:
+    """Whether a joint refinement's (result, objective) stage offset reached its bound."""
     result, joint = fit
-    return not _unexplained(result, n) and not offset_at_bound(joint.stage_offset_mm(result.x))
+    return offset_at_bound(joint.stage_offset_mm(result.x))
+
+
+def _swept(sweep) -> bool:
+    """Whether the contacts include a tip sweep's."""
+    return sweep is not None and bool(np.any(sweep))
 
 
 def offset_at_bound(offset_mm) -> bool:
@@ -185,7 +195,7 @@ def stage_offset_axes(sweep) -> tuple[int, ...]:
     Across the wire (y) always; along it (x) only with a tip sweep, whose contacts push along x
     too: shaft contacts alone barely see it (the recorded grids put it at -0.05 to -0.15 mm for
     -0.01, and the 110 mm grid's lookup 5x further off)."""
-    return (0, 1) if sweep is not None and np.any(sweep) else (1,)
+    return (0, 1) if _swept(sweep) else (1,)
 
 
 def degrees_of_freedom(n: int, strengths: int, offsets: int) -> int:
@@ -278,8 +288,7 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     # alone a misfit may come from the stage's position error, which a richer map absorbs into
     # the suspension (the recorded default grid's table took a fifth order and biased the
     # contour runs by 0.011 mm)
-    while sweep is not None and np.any(sweep) and max(best[1].orders) < MAX_ORDER \
-            and _misfit_left(best, fields.size):
+    while _swept(sweep) and max(best[1].orders) < MAX_ORDER and _misfit_left(best, fields.size):
         richer = _one_order_more(best[1].orders)
         more = [_joint_fit(best[0].x[:best[1].solved_count], *args, richer, sweep)]
         if _unexplained(best[0], fields.size):
@@ -294,7 +303,7 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     # with a tip sweep only, as a richer order: on a grid alone the misfit left is the stage's
     # position error along the wire (not fitted there), which no refinement removes; polishing
     # the recorded default grid moved k_θ·L/EI from 15.84 to 15.89 (twin 15.6) for a minute
-    if sweep is not None and np.any(sweep) and _misfit_left(best, fields.size):
+    if _swept(sweep) and _misfit_left(best, fields.size):
         best, polished = _polished(best, args, sweep)
         fits += polished
     return best[0], best[1], fits
@@ -323,7 +332,7 @@ def _polished(best, args, sweep):
             start[0] -= np.log(factor)  # log rotational compliance = -log k_θ·L/EI
             tries.append(_joint_fit(start, *args, joint.orders, sweep, POLISH_EVALUATIONS))
         fits += tries
-        kept = [f for f in tries if not offset_at_bound(f[1].stage_offset_mm(f[0].x))]
+        kept = [f for f in tries if not _fit_at_bound(f)]
         candidate = min(kept, key=lambda f: f[0].cost, default=None)
         if candidate is None or 2.0 * (result.cost - candidate[0].cost) <= POLISH_GAIN:
             break
