@@ -34,7 +34,7 @@ from whiskercal.collect.config import (DEFAULT_CONFIG_PATH, SweepConfig, config_
 from whiskercal.collect.plan import lattice_points, visiting_order
 from whiskercal.collect.sweep import sweep_points
 from whiskercal.errors import WhiskercalError
-from whiskercal.mechfit.fit import fit_mechanics
+from whiskercal.mechfit.fit import MechanicsFit, fit_mechanics
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.forward import Suspension
 from whiskercal.mechfit.table_error import HELD_SAMPLES
@@ -191,6 +191,24 @@ def truth_tip_curve(sensor: SensorParams) -> tuple[np.ndarray, np.ndarray]:
 
 def pose_fields_of_poses(sensor: SensorParams, poses: np.ndarray) -> np.ndarray:
     return (field_uT(sensor.magnet, poses[:, 0], poses[:, 1:]) - static_fields(sensor))[:, 1:]
+
+
+class TwinPoseMap:
+    """The twin's own (Y, Z) µT from rest of root poses, in a fitted pose map's place."""
+
+    coefficients = np.zeros((1, 2))  # two field axes, Y and Z, as ``mechfit.tables`` checks
+
+    def __init__(self, sensor: SensorParams):
+        self.sensor = sensor
+
+    def __call__(self, pose: np.ndarray) -> np.ndarray:
+        return pose_fields_of_poses(self.sensor, np.atleast_2d(pose))
+
+
+def perfect_fit(sensor: SensorParams, fit: MechanicsFit) -> MechanicsFit:
+    """``fit`` with the twin's own suspension and field: the calibration no fit can improve on,
+    whose table's error on noisy readings is the noise's alone (for checks only)."""
+    return replace(fit, suspension=true_suspension(sensor), pose_map=TwinPoseMap(sensor))
 
 
 def plane_conditions():

@@ -22,6 +22,7 @@ import numpy as np
 from whiskercal.artifacts.raw_grid import baseline_y_at
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.branch_surface import followed_tip_error_mm, load_branches
+from whiskercal.mechfit.fit import MechanicsFit
 from whiskercal.mechfit.joint_lookup import JointLookup, joint_z_lookup
 from whiskercal.mechfit.magnetfit import (MAX_STAGE_OFFSET_MM, fit_mechanics_magnet,
                                           offset_at_bound)
@@ -65,6 +66,8 @@ class FieldTableFit:
     # the loads the runtime follows through a contact where the table is withheld because one
     # reading fits loads far apart (``followed_branches``), for the artifact; None otherwise
     branches: dict[str, np.ndarray] | None = None
+    # the joint fit the table came from (None when none was made): for checks against a truth
+    mechanics: MechanicsFit | None = None
 
 
 @dataclass(frozen=True)
@@ -222,7 +225,7 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     if branches is not None:
         top.update(_branch_summary(metrics["load_branches"]))
     return FieldTableFit(arrays if write else None, top, warnings, table, lookup,
-                         branches.get("arrays") if branches else None)
+                         branches.get("arrays") if branches else None, fit)
 
 
 def followed_branches(fit, y_range, sample_noise_uT, verdict: list[str]) -> tuple[dict, list]:
