@@ -206,8 +206,9 @@ class TwinPoseMap:
 
 
 def perfect_fit(sensor: SensorParams, fit: MechanicsFit) -> MechanicsFit:
-    """``fit`` with the twin's own suspension and field: the calibration no fit can improve on,
-    whose table's error on noisy readings is the noise's alone (for checks only)."""
+    """``fit`` with the twin's own suspension and field, its loads' envelope kept: a perfect
+    calibration, whose table's error on noisy readings is the noise's and the table's own, not
+    the fit's (for checks only)."""
     return replace(fit, suspension=true_suspension(sensor), pose_map=TwinPoseMap(sensor))
 
 
