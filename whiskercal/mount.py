@@ -1,0 +1,91 @@
+"""Where the sensor sits on the robot: the sensor's base frame in the end-effector frame.
+
+A mount file is TOML with one ``[mount]`` table::
+
+    [mount]
+    x_mm = 12.0     # the base frame's origin along the end effector's x axis, mm
+    y_mm = -3.5     # ... along its y axis, mm
+    yaw_deg = 90.0  # the base frame's x axis (the undeflected whisker) from the end effector's x, deg
+
+The end effector's pose in the world is (x mm, y mm, heading rad); the sensor's base frame
+(the whisker frame of docs/architecture.md) is that pose composed with the mount. A point the
+runtime gives in the base frame reaches the world through :meth:`Mount.to_world`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from whiskercal import checks
+from whiskercal.errors import UsageError
+from whiskercal.tomlconfig import read_toml
+
+MOUNT_KEYS = ("x_mm", "y_mm", "yaw_deg")
+MAX_OFFSET_MM = 2000.0
+"""A mount farther than this from the end effector is a unit error (metres read as mm), not a
+mount."""
+
+
+@dataclass(frozen=True)
+class Mount:
+    """The sensor's base frame in the end-effector frame: offset (mm) and yaw (deg)."""
+
+    x_mm: float = 0.0
+    y_mm: float = 0.0
+    yaw_deg: float = 0.0
+
+    def base_pose(self, effector_pose) -> np.ndarray:
+        """The base frame's world pose(s), (..., 3) as (x mm, y mm, heading rad), from the end
+        effector's world pose(s) of the same shape."""
+        pose = np.asarray(effector_pose, dtype=float)
+        heading = pose[..., 2]
+        cos, sin = np.cos(heading), np.sin(heading)
+        x = pose[..., 0] + cos * self.x_mm - sin * self.y_mm
+        y = pose[..., 1] + sin * self.x_mm + cos * self.y_mm
+        return np.stack([x, y, heading + math.radians(self.yaw_deg)], axis=-1)
+
+    def to_world(self, effector_pose, points_mm) -> np.ndarray:
+        """Points (..., 2) in the sensor's base frame, mm, to the world frame, each with the end
+        effector's pose (..., 3) at its sample."""
+        return base_to_world(self.base_pose(effector_pose), points_mm)
+
+
+def base_to_world(base_pose, points_mm) -> np.ndarray:
+    """Points (..., 2) in a base frame whose world pose is ``base_pose`` (..., 3), to the world."""
+    base = np.asarray(base_pose, dtype=float)
+    points = np.asarray(points_mm, dtype=float)
+    cos, sin = np.cos(base[..., 2]), np.sin(base[..., 2])
+    x = base[..., 0] + cos * points[..., 0] - sin * points[..., 1]
+    y = base[..., 1] + sin * points[..., 0] + cos * points[..., 1]
+    return np.stack([x, y], axis=-1)
+
+
+def read_mount(path: str | Path) -> Mount:
+    """The ``[mount]`` table of a TOML file; a missing table, an unknown key or a value that is
+    not a finite number within :data:`MAX_OFFSET_MM` (or ±360°) is one error naming the key."""
+    data = read_toml(path)
+    table = data.get("mount")
+    if not isinstance(table, dict):
+        raise UsageError(f"{path}: no [mount] table (keys {', '.join(MOUNT_KEYS)})")
+    unknown = sorted(set(table) - set(MOUNT_KEYS))
+    if unknown:
+        raise UsageError(f"{path}: [mount] has unknown key {unknown[0]!r} (known: {', '.join(MOUNT_KEYS)})")
+    values = {}
+    for key in MOUNT_KEYS:
+        value = table.get(key, 0.0)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise UsageError(f"{path}: [mount] {key} must be a number, not {value!r}")
+        limit = 360.0 if key == "yaw_deg" else MAX_OFFSET_MM
+        values[key] = checks.number(value, f"{path}: [mount] {key}", low=-limit, high=limit)
+    return Mount(**values)
+
+
+def write_mount(path: str | Path, mount: Mount, comment: str = "") -> None:
+    """Write ``mount`` as a mount file (the format :func:`read_mount` reads)."""
+    lines = [f"# {line}" for line in comment.splitlines()] + ["[mount]"]
+    lines += [f"{key} = {getattr(mount, key)!r}" for key in MOUNT_KEYS]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
