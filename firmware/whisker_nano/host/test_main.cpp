@@ -210,6 +210,30 @@ TEST(settings_are_refused_while_streaming) {
     CHECK_STR(send(s, r, "GAIN 3"), "OK");
 }
 
+// A host's STOP arrives one byte at a time while the board streams at 300 Hz (115200 baud: one
+// byte every 87 us, the loop polling in between): the line must be read whole and answered.
+TEST(stop_is_answered_while_streaming) {
+    reset_board();
+    sampler_state s; command_reader r;
+    sampler_init(s); command_reader_init(r);
+    CHECK_STR(send(s, r, "START"), "OK");
+    run_for(s, 500000UL, 7);
+    board.tx.clear();
+    for (const char* c = "STOP\n"; *c; ++c) {
+        run_for(s, 87, 7);
+        command_receive(r, *c, s, board.now_us);
+    }
+    run_for(s, 100000UL, 7);
+    int bad = 0;
+    std::vector<decoded_frame> frames = decode_all(board.tx, &bad);
+    CHECK_EQ(bad, 0);
+    CHECK(!frames.empty());
+    const decoded_frame& last = frames.back();
+    CHECK_EQ(last.type, FRAME_TYPE_TEXT);
+    CHECK(std::string(last.payload.begin(), last.payload.end()) == "OK");
+    CHECK(frames.size() <= 3);  // at most the samples already under way, then the answer
+}
+
 static std::vector<decoded_frame> stream(sampler_state& s, uint32_t duration_us, int* bad) {
     board.tx.clear();
     sampler_start(s, board.now_us);

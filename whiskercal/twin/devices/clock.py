@@ -8,6 +8,7 @@ fast as the CPU allows.
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -39,11 +40,23 @@ class SimClock:
         if delay > 0:
             time.sleep(delay)
 
-    def paced_now_s(self) -> float:
-        """Where simulated time should be now by the wall clock (paced mode only)."""
+    def paced_now_s(self, max_step_s: float = math.inf) -> float:
+        """Where simulated time should be now by the wall clock (paced mode only), at most
+        ``max_step_s`` ahead of ``now_s``.
+
+        A simulation slower than real time (an emulated board on a busy CPU) would otherwise be
+        asked for ever longer spans, each taking longer than the last to compute, and bytes from
+        the host would wait for the whole span: time would run away from the host. Past the
+        bound the clock gives up the lag instead of catching up, so simulated time runs slower
+        than the wall while the CPU cannot keep up, and every span stays short.
+        """
         if self._wall_start is None:
             self._wall_start = time.monotonic() - self.now_s / self.speed
-        return (time.monotonic() - self._wall_start) * self.speed
+        target = (time.monotonic() - self._wall_start) * self.speed
+        if target - self.now_s > max_step_s:
+            self._wall_start += (target - self.now_s - max_step_s) / self.speed
+            target = self.now_s + max_step_s
+        return target
 
 
 @dataclass

@@ -29,6 +29,9 @@ from whiskercal.twin.world import World, create_world, get_world
 
 RECEIVE_BUFFER_BYTES = 4096
 _MIN_STEP_S = 1e-7
+# The longest span (in wall seconds at the bridge's speed) one pump of a paced bridge simulates:
+# host bytes wait at most this long for the boards, however slow the simulation runs.
+PACED_STEP_WALL_S = 0.02
 _WORLD_OPTIONS = ("scene", "rod_radius", "seed", "stock", "homing", "origin", "corrupt", "drop", "speed", "sensor",
                   "backlash", "drift_ppm", "fault", "firmware")
 _STAGE_FAULTS = {"missed_steps": "missed_steps_at_s", "stall": "stall_at_s",
@@ -305,7 +308,7 @@ class PtyBridge:
         masters = [self._ends[kind][0] for kind, _ in self._boards()]
         readable, _, _ = select.select(masters, [], [], wait_s)
         with self.world.lock:
-            self.world.advance_to(self.world.clock.paced_now_s())
+            self.world.advance_to(self.world.clock.paced_now_s(max_step_s=PACED_STEP_WALL_S * self.world.clock.speed))
             now = self.world.now_s
             for kind, board in self._boards():
                 master = self._ends[kind][0]
