@@ -1,5 +1,6 @@
 # whiskercal: `make demo` runs the calibration pipeline on the digital twin, `make test` the tests.
-# Both create the virtual environment (.venv) on first use, with the tested versions (LOCK).
+# `make test-all` the whole suite. Each creates the virtual environment (.venv) on first use,
+# with the tested versions (LOCK).
 
 PYTHON ?= python3
 VENV ?= .venv
@@ -10,7 +11,7 @@ OUT ?= out/demo
 LOCK ?= requirements.lock
 LATEST_VENV ?= .venv-latest
 
-.PHONY: setup test test-latest lock demo bench firmware firmware-deps clean
+.PHONY: setup test test-all test-latest lock demo bench firmware firmware-deps clean
 
 setup: $(INSTALLED)
 
@@ -20,10 +21,17 @@ $(INSTALLED): pyproject.toml $(LOCK)
 	$(PY) -m pip install --quiet -c $(LOCK) -e '.[dev]'
 	touch $@
 
-# worksteal: an idle worker takes queued tests from a busy one (a few tests are minute-long
-# fits); two runs with it took 888 and 970 s, one without 990 s: no gain shown beyond the spread
+# The fast tier (what a contributor runs many times a day): every test not marked slow, with
+# line coverage of whiskercal/ against the floor in pyproject.toml ([tool.coverage.report]).
+# worksteal: an idle worker takes queued tests from a busy one.
+PYTEST := $(PY) -m pytest -n 2 --dist worksteal -q
 test: $(INSTALLED)
-	$(PY) -m pytest -n 2 --dist worksteal -q
+	$(PYTEST) -m "not slow" --cov=whiskercal --cov-report=
+
+# Everything: the slow family fits, the emulated firmware, the studies, the docs site, grbl when
+# WHISKERCAL_GRBL_SRC names its source. .ci/run runs this, so what lands is checked whole.
+test-all: $(INSTALLED)
+	$(PYTEST) --cov=whiskercal --cov-report=
 
 # The suite against the newest versions pyproject.toml allows, in a venv of their own (no lock).
 test-latest:
@@ -31,7 +39,7 @@ test-latest:
 	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e '.[dev]'
 	$(LATEST_VENV)/bin/python -m pip freeze --exclude-editable
-	$(LATEST_VENV)/bin/python -m pytest -n 2 --dist worksteal -q
+	$(LATEST_VENV)/bin/python -m pytest -n 2 --dist worksteal -q -p no:cov
 
 # Write LOCK from the packages installed in VENV: after `make test-latest` passed,
 # `make lock VENV=.venv-latest` makes the newest versions the tested ones.

@@ -17,6 +17,7 @@ from whiskercal.mechfit.identify import (PLAUSIBLE_DELTA_CHI2, ProfilePoint, cal
                                          profile_estimate, tip_change_mm)
 from whiskercal.model.lookup import TipLookup
 from whiskercal.twin.params import DEFAULT_SENSOR
+from goals import TIP_CURVE_MAX_MM, TIP_CURVE_RMSE_MM, within
 
 THIN = next(s for s in FAMILY if s.sensor_id == "thin-120x0.15")
 
@@ -55,7 +56,8 @@ def test_on_the_default_sensor_the_estimate_is_small_and_above_the_true_error():
                                 DEFAULT_SENSOR.whisker.reach_mm, 1.0)
     true_rms = _true_rms(DEFAULT_SENSOR, model.lookup, grid)
     assert true_rms <= 0.15
-    assert true_rms <= model.estimated_tip_error_mm <= 0.25
+    assert true_rms <= model.estimated_tip_error_mm
+    assert within(model.estimated_tip_error_mm, TIP_CURVE_RMSE_MM)
     assert model.chi2_per_dof < 2.0
 
 
@@ -90,5 +92,6 @@ def test_where_the_level_set_cannot_be_traced_an_identified_mechanics_ships_and_
     assert "refused" not in row and row["tip_model"] == "mechanics"
     assert row["warnings"][0].startswith("the level set cannot be traced")
     # against the twin's truth: within the goal, and the estimate finite
-    assert row["tip_curve"]["rmse_mm"] <= 0.25 and row["tip_curve"]["max_mm"] <= 0.5
+    assert within(row["tip_curve"]["rmse_mm"], TIP_CURVE_RMSE_MM)
+    assert within(row["tip_curve"]["max_mm"], TIP_CURVE_MAX_MM)
     assert math.isfinite(row["estimated_tip_error_mm"])

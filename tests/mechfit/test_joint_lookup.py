@@ -15,6 +15,7 @@ from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, ROD_RADIUS_MM, look
 from whiskercal.mechfit.joint_lookup import joint_z_lookup
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.tables import interpolation_error_mm
+from goals import TIP_CURVE_MAX_MM, TIP_CURVE_RMSE_MM, within
 
 
 @pytest.mark.slow
@@ -31,7 +32,7 @@ def test_the_thin_wires_joint_lookup_meets_the_goal_within_its_estimate():
                            swept)
     truth = lookup_errors(joint.lookup, *truth_tip_curve(sensor), y_range)
     assert truth["coverage"] >= 0.95
-    assert truth["rmse_mm"] <= 0.25 and truth["max_mm"] <= 0.5  # the family goal
+    assert within(truth["rmse_mm"], TIP_CURVE_RMSE_MM) and within(truth["max_mm"], TIP_CURVE_MAX_MM)
     assert truth["rmse_mm"] <= joint.estimated_tip_error_mm < math.inf
     assert joint.estimated_tip_error_mm == pytest.approx(math.hypot(
         max(joint.local_mm, joint.profile_mm), interpolation_error_mm(fit, joint.lookup)))

@@ -30,6 +30,7 @@ from whiskercal.model.calibrate import contact_mask
 from whiskercal.twin import truth
 from whiskercal.twin.params import DEFAULT_SENSOR
 from whiskercal.twin.physics.whisker import WhiskerParams
+from goals import DEFAULT_SENSOR_RMSE_MM, TIP_CURVE_MAX_MM, TIP_CURVE_RMSE_MM, within
 
 
 DATA = Path(__file__).resolve().parents[2] / "data"
@@ -109,7 +110,7 @@ def _tip_curve_error(sensor):
 def test_the_default_sensor_meets_its_tip_goal():
     error, coverage, fit = _tip_curve_error(DEFAULT_SENSOR)
     assert coverage == 1.0
-    assert error["rmse_mm"] <= 0.15 and error["max_mm"] <= 0.5
+    assert within(error["rmse_mm"], DEFAULT_SENSOR_RMSE_MM) and within(error["max_mm"], TIP_CURVE_MAX_MM)
     # the residual sits at the reading noise (1 µT), so nothing is left unexplained
     assert fit.rms_uT[0] < 1.1 * NOISE_UT[0]
 
@@ -119,7 +120,7 @@ def test_a_build_with_a_four_times_stiffer_root_meets_the_family_goal():
     stiff = next(s for s in FAMILY if s.sensor_id == "default-stiff-root")
     error, coverage, _ = _tip_curve_error(stiff)
     assert coverage == 1.0
-    assert error["rmse_mm"] <= 0.25 and error["max_mm"] <= 0.5
+    assert within(error["rmse_mm"], TIP_CURVE_RMSE_MM) and within(error["max_mm"], TIP_CURVE_MAX_MM)
 
 
 @pytest.mark.parametrize("theta", [(-3.0, -8.0, -1000.0), (-3.0, -8.0, 1000.0),

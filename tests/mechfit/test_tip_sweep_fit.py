@@ -18,6 +18,7 @@ from whiskercal.mechfit.fit import _Objective
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
 from whiskercal.mechfit.identify import _Problem, calibrate_mechanics
 from whiskercal.twin.params import DEFAULT_SENSOR
+from goals import TIP_CURVE_MAX_MM, TIP_CURVE_RMSE_MM, within
 
 # the default build's tip sweep point at -20 deg on the trace length: a tip contact
 AT_TIP = 78.0 * np.array([[math.cos(math.radians(-20.0)), math.sin(math.radians(-20.0))]])
@@ -59,7 +60,7 @@ def test_the_sweep_pins_down_a_build_its_grid_does_not():
     z_true, tips_true = truth_tip_curve(sensor)
     inside = (z_true >= model.lookup.z_min_uT) & (z_true <= model.lookup.z_max_uT)
     error = tip_error_mm(model.lookup(z_true[inside]), tips_true[inside])
-    assert error["rmse_mm"] <= 0.25 and error["max_mm"] <= 0.5
+    assert within(error["rmse_mm"], TIP_CURVE_RMSE_MM) and within(error["max_mm"], TIP_CURVE_MAX_MM)
     assert model.sweep_points == mask.sum() >= 10
     assert math.isfinite(model.estimated_tip_error_mm)
 
@@ -81,6 +82,7 @@ def test_a_root_that_shifts_across_most_of_the_gap_is_fitted_and_ships_with_the_
     sensor = next(s for s in sensor_family.FAMILY if s.sensor_id == "stiff-wire-60x0.40")
     row = sensor_family.measure(sensor, tip_sweep=True)
     assert row["tip_model"] == "mechanics" and not row["warned"]
-    assert row["tip_curve"]["rmse_mm"] <= 0.25 and row["tip_curve"]["max_mm"] <= 0.5
+    assert within(row["tip_curve"]["rmse_mm"], TIP_CURVE_RMSE_MM)
+    assert within(row["tip_curve"]["max_mm"], TIP_CURVE_MAX_MM)
     assert row["tip_curve"]["coverage"] == 1.0
-    assert row["estimated_tip_error_mm"] <= 0.25
+    assert within(row["estimated_tip_error_mm"], TIP_CURVE_RMSE_MM)
