@@ -36,6 +36,10 @@ def _bag_errors() -> tuple[type[BaseException], ...]:
             IndexError, OSError, AssertionError)
 
 
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split())[:300]
+
+
 @contextlib.contextmanager
 def open_bag(path: str | Path):
     """An open ``rosbags`` AnyReader over the bag at ``path``; any failure of the bag itself is
@@ -50,11 +54,12 @@ def open_bag(path: str | Path):
         reader = AnyReader([target], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except errors as error:
-        raise UsageError(f"{path}: not a readable bag ({error})") from None
+        raise UsageError(f"{path}: not a readable bag ({_one_line(error)})") from None
     try:
         yield reader
     except errors as error:
-        raise UsageError(f"{path}: a message of the bag cannot be read ({error})") from None
+        raise UsageError(f"{path}: a message of the bag cannot be read "
+                         f"({_one_line(error)})") from None
     finally:
         reader.close()
 
@@ -125,11 +130,13 @@ def read_bag(path: str | Path, field_topic: str | None = None,
 
 def read_bag_poses(path: str | Path, topic: str | None = None,
                    frames: tuple[str, str] | None = None) -> Poses:
-    """Poses from ``topic`` (or the bag's one pose topic); a TFMessage topic needs ``frames``
-    (parent, child)."""
+    """Poses from ``topic`` (or the bag's one pose topic; with ``frames``, its one transform
+    tree); a TFMessage topic needs ``frames`` (parent, child)."""
     path = Path(path)
     with open_bag(path) as reader:
-        connections = _connections(reader, path, topic, POSE_TYPES, "poses", "--poses TOPIC")
+        # found by type: a transform tree when frames are named, else a pose topic
+        types = POSE_TYPES[3:] if frames else POSE_TYPES[:3]
+        connections = _connections(reader, path, topic, types, "poses", "--poses TOPIC")
         rows = []
         for connection, bag_ns, raw in reader.messages(connections=connections):
             message = reader.deserialize(raw, connection.msgtype)

@@ -53,6 +53,12 @@ def _messages(typestore, series: Series):
         yield ns, _message(types, series.kind, header, row)
 
 
+def _tagged(typestore, series: Series, connection):
+    """(stamp ns, connection, message type, message) for every finite row of ``series``."""
+    for ns, message in _messages(typestore, series):
+        yield ns, connection, MESSAGE_TYPES[series.kind], message
+
+
 def _message(types, kind: str, header, row: np.ndarray):
     point = types["geometry_msgs/msg/Point"]
     if kind == "field":
@@ -89,8 +95,7 @@ def write_bag(path: str | Path, series: list[Series], replace: bool = False) -> 
             for one in series:  # in time order across topics, as a recorder receives them
                 connection = writer.add_connection(one.topic, MESSAGE_TYPES[one.kind],
                                                    typestore=typestore)
-                streams.append(((ns, connection, MESSAGE_TYPES[one.kind], message)
-                                for ns, message in _messages(typestore, one)))
+                streams.append(_tagged(typestore, one, connection))
             for ns, connection, msgtype, message in heapq.merge(*streams, key=lambda m: m[0]):
                 writer.write(connection, ns, typestore.serialize_cdr(message, msgtype))
         _move_into_place(scratch, path)

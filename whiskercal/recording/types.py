@@ -134,6 +134,6 @@ def check_rate(t_s: np.ndarray, sensor_rate_hz: float, source: str, time_hint: s
     if not sensor_rate_hz / RATE_FACTOR <= rate <= sensor_rate_hz * RATE_FACTOR:
         span = float(t_s[-1] - t_s[0])
         raise UsageError(f"{source}: {len(t_s)} samples over {span:.6g} s is {rate:.4g} Hz, "
-                         f"the sensor samples at {sensor_rate_hz:g} Hz: the time unit is wrong"
-                         f"{time_hint} (or give the sensor's rate with --rate-hz)")
+                         f"the sensor samples at {sensor_rate_hz:g} Hz (--rate-hz): the time "
+                         f"is in another unit{time_hint}")
     return rate

@@ -157,7 +157,7 @@ def _read_stream(log: str, settings: dict):
                          settings["time_unit"])
     stream = read_stream(log, options=RecordingOptions(table, settings["field_topic"],
                                                        settings["field_unit"]))
-    check_rate(stream.t_s, rate_hz, stream.source, " (choose --time-unit for a table)")
+    check_rate(stream.t_s, rate_hz, stream.source, " (a table's --time-unit)")
     return stream
 
 
