@@ -22,8 +22,8 @@ from whiskercal.errors import UsageError
 from whiskercal.recording.types import FIELD_UNITS, Poses, Recording
 
 STAMPS = (("header.stamp.secs", "header.stamp.nsecs"), ("header.stamp.sec", "header.stamp.nanosec"))
-FIELD_KEYS = {"magnetic_field.": ("T", "sensor_msgs/MagneticField"),
-              "magnetic_": ("uT", "magnetic_x/y/z fields")}
+FIELD_KEYS = {"magnetic_field.": ("T", "sensor_msgs/MagneticField messages"),
+              "magnetic_": ("uT", "messages with magnetic_x/y/z")}
 POSE_KEYS = (("pose.pose.position.", "pose.pose.orientation."),
              ("pose.position.", "pose.orientation."),
              ("transform.translation.", "transform.rotation."))
