@@ -98,7 +98,7 @@ def read_echo(path: str | Path, field_unit: str | None = None) -> Recording:
     values = np.array([[_number(d, f"{prefix}{a}", path, k) for a in axes]
                        for k, d in enumerate(docs)]) * scale
     t_s = _times(docs, path)
-    source = f"{path} ({len(docs)} {kind} messages, field in {unit})"
+    source = f"{path} ({len(docs)} {kind}, field in {unit})"
     if "z" not in axes:
         return Recording(t_s, values[:, axes.index("y")], source)
     x = values[:, 0] if "x" in axes else np.full(len(docs), np.nan)
