@@ -160,3 +160,54 @@ def test_lying_time_columns_and_non_files_are_refused_in_one_line(tmp_path):
     result = _run("replay", good, "--artifact", fifo, "--out", tmp_path / "out")
     assert result.exit_code == 2 and "artifact must be a regular file" in result.output
     assert not (tmp_path / "out").exists()
+
+
+def _robot_bag(path, t, reading, pose_t):
+    """A robot's recorder: the field (tesla) and a transform tree with world -> ee."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    types = store.types
+
+    def header(seconds, frame):
+        ns = int(round((1_700_000_000.0 + seconds) * 1e9))
+        return types["std_msgs/msg/Header"](types["builtin_interfaces/msg/Time"](
+            ns // 10**9, ns % 10**9), frame)
+
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        mag = writer.add_connection("/mag", "sensor_msgs/msg/MagneticField", typestore=store)
+        tf = writer.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=store)
+        for seconds, y in zip(t, reading):
+            message = types["sensor_msgs/msg/MagneticField"](header(seconds, "mag"), types[
+                "geometry_msgs/msg/Vector3"](-9e-3, y * 1e-6, 1.6e-2), np.zeros(9))
+            writer.write(mag, int(seconds * 1e9), store.serialize_cdr(
+                message, "sensor_msgs/msg/MagneticField"))
+        for seconds, (x, y, heading) in zip(pose_t, _effector(pose_t)):
+            transform = types["geometry_msgs/msg/TransformStamped"](header(seconds, "world"), "ee", types[
+                "geometry_msgs/msg/Transform"](types["geometry_msgs/msg/Vector3"](x / 1e3, y / 1e3, 0.0),
+                                               types["geometry_msgs/msg/Quaternion"](
+                                                   0.0, 0.0, math.sin(heading / 2), math.cos(heading / 2))))
+            writer.write(tf, int(seconds * 1e9), store.serialize_cdr(
+                types["tf2_msgs/msg/TFMessage"]([transform]), "tf2_msgs/msg/TFMessage"))
+    return path
+
+
+def test_a_robots_bag_with_a_transform_tree_and_a_mount(tmp_path):
+    t, reading = _stream(900)
+    bag = _robot_bag(tmp_path / "robot", t, reading, np.arange(0.0, t[-1] + 0.02, 0.02))
+    write_mount(tmp_path / "mount.toml", MOUNT)
+    result = _run("replay", bag, "--artifact", ARTIFACT, "--out", tmp_path / "out", "--rest-uT",
+                  REST_UT, "--poses", "/tf", "--pose-frames", "world,ee", "--mount",
+                  tmp_path / "mount.toml", "--json")
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary["axes"] == 3 and summary["world"]["samples_without_pose"] == 0
+    track = read_track(tmp_path / "out" / "track.h5").columns
+    tip = np.column_stack([track["filtered_x_mm"], track["filtered_y_mm"]])
+    has_tip = np.isfinite(tip[:, 0])
+    assert np.count_nonzero(has_tip) > 300
+    expected = MOUNT.to_world(_effector(track["t_s"] - 1_700_000_000.0), tip)
+    world = np.column_stack([track["world_x_mm"], track["world_y_mm"]])
+    # epoch stamps resolve 0.24 µs as float64: the pose moves 10 mm/s, so 1e-5 mm is ample
+    np.testing.assert_allclose(world[has_tip], expected[has_tip], atol=1e-4)
