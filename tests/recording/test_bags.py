@@ -133,6 +133,10 @@ def test_bags_and_topics_that_cannot_be_used_get_one_line(tmp_path):
     wrong = _robot_bag(tmp_path / "wrong", field_scale=1.0)  # µT numbers in a tesla message
     with pytest.raises(UsageError, match="implausibly large.*µT written as tesla"):
         read_recording(wrong)
+    storage = wrong / "wrong.mcap"
+    storage.write_bytes(storage.read_bytes()[:-100])  # a recorder killed before closing its file
+    with pytest.raises(UsageError, match="ends short.*mcap recover"):
+        read_recording(wrong)
     (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: [not, a, mapping\n")
     with pytest.raises(UsageError, match="not a readable bag") as raised:
         read_recording(bag)

@@ -54,7 +54,9 @@ def open_bag(path: str | Path):
         reader = AnyReader([target], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except errors as error:
-        raise UsageError(f"{path}: not a readable bag ({_one_line(error)})") from None
+        short = ("; the MCAP file ends short (its recorder stopped before closing it): "
+                 "`mcap recover` rebuilds it") if "end magic" in str(error) else ""
+        raise UsageError(f"{path}: not a readable bag ({_one_line(error)}){short}") from None
     try:
         yield reader
     except errors as error:
