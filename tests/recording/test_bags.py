@@ -115,9 +115,14 @@ def test_whiskercals_own_bag_round_trips(tmp_path):
     np.testing.assert_allclose(recording.field_uT, field, rtol=1e-12)
     np.testing.assert_allclose(recording.t_s, t, atol=1e-9)
     np.testing.assert_allclose(poses.pose, pose, atol=1e-9)
+    alone = tmp_path / "copied" / "alone.mcap"  # the MCAP file without its bag's metadata
+    alone.parent.mkdir()
+    alone.write_bytes((bag / "out.mcap").read_bytes())
+    np.testing.assert_array_equal(read_recording(alone).field_uT, recording.field_uT)
+    np.testing.assert_array_equal(read_poses("auto", alone).pose, poses.pose)
     with pytest.raises(UsageError, match="exists: choose another bag name"):
         write_bag(bag, [Series("/f", "field", t, field)])
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no partial bag left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["copied", "out"]  # no partial bag left
 
 
 def test_bags_and_topics_that_cannot_be_used_get_one_line(tmp_path):

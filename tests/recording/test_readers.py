@@ -120,5 +120,8 @@ def test_what_is_not_a_regular_file_is_refused_without_blocking(tmp_path):
         read_recording(tmp_path)
     bare = _write(tmp_path, "", "run.mcap")
     bare.write_bytes(b"\x89MCAP0\r\n" + bytes(64))
-    with pytest.raises(UsageError, match="without its bag's metadata.yaml"):
+    with pytest.raises(UsageError, match="run.mcap: not a readable bag"):
+        read_recording(bare)
+    bare.write_bytes(b"SQLite format 3\x00" + bytes(64))
+    with pytest.raises(UsageError, match="sqlite3 file without its bag's metadata.yaml"):
         read_recording(bare)

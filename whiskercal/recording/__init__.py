@@ -6,7 +6,8 @@
 
 Formats (told apart by their first bytes and names, :func:`files.kind_of`):
 
-- a ROS bag (``bag``): a rosbag2 folder (MCAP or sqlite3 storage) or a ROS 1 ``.bag`` file;
+- a ROS bag (``bag``): a rosbag2 folder (MCAP or sqlite3 storage), an MCAP file alone, or a
+  ROS 1 ``.bag`` file;
 - a ``rostopic echo`` / ``ros2 topic echo`` log (``echo``): YAML documents separated by ``---``;
 - a text table (``table``): CSV, TSV, ``;``- or space-separated, with a header or without;
 - a whiskercal HDF5 file (``hdf5``): a raw grid's or a plane study's stream.
@@ -48,7 +49,7 @@ def read_recording(path: str | Path, options: RecordingOptions = RecordingOption
     if options.field_unit is not None:
         field_scale(options.field_unit)
     kind = kind_of(path)
-    if options.field_topic is not None and kind not in ("bag1", "bag2"):
+    if options.field_topic is not None and kind not in ("bag1", "bag2", "mcap"):
         raise UsageError(f"{path}: --field-topic applies to a bag; this is a {kind} file")
     recording = _read(path, kind, options)
     check_times(recording.t_s, recording.source)
@@ -59,7 +60,7 @@ def read_recording(path: str | Path, options: RecordingOptions = RecordingOption
 
 
 def _read(path, kind: str, options: RecordingOptions) -> Recording:
-    if kind in ("bag1", "bag2"):
+    if kind in ("bag1", "bag2", "mcap"):
         from whiskercal.recording.bag import read_bag
 
         return read_bag(path, options.field_topic, options.field_unit)
@@ -85,7 +86,7 @@ def read_poses(spec: str, recording_path: str | Path | None = None,
     recording's bag's one pose topic), or a topic of the recording's bag."""
     if Path(spec).exists():
         return _poses_from_file(Path(spec), None, frames)
-    bag = recording_path is not None and kind_of(recording_path) in ("bag1", "bag2")
+    bag = recording_path is not None and kind_of(recording_path) in ("bag1", "bag2", "mcap")
     if not bag:
         raise UsageError(f"--poses {spec}: no such file (a topic names poses only in a bag)")
     return _poses_from_file(Path(recording_path), None if spec == "auto" else spec, frames)
@@ -93,7 +94,7 @@ def read_poses(spec: str, recording_path: str | Path | None = None,
 
 def _poses_from_file(path: Path, topic: str | None, frames) -> Poses:
     kind = kind_of(path)
-    if kind in ("bag1", "bag2"):
+    if kind in ("bag1", "bag2", "mcap"):
         from whiskercal.recording.bag import read_bag_poses
 
         return read_bag_poses(path, topic, frames)

@@ -12,13 +12,14 @@ header is zero). A bag without a usable topic is refused with the topics and typ
 from __future__ import annotations
 
 import contextlib
+import json
 import struct
 from pathlib import Path
 
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.recording.files import bag_folder, regular_file
+from whiskercal.recording.files import BAG_METADATA, bag_folder, regular_file
 from whiskercal.recording.frames import poses_from_arrays
 from whiskercal.recording.types import FIELD_UNITS, Poses, Recording
 
@@ -50,12 +51,16 @@ def open_bag(path: str | Path):
     path = Path(path)
     target = bag_folder(path) or regular_file(path, "the bag")
     errors = _bag_errors()
+    stack = contextlib.ExitStack()
     try:
+        if target.suffix != ".bag" and target.is_file():  # an MCAP file alone
+            target = stack.enter_context(_mcap_as_bag(target))
         reader = AnyReader([target], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except errors as error:
         short = ("; the MCAP file ends short (its recorder stopped before closing it): "
                  "`mcap recover` rebuilds it") if "end magic" in str(error) else ""
+        stack.close()
         raise UsageError(f"{path}: not a readable bag ({_one_line(error)}){short}") from None
     try:
         yield reader
@@ -64,6 +69,36 @@ def open_bag(path: str | Path):
                          f"({_one_line(error)})") from None
     finally:
         reader.close()
+        stack.close()
+
+
+@contextlib.contextmanager
+def _mcap_as_bag(path: Path):
+    """A temporary rosbag2 folder around an MCAP file alone (as Foxglove or the ``mcap`` tool
+    write it): a link to the file and the ``metadata.yaml`` its channels describe."""
+    import tempfile
+
+    from rosbags.rosbag2.storage_mcap import McapReader
+
+    storage = McapReader(path)
+    storage.open()
+    try:
+        topics = [{"topic_metadata": {"name": c.topic, "type": c.msgtype,
+                                      "serialization_format": "cdr", "offered_qos_profiles": []},
+                   "message_count": c.msgcount} for c in storage.connections]
+        meta = storage.metadata
+    finally:
+        storage.close()
+    with tempfile.TemporaryDirectory(prefix="whiskercal-mcap-") as folder:
+        (Path(folder) / path.name).symlink_to(path.resolve())
+        info = {"version": 9, "storage_identifier": "mcap", "relative_file_paths": [path.name],
+                "duration": {"nanoseconds": meta.duration},
+                "starting_time": {"nanoseconds_since_epoch": meta.start_time},
+                "message_count": meta.message_count, "topics_with_message_count": topics,
+                "compression_format": "", "compression_mode": ""}
+        (Path(folder) / BAG_METADATA).write_text(json.dumps(
+            {"rosbag2_bagfile_information": info}), encoding="utf-8")  # JSON is YAML
+        yield Path(folder)
 
 
 def topics_text(reader) -> str:

@@ -46,8 +46,9 @@ def bag_folder(path: str | Path) -> Path | None:
 
 
 def kind_of(path: str | Path) -> str:
-    """"bag2", "bag1", "hdf5", "echo" (``rostopic echo`` / ``ros2 topic echo`` YAML) or
-    "table"; a bare MCAP or SQLite file without its bag's metadata is refused."""
+    """"bag2", "bag1", "mcap" (an MCAP file alone, without a bag's metadata), "hdf5", "echo"
+    (``rostopic echo`` / ``ros2 topic echo`` YAML) or "table"; a bare sqlite3 storage file
+    without its bag's metadata is refused."""
     if bag_folder(path) is not None:
         return "bag2"
     path = regular_file(path)
@@ -57,8 +58,10 @@ def kind_of(path: str | Path) -> str:
         return "bag1"
     if head.startswith(HDF5_SIGNATURE):
         return "hdf5"
-    if head.startswith(MCAP_MAGIC) or head.startswith(SQLITE_MAGIC):
-        raise UsageError(f"{path}: a rosbag2 storage file without its bag's {BAG_METADATA}: give "
+    if head.startswith(MCAP_MAGIC):
+        return "mcap"
+    if head.startswith(SQLITE_MAGIC):
+        raise UsageError(f"{path}: a rosbag2 sqlite3 file without its bag's {BAG_METADATA}: give "
                          "the bag's folder (ros2 bag record writes both)")
     return "echo" if _looks_like_echo(head) else "table"
 
