@@ -107,6 +107,8 @@ def test_echo_poses_and_pose_tables(tmp_path):
     np.testing.assert_allclose(poses.pose[:, 2], [3.0, 3.1, 2 * np.pi - 3.1], atol=1e-12)
     table = read_poses(str(_write(tmp_path, "heading_rad,t_s,x_mm,y_mm\n0.5,0,1,2\n0.6,1,3,4\n")))
     np.testing.assert_array_equal(table.pose, [[1, 2, 0.5], [3, 4, 0.6]])
+    with pytest.raises(UsageError, match="lacks heading_rad"):
+        read_poses(str(_write(tmp_path, "t_s,x_mm,y_mm\n0,1,2\n", "p2.csv")))
 
 
 def test_what_is_not_a_regular_file_is_refused_without_blocking(tmp_path):

@@ -17,20 +17,24 @@ POSE_COLUMNS = ("t_s", "x_mm", "y_mm", "heading_rad")
 def read_pose_table(path: str | Path) -> Poses:
     """The poses of a table (mm, rad; the heading unwrapped)."""
     path = Path(path)
-    lines = table._data_lines(path)
+    lines = table.data_lines(path)
     if not lines:
         raise UsageError(f"{path}: the pose table is empty")
-    separator = table._delimiter(lines[0][1], None, path)
-    first = table._split(lines[0][1], separator)
-    if table._all_numbers(first):
+    separator = table.delimiter_of(lines[0][1], None, path)
+    first = table.split_line(lines[0][1], separator)
+    if table.all_numbers(first):
         names, body, indices = [f"column {k + 1}" for k in range(len(first))], lines, [0, 1, 2, 3]
         if len(first) != 4:
             raise UsageError(f"{path}: a pose table without a header has the columns "
                              f"{', '.join(POSE_COLUMNS)}; this one has {len(first)}")
     else:
         names, body = first, lines[1:]
-        indices = [table._column(names, name, (name,), "pose", path) for name in POSE_COLUMNS]
-    values = table._parse_rows(path, body, separator, names, indices)
+        missing = [name for name in POSE_COLUMNS if name not in {n.lower() for n in names}]
+        if missing:
+            raise UsageError(f"{path}: a pose table has the columns {', '.join(POSE_COLUMNS)}; "
+                             f"this one lacks {', '.join(missing)} (columns: {', '.join(names)})")
+        indices = [table.column_index(names, name, (name,), "pose", path) for name in POSE_COLUMNS]
+    values = table.parse_rows(path, body, separator, names, indices)
     check_times(values[:, 0], str(path))
     return Poses(values[:, 0].copy(), np.column_stack([values[:, 1:3], np.unwrap(values[:, 3])]),
                  f"{path} (pose table, mm and rad)")

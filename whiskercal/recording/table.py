@@ -53,18 +53,18 @@ def read_table(path: str | Path, options: TableOptions = TableOptions()) -> Reco
     if options.time_unit not in TIME_UNITS:
         raise UsageError(f"time unit must be one of {', '.join(TIME_UNITS)}, not "
                          f"{options.time_unit!r}")
-    lines = _data_lines(path)
+    lines = data_lines(path)
     if not lines:
         raise UsageError(f"{path}: no header line (the file is empty or only comments)")
-    separator = _delimiter(lines[0][1], options.delimiter, path)
-    first = _split(lines[0][1], separator)
-    if _all_numbers(first):
+    separator = delimiter_of(lines[0][1], options.delimiter, path)
+    first = split_line(lines[0][1], separator)
+    if all_numbers(first):
         names, body = _headerless(first, options, path), lines
         picked = picked_by_position(names, options.columns or DEFAULT_LAYOUTS[len(first)], path)[1]
     else:
         names, body = first, lines[1:]
         picked = _by_name(names, options, path)
-    values = _parse_rows(path, body, separator, names, [index for _, index in picked])
+    values = parse_rows(path, body, separator, names, [index for _, index in picked])
     return _recording(path, values, picked, names, options)
 
 
@@ -93,8 +93,8 @@ def picked_by_position(names: list[str], layout: str, path: Path):
 def _by_name(names: list[str], options: TableOptions, path: Path) -> list[tuple[str, int]]:
     if options.columns is not None:
         return picked_by_position(names, options.columns, path)[1]
-    picked = [("t", _column(names, options.time_column, TIME_COLUMNS, "time", path)),
-              ("y", _column(names, options.field_column, FIELD_COLUMNS, "field", path))]
+    picked = [("t", column_index(names, options.time_column, TIME_COLUMNS, "time", path)),
+              ("y", column_index(names, options.field_column, FIELD_COLUMNS, "field", path))]
     if (options.axial_column or "").lower() == "none":
         return picked
     axial = _optional_column(names, options.axial_column, AXIAL_COLUMNS, "axial", path)
@@ -117,7 +117,7 @@ def _recording(path: Path, values: np.ndarray, picked, names, options: TableOpti
     return Recording(t_s, field, source)
 
 
-def _data_lines(path: Path) -> list[tuple[int, str]]:
+def data_lines(path: Path) -> list[tuple[int, str]]:
     """Non-blank, non-comment lines with their 1-based line numbers."""
     try:
         text = path.read_text(encoding="utf-8-sig")
@@ -129,7 +129,7 @@ def _data_lines(path: Path) -> list[tuple[int, str]]:
             if line.strip() and not line.lstrip().startswith("#")]
 
 
-def _delimiter(header: str, chosen: str | None, path: Path) -> str:
+def delimiter_of(header: str, chosen: str | None, path: Path) -> str:
     if chosen is not None:
         separator = DELIMITERS.get(chosen, chosen)
         if len(separator) != 1:
@@ -145,13 +145,13 @@ def _delimiter(header: str, chosen: str | None, path: Path) -> str:
     return " "
 
 
-def _split(line: str, separator: str) -> list[str]:
+def split_line(line: str, separator: str) -> list[str]:
     if separator == " ":
         return line.split()
     return [cell.strip() for cell in next(csv.reader([line], delimiter=separator))]
 
 
-def _all_numbers(cells: list[str]) -> bool:
+def all_numbers(cells: list[str]) -> bool:
     try:
         [float(cell) for cell in cells]
     except ValueError:
@@ -163,10 +163,10 @@ def _optional_column(names: list[str], chosen: str | None, defaults: tuple[str, 
                      path: Path) -> int | None:
     if chosen is None and not any(name.lower() in {n.lower() for n in names} for name in defaults):
         return None
-    return _column(names, chosen, defaults, role, path)
+    return column_index(names, chosen, defaults, role, path)
 
 
-def _column(names: list[str], chosen: str | None, defaults: tuple[str, ...], role: str,
+def column_index(names: list[str], chosen: str | None, defaults: tuple[str, ...], role: str,
             path: Path) -> int:
     """The index of the chosen column, or of the first default the header has; a name the
     header holds twice is refused (which of them is the stream is not known)."""
@@ -186,7 +186,7 @@ def _column(names: list[str], chosen: str | None, defaults: tuple[str, ...], rol
                      f"with --{role}-column")
 
 
-def _parse_rows(path: Path, lines: list[tuple[int, str]], separator: str, names: list[str],
+def parse_rows(path: Path, lines: list[tuple[int, str]], separator: str, names: list[str],
                 indices: list[int]) -> np.ndarray:
     """The chosen cells as floats (rows, len(indices)); indices[0] is the time column."""
     if not lines:
@@ -194,7 +194,7 @@ def _parse_rows(path: Path, lines: list[tuple[int, str]], separator: str, names:
     values = np.empty((len(lines), len(indices)))
     previous_t = -math.inf
     for row, (number, line) in enumerate(lines):
-        cells = _split(line, separator)
+        cells = split_line(line, separator)
         if len(cells) != len(names):
             raise UsageError(f"{path}: line {number} has {len(cells)} fields, the header "
                              f"{len(names)}")
