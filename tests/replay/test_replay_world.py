@@ -86,6 +86,7 @@ def test_world_points_are_the_filtered_tip_through_pose_and_mount(world_replay):
     counted = summary["world"]["samples_without_pose"]
     assert np.count_nonzero(in_gap) <= counted <= np.count_nonzero(~posed)
     assert summary["world"]["world_points"] == np.count_nonzero(np.isfinite(world[:, 0]))
+    assert any("from every pose: no world point" in w for w in summary["warnings"])
 
 
 def test_the_track_file_the_plot_and_the_bag_hold_the_same(world_replay):

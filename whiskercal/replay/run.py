@@ -239,6 +239,11 @@ def _warnings(result: ReplayResult) -> list[str]:
         found.append(f"most contact samples have z > 0 while the calibrated range is "
                      f"[{low:.0f}, {high:.0f}] µT: the sensor may be mounted the other way round "
                      "(--sign -1) or the rest reading is wrong")
+    unplaced = result.world.get("contact_samples_without_pose", 0)
+    if unplaced > 0.1 * counts["contact_samples"]:
+        found.append(f"{unplaced} of {counts['contact_samples']} contact samples lay farther than "
+                     f"{result.world['max_pose_gap_ms']:g} ms from every pose: no world point "
+                     "(a gap in the poses, or clocks apart; --max-pose-gap-ms, --pose-latency-ms)")
     if counts["out_of_range"] > 0.1 * counts["contact_samples"]:
         found.append(f"{counts['out_of_range']} of {counts['contact_samples']} contact samples "
                      f"lay outside the calibrated range [{low:.0f}, {high:.0f}] µT "
