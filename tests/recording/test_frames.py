@@ -30,7 +30,7 @@ def test_samples_far_from_every_pose_get_none_and_latency_shifts():
     np.testing.assert_allclose(poses_at(line, np.array([0.4]), 1.0, latency_s=0.1)[0][0, 0], 50.0)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200, deadline=None, derandomize=True)
 @given(st.floats(-3.14159, 3.14159))
 def test_quaternion_and_heading_round_trip(heading):
     assert abs(heading_of(quaternion_of(heading)) - heading) < 1e-12
