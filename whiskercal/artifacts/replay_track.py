@@ -21,7 +21,7 @@ from whiskercal.atomic import atomic_path
 from whiskercal.jsontools import jsonable
 
 SCHEMA = "whiskercal.replay_track"
-SCHEMA_VERSION = "1.1.0"  # 1.1: axial_uT, world_x_mm, world_y_mm, base_x_mm, base_y_mm, base_heading_rad
+SCHEMA_VERSION = "1.1.0"  # 1.1: the Z axis, the world frame and the base pose (ADDED_IN_1_1)
 SUPPORTED_MAJOR = 1
 
 # column: (units, description); the CSV's header shares these names
@@ -40,7 +40,7 @@ COLUMNS = {
     "world_y_mm": ("mm", "the filtered contact in the world frame (NaN without a pose or tip)"),
     "base_x_mm": ("mm", "the sensor base frame's origin in the world (NaN without a pose)"),
     "base_y_mm": ("mm", "the sensor base frame's origin in the world (NaN without a pose)"),
-    "base_heading_rad": ("rad", "the sensor base frame's heading in the world (NaN without a pose)"),
+    "base_heading_rad": ("rad", "the sensor base frame's heading in the world (NaN: no pose)"),
 }
 ADDED_IN_1_1 = ("axial_uT", "world_x_mm", "world_y_mm", "base_x_mm", "base_y_mm",
                 "base_heading_rad")

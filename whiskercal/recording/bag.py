@@ -116,7 +116,8 @@ def _connections(reader, path: Path, topic: str | None, types: tuple[str, ...], 
     if topic is not None:
         chosen = [c for c in reader.connections if c.topic == topic]
         if not chosen:
-            raise UsageError(f"{path}: no topic {topic!r} in the bag; it holds: {topics_text(reader)}")
+            raise UsageError(f"{path}: no topic {topic!r} in the bag; it holds: "
+                             f"{topics_text(reader)}")
         return chosen
     found = sorted({c.topic for c in reader.connections if c.msgtype in types})
     if len(found) != 1:

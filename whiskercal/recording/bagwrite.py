@@ -66,9 +66,8 @@ def _message(types, kind: str, header, row: np.ndarray):
         return types["sensor_msgs/msg/MagneticField"](
             header, types["geometry_msgs/msg/Vector3"](*map(float, tesla)), np.zeros(9))
     if kind == "pose":
-        q = quaternion_of(row[2])
-        pose = types["geometry_msgs/msg/Pose"](point(row[0] / M_TO_MM, row[1] / M_TO_MM, 0.0),
-                                               types["geometry_msgs/msg/Quaternion"](*map(float, q)))
+        q = types["geometry_msgs/msg/Quaternion"](*map(float, quaternion_of(row[2])))
+        pose = types["geometry_msgs/msg/Pose"](point(row[0] / M_TO_MM, row[1] / M_TO_MM, 0.0), q)
         return types["geometry_msgs/msg/PoseStamped"](header, pose)
     return types["geometry_msgs/msg/PointStamped"](header, point(row[0] / M_TO_MM,
                                                                  row[1] / M_TO_MM, 0.0))

@@ -112,7 +112,8 @@ def _recording(path: Path, values: np.ndarray, picked, names, options: TableOpti
     source = f"{path} ({described}; time in {options.time_unit})"
     if "z" not in roles:
         return Recording(t_s, y, source)
-    x = values[:, roles.index("x")] * options.field_scale if "x" in roles else np.full(len(y), np.nan)
+    x = (values[:, roles.index("x")] * options.field_scale if "x" in roles
+         else np.full(len(y), np.nan))
     field = np.column_stack([x, y, values[:, roles.index("z")] * options.field_scale])
     return Recording(t_s, field, source)
 

@@ -5,7 +5,8 @@
 >>> from whiskercal.recording import read_poses
 >>> stream = read_stream("octagon.csv", field_column="magnetic_y")        # doctest: +SKIP
 >>> world = WorldFrame(read_poses("/robot/pose", "run/"))                 # doctest: +SKIP
->>> result = replay(stream, runtime.load("CAL.h5"), ReplayOptions(rest=1160.5), world)  # doctest: +SKIP
+>>> calibration = runtime.load("CAL.h5")                                  # doctest: +SKIP
+>>> result = replay(stream, calibration, ReplayOptions(rest=1160.5), world)  # doctest: +SKIP
 >>> write_all("out/", result, result.summary())                           # doctest: +SKIP
 
 Every sample goes through :meth:`whiskercal.runtime.Calibration.tracker` (collision detection,

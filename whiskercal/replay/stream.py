@@ -28,6 +28,7 @@ def read_stream(path: str | Path, time_column: str | None = None, field_column: 
 
 def read_table(path: str | Path, time_column: str | None = None, field_column: str | None = None,
                delimiter: str | None = None, time_unit: str = "s") -> Recording:
-    """A text table's time (s) and field (µT) columns (:func:`whiskercal.recording.table.read_table`)."""
+    """A text table's time (s) and field (µT) columns
+    (:func:`whiskercal.recording.table.read_table`)."""
     return _table.read_table(path, TableOptions(time_column, field_column, delimiter=delimiter,
                                                 time_unit=time_unit))

@@ -209,8 +209,9 @@ def _report(summary: dict, out_dir: str, as_json: bool) -> None:
     low, high = summary["calibrated_z_range_uT"]
     files = ", ".join(summary.get("files", {}).values()) or "track.csv, track.h5, replay.png"
     click.echo(f"wrote     {out_dir}/ ({files})")
+    axes = "Y alone" if summary["axes"] == 1 else "X, Y, Z"
     click.echo(f"samples   {summary['samples']} over {summary['duration_s']:.2f} s, "
-               f"{'Y alone' if summary['axes'] == 1 else 'X, Y, Z'}, rest {summary['rest_uT']:.1f} µT "
+               f"{axes}, rest {summary['rest_uT']:.1f} µT "
                f"({summary['rest_source']})")
     click.echo(f"contact   {summary['contact_samples']} samples: {summary['in_range']} in range "
                f"[{low:.0f}, {high:.0f}] µT, {summary['out_of_range']} out of range "
