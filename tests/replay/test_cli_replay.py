@@ -38,7 +38,8 @@ def test_replay_writes_track_plot_and_summary(log, artifact, tmp_path):
     assert (out / "replay.png").read_bytes().startswith(PNG_SIGNATURE)
     header = (out / "track.csv").read_text().splitlines()[0]
     assert header == ("t_s,z_uT,contact,raw_x_mm,raw_y_mm,filtered_x_mm,filtered_y_mm,"
-                      "out_of_range,extrapolated")
+                      "out_of_range,extrapolated,axial_uT,world_x_mm,world_y_mm,base_x_mm,"
+                      "base_y_mm,base_heading_rad")
     with h5py.File(out / "track.h5") as handle:
         track = handle["track"]
         units = {name: track[name].attrs["units"] for name in track}

@@ -6,6 +6,8 @@
   atomically, resumable) and ``read_study``.
 - ``calibration``: schema ``whiskercal.calibration``; ``write_calibration`` (and
   ``write_with_target`` for the next version with a study's target) and ``read_calibration``.
+- ``contour_run``: schema ``whiskercal.contour_run``; ``write_contour_run``, ``read_contour_run``.
+- ``replay_track``: schema ``whiskercal.replay_track``; ``write_track``, ``read_track``.
 - ``h5io``: the shared conventions: provenance attributes, the schema check, datasets with units.
 
 Each schema module defines ``SCHEMA``, ``SCHEMA_VERSION`` (semver) and ``SUPPORTED_MAJOR`` and

@@ -20,10 +20,23 @@ __all__ = ["ContourRun", "contour_record", "contour_to_file", "read_contour_run"
 def contour_to_file(shape: str, artifact: str | Path, out: str | Path, **options) -> ContourRunFile:
     """Run the loop on the twin against ``shape`` with the calibration ``artifact`` (see
     :func:`contour_record` for the options) and write the run to ``out``, also when stopped
-    early (then ``complete`` is False)."""
+    early (then ``complete`` is False); ``record=PATH`` also writes the stream and the poses as
+    a ROS 2 bag there (:mod:`whiskercal.contour.record`)."""
+    from whiskercal.contour.record import record_bag, refuse_existing
+
+    bag = options.pop("record", None)
+    refuse_existing(bag)
     record = contour_record(shape, artifact, **options)
+    if bag is not None:
+        from whiskercal.twin.params import DEFAULT_SENSOR
+        from whiskercal.twin.truth import static_field_uT
+
+        rest = static_field_uT(options.get("sensor") or DEFAULT_SENSOR).tolist()
+        record.config["record"] = {"bag": str(bag), "rest_field_uT": rest}
     write_contour_run(out, record)
     record.path = str(out)
+    if bag is not None:
+        record_bag(bag, record.columns, rest)
     return record
 
 

@@ -1,4 +1,5 @@
-"""A replay's files in its output folder: the tip track (CSV, HDF5), a plot and a summary (JSON).
+"""A replay's files in its output folder: the tip track (CSV, HDF5), a plot and a summary (JSON);
+with poses also the world-frame plot and a ROS 2 bag (MCAP) of the stream, poses and contacts.
 
 Every file is written to a temporary name in the same folder, flushed to disk and renamed over
 its final name, so a kill at any moment leaves the old file or the new one, never a partial one.
@@ -18,31 +19,28 @@ from whiskercal.jsontools import jsonable
 from whiskercal.paths import ensure_dir
 from whiskercal.replay.run import ReplayResult
 
-TRACK_SCHEMA = "whiskercal.replay_track"
-TRACK_SCHEMA_VERSION = "1.0.0"
-FILES = {"csv": "track.csv", "h5": "track.h5", "png": "replay.png", "summary": "summary.json"}
-# column: (units, description); the CSV's header and the HDF5 datasets share these names
-COLUMNS = {
-    "t_s": ("s", "device time of the sample"),
-    "z_uT": ("µT", "deflection: sign x (reading - rest)"),
-    "contact": ("1", "1 while the collision detector reports contact"),
-    "raw_x_mm": ("mm", "tip from the lookup, whisker base frame (NaN without contact)"),
-    "raw_y_mm": ("mm", "tip from the lookup, whisker base frame (NaN without contact)"),
-    "filtered_x_mm": ("mm", "tip after the constant-state Kalman filter (NaN before its first tip)"),
-    "filtered_y_mm": ("mm", "tip after the constant-state Kalman filter (NaN before its first tip)"),
-    "out_of_range": ("1", "-1 below, +1 above the calibrated z range (in contact), else 0"),
-    "extrapolated": ("1", "1 when the tip came from a range marked as extrapolated"),
-}
+FILES = {"csv": "track.csv", "h5": "track.h5", "png": "replay.png", "world_png": "world.png",
+         "bag": "rosbag", "summary": "summary.json"}
+"""Each file of a replay's folder; ``world_png`` and ``bag`` only with poses (the bag is a
+rosbag2 folder, ``rosbag/rosbag.mcap``, that Foxglove opens)."""
+WITH_POSES_ONLY = ("world_png", "bag")
 
 
 def columns_of(result: ReplayResult) -> dict[str, np.ndarray]:
-    """The track's columns (:data:`COLUMNS`) as arrays (n,)."""
+    """The track's columns (:data:`whiskercal.artifacts.replay_track.COLUMNS`) as arrays (n,)."""
+    n = len(result)
+    nan = np.full(n, np.nan)
+    world = result.world_mm if result.world_mm is not None else np.full((n, 2), np.nan)
+    base = result.base_pose if result.base_pose is not None else np.full((n, 3), np.nan)
     return {"t_s": result.t_s, "z_uT": result.z_uT, "contact": result.contact.astype(np.int8),
             "raw_x_mm": result.raw_tip_mm[:, 0], "raw_y_mm": result.raw_tip_mm[:, 1],
             "filtered_x_mm": result.filtered_tip_mm[:, 0],
             "filtered_y_mm": result.filtered_tip_mm[:, 1],
             "out_of_range": result.out_of_range.astype(np.int8),
-            "extrapolated": result.extrapolated.astype(np.int8)}
+            "extrapolated": result.extrapolated.astype(np.int8),
+            "axial_uT": result.axial_uT if result.axial_uT is not None else nan,
+            "world_x_mm": world[:, 0], "world_y_mm": world[:, 1],
+            "base_x_mm": base[:, 0], "base_y_mm": base[:, 1], "base_heading_rad": base[:, 2]}
 
 
 def atomic_write(path: Path, write: Callable[[Path], None]) -> Path:
@@ -76,7 +74,8 @@ def refuse_inputs_as_outputs(out_dir: str | Path, inputs: list[str | Path]) -> N
 
 def write_csv(path: Path, result: ReplayResult) -> Path:
     columns = columns_of(result)
-    formats = ["%.6f", "%.3f", "%d", "%.6f", "%.6f", "%.6f", "%.6f", "%d", "%d"]
+    formats = ["%d" if name in ("contact", "out_of_range", "extrapolated") else
+               "%.3f" if name.endswith("_uT") else "%.6f" for name in columns]
     table = np.column_stack(list(columns.values())).astype(float)
     header = ",".join(columns)
     return atomic_write(path, lambda p: np.savetxt(p, table, fmt=formats, delimiter=",",
@@ -85,19 +84,48 @@ def write_csv(path: Path, result: ReplayResult) -> Path:
 
 def write_h5(path: Path, result: ReplayResult, summary: dict, sensor_id: str,
              inputs: dict[str, str]) -> Path:
-    from whiskercal.artifacts.h5io import open_h5, write_array, write_provenance
+    from whiskercal.artifacts.replay_track import write_track
 
-    def write(temporary: Path) -> None:
-        with open_h5(temporary, "w") as handle:
-            write_provenance(handle, schema=TRACK_SCHEMA, schema_version=TRACK_SCHEMA_VERSION,
-                             sensor_id=sensor_id, inputs=inputs,
-                             config={"rest_uT": result.rest_uT, "policy": result.policy})
-            handle.attrs["summary"] = json.dumps(summary, default=jsonable, sort_keys=True)
-            group = handle.create_group("track")
-            for name, values in columns_of(result).items():
-                write_array(group, name, values, COLUMNS[name][0], description=COLUMNS[name][1])
+    config = {"rest_uT": result.rest_uT, "axial_rest_uT": result.axial_rest_uT,
+              "policy": result.policy, "world": result.world}
+    try:
+        return write_track(path, columns_of(result), summary, sensor_id, inputs, config)
+    except OSError as error:
+        raise UsageError(f"cannot write {path}: {error.strerror or error}") from None
 
-    return atomic_write(path, write)
+
+def write_world_plot(path: Path, result: ReplayResult, title: str = "") -> Path:
+    """The contacts in the world frame (filtered, dots) and the sensor base's path."""
+    from whiskercal.plotting import pyplot, save_png
+
+    plt = pyplot()
+    fig, axes = plt.subplots(figsize=(7, 7))
+    axes.plot(result.base_pose[:, 0], result.base_pose[:, 1], lw=0.6, color="tab:gray",
+              label="sensor base")
+    axes.plot(result.world_mm[:, 0], result.world_mm[:, 1], ".", ms=1.5, color="tab:red",
+              label="contact (filtered)")
+    axes.set_aspect("equal", adjustable="datalim")
+    axes.set_xlabel("world x (mm)")
+    axes.set_ylabel("world y (mm)")
+    axes.legend(loc="best", fontsize=8)
+    if title:
+        axes.set_title(title, fontsize=9)
+    return atomic_write(path, lambda p: save_png(fig, p))
+
+
+def write_track_bag(path: Path, result: ReplayResult, field_uT: np.ndarray) -> Path:
+    """The field stream, the sensor base's poses and the world-frame contacts as a ROS 2 bag."""
+    from whiskercal.recording.bagwrite import (CONTACT_TOPIC, FIELD_TOPIC, POSE_TOPIC,
+                                               SENSOR_FRAME, Series, write_bag)
+
+    field = np.asarray(field_uT, float)
+    if field.ndim == 1:  # Y alone: X and Z unknown, NaN would drop the message
+        field = np.column_stack([np.zeros(len(field)), field, np.zeros(len(field))])
+    field = np.where(np.isfinite(field), field, 0.0)
+    return write_bag(path, [Series(FIELD_TOPIC, "field", result.t_s, field, SENSOR_FRAME),
+                            Series(POSE_TOPIC, "pose", result.t_s, result.base_pose),
+                            Series(CONTACT_TOPIC, "point", result.t_s, result.world_mm)],
+                     replace=True)
 
 
 def write_summary(path: Path, summary: dict) -> Path:
@@ -132,12 +160,20 @@ def write_plot(path: Path, result: ReplayResult, title: str = "") -> Path:
 
 
 def write_all(out_dir: str | Path, result: ReplayResult, summary: dict, sensor_id: str = "",
-              inputs: dict[str, str] | None = None) -> dict[str, Path]:
-    """Write every file of :data:`FILES` into ``out_dir`` (created); return their paths."""
+              inputs: dict[str, str] | None = None,
+              field_uT: np.ndarray | None = None) -> dict[str, Path]:
+    """Write every file of :data:`FILES` into ``out_dir`` (created): the world plot and the bag
+    only when the replay had poses (the bag's field stream is ``field_uT``, the readings as
+    recorded); return their paths."""
     ensure_dir(out_dir)
     paths = output_paths(out_dir)
+    if result.world_mm is None:
+        paths = {k: p for k, p in paths.items() if k not in WITH_POSES_ONLY}
     write_csv(paths["csv"], result)
     write_h5(paths["h5"], result, summary, sensor_id, inputs or {})
     write_plot(paths["png"], result, title=result.source)
+    if "bag" in paths:
+        write_world_plot(paths["world_png"], result, title=result.source)
+        write_track_bag(paths["bag"], result, result.z_uT if field_uT is None else field_uT)
     write_summary(paths["summary"], {**summary, "files": {k: p.name for k, p in paths.items()}})
     return paths

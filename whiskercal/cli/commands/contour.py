@@ -45,10 +45,14 @@ def command() -> None:
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seeds the start pose and the magnetometer noise.")
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="The run file (HDF5).")
+@click.option("--record", "record_path", type=click.Path(), default=None,
+              help="Also write the magnetometer's stream and the sensor base's poses as a ROS 2 "
+                   "bag (a folder: metadata.yaml and NAME.mcap) for `whiskercal replay` or "
+                   "Foxglove; the static field to replay it with is in the run's config.")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
 @pass_app
 def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, speed_mm_s,
-                duration_s, mu_static, mu_kinetic, seed, out, as_json) -> None:
+                duration_s, mu_static, mu_kinetic, seed, out, record_path, as_json) -> None:
     """Run the loop around SHAPE and record every sample (Ctrl-C keeps a readable partial run)."""
     from whiskercal.atomic import refuse_input_as_output
     from whiskercal.cli.progress import progress_bar
@@ -65,9 +69,16 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
         record = contour_to_file(shape, artifact, out, sensor=sensor, target_z_uT=target_uT,
                                  config=load_follow_config(config_path), speed_mm_s=speed_mm_s,
                                  duration_s=duration_s, seed=seed, mu_kinetic=mu_kinetic,
-                                 mu_static=mu_static,
+                                 mu_static=mu_static, record=record_path,
                                  on_progress=shown if bar else None)
-    _print(summarize(record), as_json)
+    summary = summarize(record)
+    if record_path is not None:
+        summary["record"] = record.config["record"]["bag"]
+    _print(summary, as_json)
+    if record_path is not None and not as_json:
+        rest = record.config["record"]["rest_field_uT"]
+        click.echo(f"recorded {record_path} (replay it with --rest-uT {rest[1]:.3f} "
+                   f"--axial-rest-uT {rest[2]:.3f} --poses auto)")
     if not record.complete:
         click.echo(f"stopped: the partial run is in {out}", err=True)
         sys.exit(130)
