@@ -30,7 +30,7 @@ KINDS = ("circle", "rounded-rect", "polygon", "polyline")
 _KEYS = {"circle": ("d",), "rounded-rect": ("w", "h", "r"), "polygon": ("n", "side", "r")}
 _REQUIRED = {"circle": ("d",), "rounded-rect": ("w", "h"), "polygon": ("n", "side")}
 _ARC_STEP_RAD = math.radians(0.25)  # corner arcs as chords 0.25° apart: sag under 1e-3 mm at r 100
-_SAMPLE_SPACING_MM = 0.05  # a fit's nearest points: the outline sampled this finely
+_SEGMENT_MM = 0.5  # a fit's nearest points: the outline cut into segments this long at most
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,7 @@ class SpecOutline:
     spec: str
     kind: str
     geometry: shapely.LinearRing | shapely.LineString
+    source: str | None = None  # the polyline's file
 
     @property
     def closed(self) -> bool:
@@ -68,16 +69,35 @@ class SpecOutline:
         return float(np.linalg.norm(np.ptp(self.vertices_mm, axis=0)))
 
     @cached_property
-    def samples(self) -> tuple[np.ndarray, cKDTree]:
-        """Points along the outline (n, 2) at most _SAMPLE_SPACING_MM apart, and their k-d tree: the
-        nearest points a fit moves the outline by (its figures use the continuous outline)."""
-        dense = shapely.get_coordinates(shapely.segmentize(self.geometry, _SAMPLE_SPACING_MM))
-        return dense, cKDTree(dense)
+    def segments(self) -> tuple[np.ndarray, np.ndarray, cKDTree]:
+        """The outline as segments no longer than _SEGMENT_MM (their starts and ends, (m, 2))
+        and a k-d tree over their starts: a point's nearest start leads to the segments about
+        it, on which its nearest point lies (:meth:`nearest`)."""
+        dense = shapely.get_coordinates(shapely.segmentize(self.geometry, _SEGMENT_MM))
+        return dense[:-1], dense[1:], cKDTree(dense[:-1] if self.closed else dense)
+
+    def nearest(self, points_mm: np.ndarray) -> np.ndarray:
+        """The outline's point nearest to each point (n, 2), in the outline's frame (mm)."""
+        starts, ends, tree = self.segments
+        _, index = tree.query(points_mm)
+        count = len(starts)
+        before = (index - 1) % count if self.closed else np.maximum(index - 1, 0)
+        feet = [_foot(points_mm, starts[segment], ends[segment])
+                for segment in (before, np.minimum(index, count - 1))]
+        closer = np.linalg.norm(points_mm - feet[0], axis=1) < np.linalg.norm(points_mm - feet[1], axis=1)
+        return np.where(closer[:, None], feet[0], feet[1])
 
     def describe(self) -> dict:
         """JSON-able: the spec, kind, closed and length."""
         return {"spec": self.spec, "kind": self.kind, "closed": self.closed,
                 "length_mm": self.length_mm}
+
+
+def _foot(points_mm: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Each point's nearest point on its segment start -> end (all (n, 2), mm)."""
+    edge = ends - starts
+    along = np.sum((points_mm - starts) * edge, axis=1) / np.maximum(np.sum(edge ** 2, axis=1), 1e-300)
+    return starts + np.clip(along, 0.0, 1.0)[:, None] * edge
 
 
 def parse_outline(spec: str) -> SpecOutline:
@@ -88,7 +108,7 @@ def parse_outline(spec: str) -> SpecOutline:
         raise UsageError(f"--outline {spec!r}: use circle:d=D, rounded-rect:w=W,h=H,r=R, "
                          "polygon:n=N,side=S,r=R or polyline:FILE (mm)")
     if kind == "polyline":
-        return SpecOutline(spec, kind, _polyline(Path(rest.strip())))
+        return SpecOutline(spec, kind, _polyline(Path(rest.strip())), rest.strip())
     values = _key_values(spec, kind, rest)
     core, radius = _core(spec, kind, values)
     ring = Outline(kind, core, radius).points(_ARC_STEP_RAD)

@@ -32,7 +32,7 @@ MIN_SPREAD_SHARE = 0.05  # the points' extent against the outline's below which 
 SCALE_RANGE = (0.5, 2.0)  # a similarity fit's scale outside this is refused
 _START_TURNS = 12
 _START_POINTS, _REFINE_POINTS = 300, 2000
-_MAX_STEPS = 200  # least-squares evaluations per refinement
+_START_STEPS, _MAX_STEPS = 30, 100  # least-squares evaluations from each start, and refining
 
 
 class FitRefusedError(UsageError):
@@ -78,7 +78,7 @@ def fit_rigid(points_mm: np.ndarray, outline: SpecOutline, start: Pose | None = 
     _check_fittable(points_mm, outline)
     starts = [Pose(start.x_mm, start.y_mm, start.theta_rad)] if start else _starts(points_mm, outline)
     sample = _even(points_mm, _START_POINTS)
-    best = min((_refine(sample, outline, begin, scaled=False) for begin in starts),
+    best = min((_refine(sample, outline, begin, scaled=False, steps=_START_STEPS) for begin in starts),
                key=lambda pose: _cost(sample, outline, pose))
     return _refine(_even(points_mm, _REFINE_POINTS), outline, best, scaled=False)
 
@@ -129,10 +129,11 @@ def _cost(points_mm: np.ndarray, outline: SpecOutline, pose: Pose) -> float:
     return float(np.sum(_nearest(points_mm, outline, pose)[0] ** 2))
 
 
-def _refine(points_mm: np.ndarray, outline: SpecOutline, start: Pose, scaled: bool) -> Pose:
+def _refine(points_mm: np.ndarray, outline: SpecOutline, start: Pose, scaled: bool,
+            steps: int = _MAX_STEPS) -> Pose:
     """Least squares from ``start`` over x, y, theta (and log scale when ``scaled``), each
-    point's residual its distance to the nearest of the outline's samples; the Jacobian holds
-    those nearest points fixed, which is exact at the nearest point of a smooth outline."""
+    point's residual its distance to the outline; the Jacobian holds the nearest points fixed
+    (exact: the distance's gradient is the same along the outline at its nearest point)."""
     def pose_of(p: np.ndarray) -> Pose:
         return Pose(p[0], p[1], p[2], math.exp(np.clip(p[3], -20, 20)) if scaled else start.scale)
 
@@ -153,16 +154,14 @@ def _refine(points_mm: np.ndarray, outline: SpecOutline, start: Pose, scaled: bo
     first = [start.x_mm, start.y_mm, start.theta_rad] + ([math.log(start.scale)] if scaled else [])
     radius = max(outline.size_mm / 2, 1.0)
     x_scale = [radius, radius, 1.0] + ([1.0] if scaled else [])
-    found = least_squares(residuals, first, jac=jacobian, x_scale=x_scale, max_nfev=_MAX_STEPS)
+    found = least_squares(residuals, first, jac=jacobian, x_scale=x_scale, max_nfev=steps)
     pose = pose_of(found.x)
     return Pose(float(pose.x_mm), float(pose.y_mm), float(math.remainder(pose.theta_rad, 2 * math.pi)),
                 float(pose.scale))
 
 
 def _nearest(points_mm: np.ndarray, outline: SpecOutline, pose: Pose) -> tuple[np.ndarray, np.ndarray]:
-    """Each point's distance (mm) to the nearest outline sample placed at ``pose``, and that
-    sample in the points' frame."""
-    dense, tree = outline.samples
-    _, index = tree.query(pose.to_outline(points_mm))
-    nearest = pose.to_points(dense[index])
+    """Each point's distance (mm) to the outline placed at ``pose``, and its nearest point of
+    the outline in the points' frame."""
+    nearest = pose.to_points(outline.nearest(pose.to_outline(points_mm)))
     return np.linalg.norm(points_mm - nearest, axis=1), nearest
