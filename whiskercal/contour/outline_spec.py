@@ -158,14 +158,16 @@ def _polyline(path: Path) -> shapely.LinearRing | shapely.LineString:
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:
-        raise UsageError(f"--outline polyline:{path}: cannot read it ({getattr(error, 'strerror', None) or error})") from None
+        reason = getattr(error, "strerror", None) or error
+        raise UsageError(f"--outline polyline:{path}: cannot read it ({reason})") from None
     points = []
     for number_, line in enumerate(text.splitlines(), start=1):
         cells = line.split("#", 1)[0].replace(",", " ").split()
         if not cells:
             continue
         if len(cells) != 2:
-            raise UsageError(f"{path}: line {number_} has {len(cells)} fields; a polyline is x y per line (mm)")
+            raise UsageError(f"{path}: line {number_} has {len(cells)} fields; a polyline is x y "
+                             "per line (mm)")
         points.append([number(cell, f"{path} line {number_}", unit="mm") for cell in cells])
     points = np.array(points, float).reshape(-1, 2)
     if len(points) < 2 or np.ptp(points, axis=0).max() == 0:

@@ -57,7 +57,8 @@ class Pose:
     def to_points(self, outline_mm: np.ndarray) -> np.ndarray:
         """Outline points (n, 2) into the points' frame (mm)."""
         c, s = math.cos(self.theta_rad), math.sin(self.theta_rad)
-        return self.scale * np.asarray(outline_mm, float) @ np.array([[c, s], [-s, c]]) + [self.x_mm, self.y_mm]
+        turned = np.asarray(outline_mm, float) @ np.array([[c, s], [-s, c]])
+        return self.scale * turned + [self.x_mm, self.y_mm]
 
     def describe(self) -> dict:
         """JSON-able: x_mm, y_mm, deg (and scale)."""
