@@ -176,3 +176,14 @@ def test_the_command_places_the_outline_at_the_given_pose(tmp_path):
                               catch_exceptions=False)
     summary = json.loads(done.output)
     assert summary["none"]["max_mm"] < 1e-6 and summary["none"]["pose"]["x_mm"] == 10.0
+
+
+def test_the_run_metrics_alignment_refuses_to_shrink_points_onto_the_outline():
+    from whiskercal.contour.metrics import aligned_errors_mm
+    from whiskercal.twin.outlines import outline
+
+    dense = outline("octagon").dense()
+    bigger = look_alike(OCTAGON, Pose(0.0, 0.0, 0.0, 1.15), noise_mm=0.3, seed=7)
+    assert np.mean(aligned_errors_mm(bigger, dense)) < 0.3  # a scale of 1/1.15: kept
+    metres = bigger / 1000.0 + [0.437, 0.005]  # metres read as mm: shrunk to a dot, refused
+    assert np.all(np.isnan(aligned_errors_mm(metres, dense)))
