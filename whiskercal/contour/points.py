@@ -101,6 +101,8 @@ def _from_table(path: Path, units: str | None) -> tuple[np.ndarray, str]:
         raise UsageError(f"{path}: no points (the file is empty or only comments)")
     separator = _separator(lines[0][1])
     header = _cells(lines[0][1], separator)
+    if len(header) < 2:
+        raise UsageError(f"{path}: line {lines[0][0]} has a single column; points are x, y per line")
     has_header = not all(_is_number(cell) for cell in header)
     columns, scale, source = _choose(path, header if has_header else None, units)
     rows = lines[1:] if has_header else lines
