@@ -31,6 +31,7 @@ MIN_FIT_POINTS = 10  # distinct points a fit needs (3 or 4 unknowns, and some re
 MIN_SPREAD_SHARE = 0.05  # the points' extent against the outline's below which a fit is refused
 SCALE_RANGE = (0.5, 2.0)  # a similarity fit's scale outside this is refused
 _START_TURNS = 12
+_SAME_COST = 1e-4  # fits from two starts whose costs differ by less than this share are one fit
 _START_POINTS, _REFINE_POINTS = 300, 2000
 _START_STEPS, _MAX_STEPS = 30, 100  # least-squares evaluations from each start, and refining
 
@@ -79,8 +80,11 @@ def fit_rigid(points_mm: np.ndarray, outline: SpecOutline, start: Pose | None = 
     _check_fittable(points_mm, outline)
     starts = [Pose(start.x_mm, start.y_mm, start.theta_rad)] if start else _starts(points_mm, outline)
     sample = _even(points_mm, _START_POINTS)
-    best = min((_refine(sample, outline, begin, scaled=False, steps=_START_STEPS) for begin in starts),
-               key=lambda pose: _cost(sample, outline, pose))
+    found = [_refine(sample, outline, begin, scaled=False, steps=_START_STEPS) for begin in starts]
+    costs = np.array([_cost(sample, outline, pose) for pose in found])
+    # a symmetric outline fits as well at several turns: the one nearest 0° is reported
+    equal = [pose for pose, cost in zip(found, costs) if cost <= costs.min() * (1 + _SAME_COST)]
+    best = min(equal, key=lambda pose: abs(pose.theta_rad))
     return _refine(_even(points_mm, _REFINE_POINTS), outline, best, scaled=False)
 
 
