@@ -71,13 +71,15 @@ class SpecOutline:
     @cached_property
     def segments(self) -> tuple[np.ndarray, np.ndarray, cKDTree]:
         """The outline as segments no longer than _SEGMENT_MM (their starts and ends, (m, 2))
-        and a k-d tree over their starts: a point's nearest start leads to the segments about
-        it, on which its nearest point lies (:meth:`nearest`)."""
+        and a k-d tree over their vertices, for :meth:`nearest`."""
         dense = shapely.get_coordinates(shapely.segmentize(self.geometry, _SEGMENT_MM))
         return dense[:-1], dense[1:], cKDTree(dense[:-1] if self.closed else dense)
 
     def nearest(self, points_mm: np.ndarray) -> np.ndarray:
-        """The outline's point nearest to each point (n, 2), in the outline's frame (mm)."""
+        """The outline's point nearest to each point (n, 2), in the outline's frame (mm): the
+        nearest on the two segments about the nearest vertex, which is the nearest on the whole
+        outline wherever its segments are short against the point's distance to any other part
+        of it (what a fit needs; the figures take shapely's distance to the whole outline)."""
         starts, ends, tree = self.segments
         _, index = tree.query(points_mm)
         count = len(starts)
