@@ -7,6 +7,7 @@ line must hold. No row may end in a traceback or hang; `--debug` still shows the
 
 from __future__ import annotations
 
+import math
 import shutil
 import subprocess
 import sys
@@ -40,7 +41,12 @@ FILES = {
     "headeronly.csv": b"t,y\n",
     "empty.csv": b"",
     "left.h5.journal": b"{}\n",  # a run killed before its dataset was written leaves this alone
+    # a Ø160 mm ring of points in metres, headerless, as a robot logs its contour
+    "metres.csv": "".join(f"{0.5 + 0.08 * math.cos(a):.6f}, {0.08 * math.sin(a):.6f}\n"
+                          for a in [k * math.pi / 20 for k in range(40)]).encode(),
+    "three.csv": b"a,b,c\n1,2,3\n",
 }
+FILES["evaluation.json"] = FILES["metres.csv"]  # points where an evaluation would write its JSON
 
 STAGE, SENSOR = "sim://{w}/stage", "sim://{w}/sensor"
 COLLECT = ["collect", "--stage", STAGE, "--sensor", SENSOR]
@@ -105,6 +111,30 @@ CASES = [
     ("contour run --shape octagon --artifact cal.h5 --out c.h5 --mu-static inf", 2, "--mu-static must be"),
     ("contour report raw.h5 --out rep", 4, "not a whiskercal.contour_run file"),
     ("contour report trunc_raw.h5 --out rep", 4, "truncated"),
+    ("contour evaluate nosuch.csv --outline circle:d=160", 2, "cannot read the points"),
+    ("contour evaluate adir --outline circle:d=160", 2, "is a directory"),
+    ("contour evaluate empty.csv --outline circle:d=160", 2, "no points"),
+    ("contour evaluate headeronly.csv --outline circle:d=160", 2, "header but no points"),
+    ("contour evaluate three.csv --outline circle:d=160", 2, "which columns are x and y"),
+    ("contour evaluate tiny.csv --outline circle:d=160", 2, "at least 10 distinct points"),
+    ("contour evaluate metres.csv --outline circle:d=160", 2, "other units? --units m"),
+    ("contour evaluate metres.csv --outline circle:d=400 --units m --fit similarity", 2,
+     "scales the outline by 0.4"),
+    ("contour evaluate raw.h5 --outline circle:d=160", 2, "holds no points"),
+    ("contour evaluate trunc_raw.h5 --outline circle:d=160", 4, "truncated"),
+    ("contour evaluate raw.h5 --outline circle:d=160 --units m", 2, "--units applies to text tables"),
+    ("contour evaluate metres.csv --outline circle:d=160 --units km", 2, "Invalid value for '--units'"),
+    ("contour evaluate metres.csv --outline teapot:d=1", 2, "use circle:d=D"),
+    ("contour evaluate metres.csv --outline circle:d=nan", 2, "d must be a finite number > 0"),
+    ("contour evaluate metres.csv --outline circle:d=160,w=3", 2, "'w=3' is not one of d="),
+    ("contour evaluate metres.csv --outline rounded-rect:w=160,h=160,r=90", 2, "r must be less than half"),
+    ("contour evaluate metres.csv --outline polygon:n=2,side=70", 2, "n must be an integer >= 3"),
+    ("contour evaluate metres.csv --outline polyline:nosuch.txt", 2, "cannot read it"),
+    ("contour evaluate metres.csv --outline polyline:three.csv", 2, "line 1 has 3 fields"),
+    ("contour evaluate metres.csv --outline circle:d=160 --pose 1,2", 2, "--pose must be x,y,deg"),
+    ("contour evaluate metres.csv --outline circle:d=160 --pose 1,inf,0", 2, "--pose y must be"),
+    ("contour evaluate metres.csv --outline circle:d=160 --fit affine", 2, "Invalid value for '--fit'"),
+    ("contour evaluate evaluation.json --outline circle:d=160 --units m --out .", 2, "never overwritten"),
 ] + [(" ".join(COLLECT + extra.split()), code, words) for extra, code, words in [
     ("--out c.h5 --config nosuch.toml", 2, "no such config file"),
     ("--out c.h5 --config garbage.toml", 2, "not valid TOML"),

@@ -3,8 +3,10 @@
 ``mean_error_mm`` / ``std_error_mm``: the distance from each estimated contact to the true outline,
 with no alignment of any kind. ``aligned_mean_error_mm``: the same after the estimate is moved by
 the similarity (scale, rotation, translation) that best lays it onto the outline, as the paper's
-evaluation did; reported apart, only to compare with the paper. ``coverage``: the share of the
-outline's length within 2 mm of some estimate.
+evaluation did; reported apart, only to compare with the paper, and NaN where the alignment
+degenerates (scales the estimate by less than half or more than twice). ``coverage``: the share
+of the outline's length within 2 mm of some estimate. ``contour evaluate`` measures any
+reconstruction against any outline (``contour.evaluate``).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from scipy.spatial import cKDTree
 
 COVERAGE_RADIUS_MM = 2.0
 _ALIGN_ITERATIONS = 20
+_ALIGN_SCALES = (0.5, 2.0)  # an alignment scaling the points beyond these has degenerated
 
 
 def distances_mm(points_mm: np.ndarray, outline_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -34,12 +37,16 @@ def similarity(source: np.ndarray, target: np.ndarray) -> tuple[float, np.ndarra
 
 
 def aligned_errors_mm(points_mm: np.ndarray, outline_mm: np.ndarray) -> np.ndarray:
-    """Distances after the best similarity alignment (iterated closest points)."""
-    moved = points_mm.copy()
+    """Distances after the best similarity alignment (iterated closest points); NaN when the
+    alignment scales the points by less than half or more than twice: shrunk onto a piece of
+    the outline, points of any shape lie on it, so such a figure would mean nothing."""
+    moved, scale = points_mm.copy(), 1.0
     for _ in range(_ALIGN_ITERATIONS):
         _, nearest = distances_mm(moved, outline_mm)
         scale, rotation, shift = similarity(points_mm, nearest)
         moved = scale * points_mm @ rotation.T + shift
+    if not _ALIGN_SCALES[0] <= scale <= _ALIGN_SCALES[1]:
+        return np.full(len(points_mm), np.nan)
     return distances_mm(moved, outline_mm)[0]
 
 

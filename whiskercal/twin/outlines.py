@@ -82,7 +82,9 @@ def _outward_angle(a: np.ndarray, b: np.ndarray) -> float:
     return math.atan2(-edge[0], edge[1])
 
 
-def _regular(sides: int, apothem_mm: float) -> np.ndarray:
+def regular_core(sides: int, apothem_mm: float) -> np.ndarray:
+    """A regular polygon's vertices (sides, 2), counter-clockwise about the origin, one edge at
+    the bottom (its outward normal along -y), ``apothem_mm`` from the centre to each edge."""
     angles = (np.arange(sides) + 0.5) * 2 * math.pi / sides - math.pi / 2
     return apothem_mm / math.cos(math.pi / sides) * np.column_stack([np.cos(angles), np.sin(angles)])
 
@@ -95,10 +97,10 @@ def outline(name: str, center_mm=(0.0, 0.0), rotation_rad: float = 0.0):
     if name == "cylinder":
         core, radius = np.zeros((1, 2)), 80.0
     elif name == "rounded-rect":  # 160 mm wide, corners of 40 mm radius
-        core, radius = _regular(4, 80.0 - 40.0), 40.0
+        core, radius = regular_core(4, 80.0 - 40.0), 40.0
     elif name == "octagon":  # 70 mm sides, corners of 30 mm radius
         apothem = 70.0 / (2 * math.tan(math.pi / 8))
-        core, radius = _regular(8, apothem - 30.0), 30.0
+        core, radius = regular_core(8, apothem - 30.0), 30.0
     else:
         raise UsageError(f"unknown shape {name!r}; use one of {', '.join(SCENES)}")
     turn = np.array([[math.cos(rotation_rad), -math.sin(rotation_rad)],

@@ -103,3 +103,70 @@ def _print(summary: dict, as_json: bool) -> None:
         return
     for key, value in summary.items():
         click.echo(f"{key:22s} {value:.4g}" if isinstance(value, float) else f"{key:22s} {value}")
+
+
+@command.command("evaluate")
+@click.argument("points_path", metavar="POINTS", type=click.Path(dir_okay=False))
+@click.option("--outline", "spec", required=True, metavar="SPEC",
+              help="The object: circle:d=D, rounded-rect:w=W,h=H,r=R, polygon:n=N,side=S,r=R "
+                   "(a regular polygon, sides S long before their corners are rounded to R) or "
+                   "polyline:FILE (x y per line); mm, centred at the origin (docs/evaluate.md).")
+@click.option("--units", type=click.Choice(["mm", "m"]), default=None,
+              help="Units of a table's x, y columns [default: mm; columns named *_mm, replay "
+                   "tracks and contour runs are always mm].")
+@click.option("--pose", "pose_text", default=None, metavar="X,Y,DEG",
+              help="Where the outline's centre lies among the points (mm, mm, degrees): the pose "
+                   "under --fit none [default: 0,0,0], a fit's start otherwise.")
+@click.option("--fit", type=click.Choice(["none", "rigid", "similarity"]), default="rigid",
+              show_default=True,
+              help="none: the outline at --pose; rigid: its x, y and turn fitted; similarity: a "
+                   "free scale too (the paper's metric), shown beside the rigid figures.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None,
+              help="Directory for evaluation.json and evaluation.png.")
+@click.option("--json", "as_json", is_flag=True, help="Print the evaluation as JSON.")
+def evaluate_command(points_path, spec, units, pose_text, fit, out_dir, as_json) -> None:
+    """Measure the points of POINTS (a table of x, y, a replay's track or a contour run) against
+    an outline: each point's distance to the continuous outline, and how much of it they cover."""
+    from pathlib import Path
+
+    from whiskercal.atomic import refuse_input_as_output
+    from whiskercal.contour.evaluate import FILES, evaluate, parse_pose, write_evaluation
+    from whiskercal.contour.outline_spec import parse_outline
+    from whiskercal.contour.points import read_points
+
+    outline = parse_outline(spec)
+    for name in FILES.values() if out_dir is not None else ():
+        refuse_input_as_output(Path(out_dir) / name, [points_path, outline.source], "the evaluation")
+    pose = parse_pose(pose_text)
+    evaluation = evaluate(read_points(points_path, units), outline, fit, pose)
+    if out_dir is not None:
+        write_evaluation(out_dir, evaluation)
+    if as_json:
+        echo_json(evaluation.summary)
+        return
+    for line in evaluation_lines(evaluation.summary):
+        click.echo(line)
+
+
+def evaluation_lines(summary: dict) -> list[str]:
+    """The evaluation as a table: one column per placement (the given or rigid one, and the
+    similarity one labelled as the paper's metric)."""
+    names = [name for name in ("none", "rigid", "similarity") if name in summary]
+    outline = summary["outline"]
+    lines = [f"points    {summary['points']} ({summary['source']}; {summary['skipped']} without a point)",
+             f"outline   {outline['spec']} ({'closed' if outline['closed'] else 'open'}, "
+             f"{outline['length_mm']:.1f} mm)",
+             f"{'':10s}" + "".join(f"{_heading(name):>16s}" for name in names)]
+    rows = [("x_mm", "pose"), ("y_mm", "pose"), ("deg", "pose"), ("scale", "pose"),
+            ("mean_mm", None), ("std_mm", None), ("median_mm", None), ("p95_mm", None),
+            ("max_mm", None), ("coverage", None)]
+    for key, group in rows:
+        values = [(summary[name][group] if group else summary[name])[key] for name in names]
+        lines.append(f"{key:10s}" + "".join(f"{value:16.4g}" for value in values))
+    if "similarity" in summary:
+        lines.append(f"similarity: {summary['similarity']['metric']}")
+    return lines
+
+
+def _heading(name: str) -> str:
+    return {"none": "given pose", "rigid": "rigid", "similarity": "similarity*"}[name]
