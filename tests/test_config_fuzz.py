@@ -312,3 +312,11 @@ def test_a_config_that_loads_holds_the_values_the_file_gave(kind, data):
         assert message and "\n" not in message
         return
     assert kept_as_given(given_tables, loaded, defaults)
+
+
+@pytest.mark.parametrize("kind, table, key", [("collect", "rig", "trace_length_mm"),
+                                              ("study", "geometry", "tip_reach_mm")])
+@pytest.mark.parametrize("reach", [1.7e308, 1e6])
+def test_a_reach_the_defaults_would_scale_to_beyond_any_build_is_one_line(kind, table, key, reach):
+    result, message = _load(LOADERS[kind][0], f"[{table}]\n{key} = {reach!r}\n")
+    assert result is None and f"config.toml [{table}] {key}: must be a number > 0 and <= " in message

@@ -7,7 +7,6 @@ a key the defaults do not have are refused, so a typo never silently falls back 
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -19,11 +18,14 @@ from whiskercal.typedconfig import Flag, Table, Text, choice, integer, number, n
 DEFAULT_CONFIG_PATH = Path(__file__).with_name("default_grid.toml")
 ON_OVERLOAD = ("end-column", "stop")
 MAX_LIST = 16  # the longest list a key may hold (the sweep's offsets)
+MAX_REACH_MM = 1000.0
+"""A whisker longer than this (mm) is a unit error (metres read as mm), not a build."""
 
 Number = number()
 Positive = number(gt=0)
 NonNegative = number(ge=0)
 Pair = numbers(2)
+Reach = number(gt=0, le=MAX_REACH_MM)
 
 
 class RigConfig(Table):
@@ -37,7 +39,7 @@ class RigConfig(Table):
     angle_deg: Number
     rod_radius_mm: Positive
     whisker_reach_mm: Positive
-    trace_length_mm: Positive
+    trace_length_mm: Reach
     sensor_id: Text
 
 
@@ -188,7 +190,7 @@ def follow_trace_length(defaults: dict[str, Any], given: dict[str, Any]) -> dict
     """
     length = given.get("rig", {}).get("trace_length_mm") if isinstance(given.get("rig"), dict) \
         else None
-    if not _is_real(length) or not 0 < length < math.inf or length == DEFAULT_TRACE_LENGTH_MM:
+    if not _is_real(length) or not 0 < length <= MAX_REACH_MM or length == DEFAULT_TRACE_LENGTH_MM:
         return defaults
     factor = float(length) / DEFAULT_TRACE_LENGTH_MM
     grid = dict(defaults["grid"], expected_points=0,

@@ -13,7 +13,6 @@ through ``R^T (S + fixture_offset - origin)``, where R is that rotation.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
@@ -23,7 +22,7 @@ from typing import Any
 import numpy as np
 from pydantic import model_validator
 
-from whiskercal.collect.config import SensorSettings
+from whiskercal.collect.config import MAX_REACH_MM, SensorSettings
 from whiskercal.session.frame import RigFrame
 from whiskercal.tomlconfig import merge_overrides, read_toml
 from whiskercal.typedconfig import Flag, Table, integer, number, numbers, validate
@@ -50,7 +49,7 @@ def follow_tip_reach(defaults: dict[str, Any], given: dict[str, Any]) -> dict[st
     geometry = given.get("geometry")
     reach = geometry.get("tip_reach_mm") if isinstance(geometry, dict) else None
     if isinstance(reach, bool) or not isinstance(reach, (int, float)) \
-            or not 0 < reach < math.inf or reach == DEFAULT_TIP_REACH_MM:
+            or not 0 < reach <= MAX_REACH_MM or reach == DEFAULT_TIP_REACH_MM:
         return defaults
     factor = float(reach) / DEFAULT_TIP_REACH_MM
     trials = defaults["trials"]
@@ -116,7 +115,7 @@ class GeometryConfig(Table):
 
     whisker_origin_stage_mm: Pair
     whisker_angle_deg: Number
-    tip_reach_mm: Positive
+    tip_reach_mm: number(gt=0, le=MAX_REACH_MM)
     plane_tilt_deg: Number
     fixture_offset_mm: Pair
 
