@@ -138,10 +138,10 @@ CASES = [
 ] + [(" ".join(COLLECT + extra.split()), code, words) for extra, code, words in [
     ("--out c.h5 --config nosuch.toml", 2, "no such config file"),
     ("--out c.h5 --config garbage.toml", 2, "not valid TOML"),
-    ("--out c.h5 --config nan.toml", 2, "reach_min_mm = nan must be a finite number"),
-    ("--out c.h5 --config neg.toml", 2, "grid.reach_min_mm must be >= 0"),
-    ("--out c.h5 --config str.toml", 2, "must be a finite number"),
-    ("--out c.h5 --config unknown.toml", 2, "unknown setting 'nosuch'"),
+    ("--out c.h5 --config nan.toml", 2, "[grid] reach_min_mm: must be a finite number, not nan"),
+    ("--out c.h5 --config neg.toml", 2, "[grid] reach_min_mm: must be a number >= 0, not -5"),
+    ("--out c.h5 --config str.toml", 2, '[grid] reach_min_mm: must be a number >= 0, not "a"'),
+    ("--out c.h5 --config unknown.toml", 2, "[nosuch]: unknown table"),
     ("--out c.h5 --config inverted.toml", 2, "reach_min_mm < reach_max_mm"),
     ("--out c.h5 --config loss.toml", 2, "max_frame_loss"),
     ("--out raw.h5", 2, "already exists"),
@@ -165,7 +165,7 @@ CASES = [
 ] + [(" ".join(STUDY_RUN + extra.split()), code, words) for extra, code, words in [
     ("--out s.h5 --config nodepths.toml", 2, "depths_mm"),
     ("--out s.h5 --config nandepth.toml", 2, "depths_mm"),
-    ("--out s.h5 --config negtravel.toml", 2, "travel_mm must be positive"),
+    ("--out s.h5 --config negtravel.toml", 2, "[trials] travel_mm: must be a number > 0, not -1"),
     ("--out study.h5", 2, "pass --resume"),
     ("--out trunc_study.h5 --resume", 4, "truncated"),
     ("--out raw.h5 --resume", 4, "not a whiskercal.plane_study file"),

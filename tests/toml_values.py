@@ -65,3 +65,40 @@ def all_finite(value) -> bool:
     if isinstance(value, float):
         return math.isfinite(value)
     return True
+
+
+def wrong_values(default) -> list:
+    """Values of the wrong type for a key whose documented default is ``default``: a bool or a
+    string for a number, a float for an integer, a number for a bool or a string, and for a list
+    a bool inside it or a string in its place."""
+    if isinstance(default, bool):
+        return [1, "true"]
+    if isinstance(default, int):
+        return [float(default) + 0.0, True, "1"]
+    if isinstance(default, float):
+        return [True, "15", [default]]
+    if isinstance(default, str):
+        return [5, False]
+    if isinstance(default, list):
+        return [[True] * len(default), "12", [[[1.0]]]]
+    return []
+
+
+def deep_array(depth: int) -> str:
+    """A TOML array nested ``depth`` deep."""
+    return "[" * depth + "]" * depth
+
+
+def kept_as_given(given, loaded, default) -> bool:
+    """True when a value that loaded is the value the file gave, of the default's own type: no
+    bool taken as a number, no float as an integer, no string as a number (ints may stand for
+    floats, and then load as the same float)."""
+    if isinstance(default, dict):
+        return isinstance(given, dict) and all(kept_as_given(value, loaded[key], default[key])
+                                               for key, value in given.items())
+    if isinstance(default, list):
+        return (isinstance(given, list) and len(given) == len(loaded)
+                and all(kept_as_given(g, v, 0.0) for g, v in zip(given, loaded)))
+    if isinstance(default, float):
+        return type(given) in (int, float) and type(loaded) is float and loaded == given
+    return type(given) is type(default) and type(loaded) is type(default) and loaded == given

@@ -11,28 +11,33 @@ from whiskercal.errors import UsageError
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """A TOML file as a nested dict, with one clear error when it is missing or not TOML."""
+    """A TOML file as a nested dict, with one clear error when it is missing or not TOML
+    (not UTF-8, bad syntax, or nested deeper than the parser can follow)."""
     path = Path(path)
     try:
         with open(path, "rb") as handle:
             return tomllib.load(handle)
     except FileNotFoundError:
         raise UsageError(f"{path}: no such config file") from None
+    except UnicodeDecodeError as error:
+        raise UsageError(f"{path}: not valid TOML (not UTF-8 text: byte {error.start})") from None
     except tomllib.TOMLDecodeError as error:
         raise UsageError(f"{path}: not valid TOML ({error})") from None
+    except RecursionError:
+        raise UsageError(f"{path}: not valid TOML (arrays or tables nested too deep)") from None
 
 
-def merge_overrides(base: dict[str, Any], override: dict[str, Any], where: str = "config") -> dict[str, Any]:
-    """``base`` updated by ``override``; a key ``base`` does not know is refused, so a typo in a
-    user's file is an error rather than a silently ignored setting."""
+def merge_overrides(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    """``base`` updated by ``override`` key by key, tables merged table by table.
+
+    Nothing is checked here: the typed table the result is read into (``whiskercal.typedconfig``)
+    refuses a key ``base`` does not know, so a typo in a user's file is an error rather than a
+    silently ignored setting, and a value of the wrong type.
+    """
     merged = copy.deepcopy(base)
     for key, value in override.items():
-        if key not in merged:
-            raise UsageError(f"{where}: unknown setting {key!r} (known: {', '.join(sorted(merged))})")
-        if isinstance(merged[key], dict):
-            if not isinstance(value, dict):
-                raise UsageError(f"{where}: {key!r} must be a table")
-            merged[key] = merge_overrides(merged[key], value, f"{where} [{key}]")
+        if isinstance(merged.get(key), dict) and isinstance(value, dict):
+            merged[key] = merge_overrides(merged[key], value)
         else:
             merged[key] = value
     return merged

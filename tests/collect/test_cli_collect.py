@@ -56,7 +56,7 @@ def test_unknown_config_key_is_one_clear_error(tmp_path):
     config.write_text("[grid]\nstep_m = 2.0\n")
     result = CliRunner().invoke(cli, ["collect", "--dry-run", "--config", str(config)])
     assert result.exit_code == 2
-    assert result.output.strip().startswith("error:") and "unknown setting 'step_m'" in result.output
+    assert result.output.strip().startswith("error:") and "[grid] step_m: unknown key" in result.output
     assert len(result.output.strip().splitlines()) == 1
 
 

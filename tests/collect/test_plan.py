@@ -114,7 +114,7 @@ def test_bands_that_give_another_count_are_refused():
 def test_config_refuses_wrong_types_and_bad_values(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[acquisition]\nsamples_per_point = 2.5\n")
-    with pytest.raises(UsageError, match="samples_per_point = 2.5 must be a whole number"):
+    with pytest.raises(UsageError, match=r"\[acquisition\] samples_per_point: must be an integer >= 1, not 2.5$"):
         load_config(bad)
     with pytest.raises(UsageError, match="safe_y_mm must exceed the rod radius"):
         load_config().replace(approach={"safe_y_mm": 1.0})

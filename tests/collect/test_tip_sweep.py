@@ -73,9 +73,9 @@ def test_the_sweep_follows_another_trace_length(tmp_path):
 @pytest.mark.parametrize("text, words", [
     ("offsets_mm = [1.5]", "sweep.offsets_mm must lie in"),
     ("offsets_mm = [-30.0]", "sweep.offsets_mm must lie in"),
-    ("offsets_mm = []", "[sweep] offsets_mm = [] must be a list of 1 to 16 finite numbers"),
-    ("angle_last_deg = 10.0", "sweep angles must lie in -90..0"),
-    ("angles = 0", "sweep.angles must be 1..90"),
+    ("offsets_mm = []", "[sweep] offsets_mm: must be a list of 1 to 16 numbers, not []"),
+    ("angle_last_deg = 10.0", "[sweep] angle_last_deg: must be a number of deg in -90..0 (the rod pushes the whisker to -y)"),
+    ("angles = 0", "[sweep] angles: must be an integer in 1..90, not 0"),
 ])
 def test_a_sweep_that_cannot_touch_the_tip_from_above_is_refused(tmp_path, text, words):
     from whiskercal.errors import UsageError

@@ -17,10 +17,10 @@ def test_defaults_are_the_papers_study():
 
 
 @pytest.mark.parametrize("text, message", [
-    ("[trials]\nspeed = 3\n", r"\[trials\]: unknown setting 'speed'"),
-    ("[trials]\ndepths_mm = [10.0, 5.0]\n", "positive and increasing"),
+    ("[trials]\nspeed = 3\n", r"\[trials\] speed: unknown key"),
+    ("[trials]\ndepths_mm = [10.0, 5.0]\n", r"\[trials\]: depths_mm must be increasing$"),
     ("[safety]\noverload_uT = 100.0\n", "must exceed contact.threshold_uT"),
-    ("trials = 3\n", "must be a table"),
+    ("trials = 3\n", r"\[trials\]: must be a table of keys, not 3$"),
 ])
 def test_bad_configurations_are_refused(tmp_path, text, message):
     path = tmp_path / "bad.toml"

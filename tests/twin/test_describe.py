@@ -141,4 +141,4 @@ def test_cli_refuses_a_bad_file_in_one_line(tmp_path):
     path.write_text('sensor_id = "lab"\n[whisker]\nlength_mm = -3\n')
     result = CliRunner().invoke(cli, ["twin", "describe", str(path)])
     assert result.exit_code == 2
-    assert result.output.strip().splitlines()[-1].endswith("[whisker] length_mm must be a positive number of mm, got -3")
+    assert result.output.strip().splitlines()[-1].endswith("[whisker] length_mm: must be a positive number of mm, not -3")

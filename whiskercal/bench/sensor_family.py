@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, replace
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -232,7 +232,7 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
         "benchmark": "sensor-family", "quick": quick, "machine": machine_info(),
         "units": {"time": "s", "error": "mm"},
         "setup": {"builds": [s.sensor_id for s in builds], "variants": list(variants),
-                  "tip_sweep": asdict(accuracy.tip_sweep_config()),
+                  "tip_sweep": accuracy.tip_sweep_config().to_dict(),
                   "noise_uT": accuracy.NOISE_UT[0],
                   "stage_offset_mm": list(accuracy.STAGE_OFFSET_MM),
                   "goal_rmse_mm": WARN_TIP_ERROR_MM,

@@ -112,8 +112,8 @@ def scaled_grid(sensor: SensorParams):
     """The default plan's bands scaled by the build's trace length (any number of points)."""
     factor = sensor.whisker.reach_mm / DEFAULT_TRACE_MM
     grid = default_grid_config()
-    return replace(grid, step_mm=grid.step_mm * factor, reach_min_mm=grid.reach_min_mm * factor,
-                   reach_max_mm=grid.reach_max_mm * factor, expected_points=0)
+    return grid.replace(step_mm=grid.step_mm * factor, reach_min_mm=grid.reach_min_mm * factor,
+                        reach_max_mm=grid.reach_max_mm * factor, expected_points=0)
 
 
 def simulate_fields(sensor: SensorParams, seed: int = 0,
@@ -145,7 +145,7 @@ def tip_sweep_config(trace_length_mm: float = DEFAULT_TRACE_MM) -> SweepConfig:
     as ``collect.config.follow_trace_length`` scales them), switched on."""
     given = {"rig": {"trace_length_mm": float(trace_length_mm)}}
     values = follow_trace_length(read_toml(DEFAULT_CONFIG_PATH), given)
-    return replace(config_from_dict(values).sweep, enabled=True)
+    return config_from_dict(values).sweep.replace(enabled=True)
 
 
 def simulate_sweep(sensor: SensorParams, seed: int = 0, config: SweepConfig | None = None,

@@ -55,8 +55,6 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     ``mu_static`` (with ``mu_kinetic``): Coulomb stick-slip at the tip; ``mu_kinetic`` alone:
     mu_s = mu_k, the tip sticking inside the cone and sliding on its edge, no stick-slip.
     """
-    import dataclasses
-
     import numpy as np
 
     from whiskercal import runtime
@@ -75,7 +73,7 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
         raise UsageError(f"{artifact} was calibrated on sensor {calibration.sensor_id!r}, the twin "
                          f"runs {sensor.sensor_id!r}: calibrate that build or pass its --sensor")
     if speed_mm_s is not None:
-        config = dataclasses.replace(config, total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
+        config = config.replace(total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
     shape_outline = outline(shape)
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)  # scales the PID to the build

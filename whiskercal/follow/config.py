@@ -1,16 +1,20 @@
-"""The contour-following controller's constants, with units; a TOML file overrides them key by key."""
+"""The contour-following controller's constants, with units; a TOML file's ``[follow]`` table
+overrides them key by key, every value typed and in range (`FollowConfig`)."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
-from whiskercal.checks import number
-from whiskercal.tomlconfig import merge_overrides, read_toml
+from pydantic import model_validator
+
+from whiskercal.tomlconfig import read_toml
+from whiskercal.typedconfig import Table, integer, number, validate
+
+Positive = number(gt=0)
+NonNegative = number(ge=0)
 
 
-@dataclass(frozen=True)
-class FollowConfig:
+class FollowConfig(Table):
     """Constants of the loop (docs/contour.md).
 
     rate_hz: samples (and commands) per second. total_speed_mm_s: the speed the tangential and
@@ -64,68 +68,61 @@ class FollowConfig:
     turning about the corner would bring the base nearer, the sensor stops for good (gave up).
     """
 
-    rate_hz: float = 300.0
-    total_speed_mm_s: float = 8.0
-    approach_speed_mm_s: float = 5.0
-    tilt_deg: float = 20.0
-    kp_mm_s_per_uT: float = 3e-3
-    ki_mm_s2_per_uT: float = 1e-4
-    kd_mm_per_uT: float = 0.0
-    gains_tip_mm_per_uT: float = 0.0065
-    normal_speed_max_mm_s: float = 6.0
-    heading_gain_per_s: float = 1.0
-    turn_max_rad_s: float = 0.1
-    key_every: int = 10
-    key_spacing_mm: float = 2.0
-    key_points: int = 6
-    slip_drop: float = 0.5
-    slip_window_s: float = 0.1
-    slip_jump_mm: float = 3.0
-    gradual_step_share: float = 0.25
-    press_share: float = 0.9
-    backoff_s: float = 6.0
-    lost_after_s: float = 0.05
-    search_standoff_mm: float = 10.0
-    search_turn_rad_s: float = 0.3
-    key_noise_mm: float = 0.1
-    key_turn_max_deg: float = 10.0
-    slow_heading_deg: float = 20.0
-    stop_heading_deg: float = 45.0
-    stall_travel_mm: float = 1.5
-    stall_share: float = 0.3
-    corner_turn_deg: float = 45.0
-    edge_hold_turn_deg: float = 20.0
-    search_turn_deg: float = 45.0
-    edge_turn_deg: float = 20.0
-    edge_turn_max_rad_s: float = 0.3
-    dwell_s: float = 1.0
-    search_turns: int = 4
-    rise_share: float = 1.1
-    rise_progress_share: float = 0.7
-    corner_clearance_mm: float = 10.0
+    rate_hz: Positive = 300.0
+    total_speed_mm_s: Positive = 8.0
+    approach_speed_mm_s: Positive = 5.0
+    tilt_deg: NonNegative = 20.0
+    kp_mm_s_per_uT: NonNegative = 3e-3
+    ki_mm_s2_per_uT: NonNegative = 1e-4
+    kd_mm_per_uT: NonNegative = 0.0
+    gains_tip_mm_per_uT: Positive = 0.0065
+    normal_speed_max_mm_s: Positive = 6.0
+    heading_gain_per_s: Positive = 1.0
+    turn_max_rad_s: Positive = 0.1
+    key_every: integer(ge=1) = 10
+    key_spacing_mm: Positive = 2.0
+    key_points: integer(ge=4) = 6
+    slip_drop: Positive = 0.5
+    slip_window_s: Positive = 0.1
+    slip_jump_mm: Positive = 3.0
+    gradual_step_share: Positive = 0.25
+    press_share: Positive = 0.9
+    backoff_s: Positive = 6.0
+    lost_after_s: NonNegative = 0.05
+    search_standoff_mm: NonNegative = 10.0
+    search_turn_rad_s: Positive = 0.3
+    key_noise_mm: NonNegative = 0.1
+    key_turn_max_deg: Positive = 10.0
+    slow_heading_deg: Positive = 20.0
+    stop_heading_deg: Positive = 45.0
+    stall_travel_mm: Positive = 1.5
+    stall_share: Positive = 0.3
+    corner_turn_deg: Positive = 45.0
+    edge_hold_turn_deg: Positive = 20.0
+    search_turn_deg: Positive = 45.0
+    edge_turn_deg: Positive = 20.0
+    edge_turn_max_rad_s: Positive = 0.3
+    dwell_s: Positive = 1.0
+    search_turns: integer(ge=0) = 4
+    rise_share: Positive = 1.1
+    rise_progress_share: Positive = 0.7
+    corner_clearance_mm: Positive = 10.0
 
-    def __post_init__(self) -> None:
-        for item in fields(self):
-            low = 0.0 if item.name in _MAY_BE_ZERO else 1e-9
-            number(getattr(self, item.name), f"follow config {item.name}", low=low)
+    @model_validator(mode="after")
+    def _stop_past_slow(self) -> "FollowConfig":
         if self.stop_heading_deg <= self.slow_heading_deg:
-            number(self.stop_heading_deg, "follow config stop_heading_deg (above slow_heading_deg)",
-                   low=self.slow_heading_deg + 1e-9)
-        if self.key_points < 4:
-            number(self.key_points, "follow config key_points (a cubic B-spline needs 4)", low=4)
-
-    def to_dict(self) -> dict:
-        """Plain values (for a run's provenance)."""
-        return asdict(self)
+            raise ValueError("stop_heading_deg must exceed slow_heading_deg")
+        return self
 
 
-_MAY_BE_ZERO = {"kp_mm_s_per_uT", "ki_mm_s2_per_uT", "kd_mm_per_uT", "tilt_deg", "key_noise_mm",
-                "search_standoff_mm", "lost_after_s", "search_turns"}
+class FollowFile(Table):
+    """A follow settings file: its one ``[follow]`` table (a key left out keeps its default)."""
+
+    follow: FollowConfig = FollowConfig()
 
 
 def load_follow_config(path: str | Path | None = None) -> FollowConfig:
     """The defaults, overridden by the ``[follow]`` table of a TOML file when given."""
-    values = FollowConfig().to_dict()
-    if path is not None:
-        values = merge_overrides({"follow": values}, read_toml(path), str(path))["follow"]
-    return FollowConfig(**values)
+    if path is None:
+        return FollowConfig()
+    return validate(FollowFile, read_toml(path), str(path)).follow

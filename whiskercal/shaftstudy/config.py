@@ -1,12 +1,15 @@
-"""The shaft study's configuration: documented defaults, overridden key by key by a TOML file."""
+"""The shaft study's configuration: documented defaults, overridden key by key by a TOML file,
+every table typed (`ShaftStudyConfig`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
+from pydantic import model_validator
 
 from whiskercal.tomlconfig import merge_overrides, read_toml
+from whiskercal.typedconfig import Flag, Table, integer, number, numbers, validate
 
 DEFAULTS: dict = {
     # the rig as `whiskercal collect` sets it up (whiskercal/collect/default_grid.toml)
@@ -31,11 +34,85 @@ DEFAULTS: dict = {
 }
 
 
+Number = number()
+Positive = number(gt=0)
+Pair = numbers(2)
+
+
+class ShaftRig(Table):
+    """The whisker frame in stage coordinates (mm, deg), the rod's radius and the trace length (mm)."""
+
+    origin_stage_mm: Pair
+    angle_deg: Number
+    rod_radius_mm: Positive
+    trace_length_mm: Positive
+
+
+class ShaftTrials(Table):
+    """Where and how each trial presses (``DEFAULTS`` says what each key is)."""
+
+    fractions: numbers(least=1, most=64, gt=0)
+    approach_deg: numbers(least=1, most=16)
+    push_angle_deg: number(ge=0, lt=90.0)
+    slide_mm: number(ge=0)
+    safe_y_mm: Positive
+    push_speed_mm_s: Positive
+    slide_speed_mm_s: Positive
+    travel_speed_mm_s: Positive
+
+    @model_validator(mode="after")
+    def _inside_the_wire(self) -> "ShaftTrials":
+        if max(self.fractions) > 1.0:
+            raise ValueError("fractions are shares of the trace length, at most 1")
+        if max(abs(angle) for angle in self.approach_deg) >= 90.0:
+            raise ValueError("approach_deg must lie within ±90 deg of the whisker's -y")
+        return self
+
+
+class ShaftSensor(Table):
+    """Sample rate (Hz) and the MLX90393 GAIN_SEL, RES, OSR, DIG_FILT codes."""
+
+    rate_hz: integer(ge=1)
+    gain: integer(ge=0, le=7)
+    res: integer(ge=0, le=3)
+    osr: integer(ge=0, le=3)
+    filt: integer(ge=0, le=7)
+
+
+class ShaftSafety(Table):
+    """Homing, move timeout (s), overload |z| (µT), baseline samples and park position (mm)."""
+
+    home: Flag
+    move_timeout_s: Positive
+    overload_uT: Positive
+    baseline_samples: integer(ge=2)
+    park_mm: Pair
+
+
+class ShaftStudyConfig(Table):
+    """Every setting of the shaft study, one table per TOML table."""
+
+    rig: ShaftRig
+    trials: ShaftTrials
+    sensor: ShaftSensor
+    safety: ShaftSafety
+
+    @model_validator(mode="after")
+    def _clear_of_the_wire(self) -> "ShaftStudyConfig":
+        if self.trials.safe_y_mm <= self.rig.rod_radius_mm:
+            raise ValueError("trials.safe_y_mm must exceed rig.rod_radius_mm to clear the whisker")
+        return self
+
+
 def load_config(path: str | Path | None = None) -> dict:
-    """The defaults, overridden by ``path``'s keys (an unknown key is refused)."""
+    """The defaults, overridden by ``path``'s keys, validated (`ShaftStudyConfig`: an unknown
+    key, a value of the wrong type or out of range is one UsageError line naming the key).
+
+    Returns the configuration as plain nested dicts (numbers of float keys as floats)."""
     if path is None:
-        return merge_overrides(DEFAULTS, {})
-    return merge_overrides(DEFAULTS, read_toml(path), str(path))
+        return validate(ShaftStudyConfig, DEFAULTS, "shaft study config").to_dict()
+    values = merge_overrides(DEFAULTS, read_toml(path))
+    return validate(ShaftStudyConfig, values, str(path)).to_dict()
 
 
 def trial_plan(config: dict) -> list[dict]:

@@ -1,7 +1,8 @@
 """The study's configuration: documented TOML defaults, user overrides, and the plane geometry.
 
 Defaults live in ``default_study.toml`` next to this module (every key commented). A user file
-overrides any subset of keys; an unknown key or a bad value is refused with one clear sentence.
+overrides any subset of keys; `StudyConfig` types every table, so an unknown key or a bad value
+is refused with one clear line.
 
 Geometry (docs/study.md): in the whisker frame the plane is pushed toward the root along
 ``push = -(cos tilt, sin tilt)`` and slides along ``slide = slide_sign * (sin tilt, -cos tilt)``.
@@ -12,7 +13,6 @@ through ``R^T (S + fixture_offset - origin)``, where R is that rotation.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
@@ -20,10 +20,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import model_validator
 
-from whiskercal.errors import UsageError
+from whiskercal.collect.config import MAX_REACH_MM, SensorSettings
 from whiskercal.session.frame import RigFrame
 from whiskercal.tomlconfig import merge_overrides, read_toml
+from whiskercal.typedconfig import Flag, Table, integer, number, numbers, validate
 
 DEFAULTS_RESOURCE = "default_study.toml"
 
@@ -47,7 +49,7 @@ def follow_tip_reach(defaults: dict[str, Any], given: dict[str, Any]) -> dict[st
     geometry = given.get("geometry")
     reach = geometry.get("tip_reach_mm") if isinstance(geometry, dict) else None
     if isinstance(reach, bool) or not isinstance(reach, (int, float)) \
-            or not 0 < reach < math.inf or reach == DEFAULT_TIP_REACH_MM:
+            or not 0 < reach <= MAX_REACH_MM or reach == DEFAULT_TIP_REACH_MM:
         return defaults
     factor = float(reach) / DEFAULT_TIP_REACH_MM
     trials = defaults["trials"]
@@ -58,88 +60,102 @@ def follow_tip_reach(defaults: dict[str, Any], given: dict[str, Any]) -> dict[st
 
 
 def load_config(path: str | Path | None = None) -> dict[str, Any]:
-    """Defaults, overridden by the TOML file at ``path`` when given, validated.
+    """Defaults, overridden by the TOML file at ``path`` when given, validated (`StudyConfig`).
+
+    Returns
+    -------
+    dict
+        The validated configuration as plain nested dicts (numbers of float keys as floats).
 
     Raises
     ------
     UsageError
-        When the file is missing, not TOML, has unknown keys or values out of range.
+        When the file is missing, not TOML, has unknown keys, values of the wrong type or out of
+        range; one line naming the file, the table and the key.
     """
-    defaults = config = default_config()
+    config = default_config()
     if path is not None:
         given = read_toml(path)
-        config = merge_overrides(follow_tip_reach(config, given), given, str(path))
+        config = merge_overrides(follow_tip_reach(config, given), given)
     where = "study config" if path is None else str(path)
-    _check_types(config, defaults, where)
-    _validate(config, where)
-    return config
+    return validate(StudyConfig, config, where).to_dict()
 
 
-# lists of numbers that are points (x, y), mm; the other lists (depths) may have any length
-_PAIRS = ("geometry.whisker_origin_stage_mm", "geometry.fixture_offset_mm")
-# keys whose sign is fixed by what they measure (the rest are checked in _validate)
-_POSITIVE = ("geometry.tip_reach_mm", "contact.search_max_mm", "contact.samples_per_step",
-             "contact.baseline_samples", "sensor.rate_hz", "safety.move_timeout_s")
-_NON_NEGATIVE = ("contact.search_start_mm", "safety.travel_margin_mm")
+Number = number()
+Positive = number(gt=0)
+NonNegative = number(ge=0)
+Pair = numbers(2)
 
 
-def _is_number(value: Any) -> bool:
-    # TOML booleans are Python ints: not numbers here; NaN or inf would switch off a limit
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+class TrialsConfig(Table):
+    """The nine depths (mm past first contact, increasing), the slide's speed (mm/s), length and
+    start (mm from first contact) and sign, the retract (mm) and the approach and rapid speeds."""
+
+    depths_mm: numbers(least=1, most=64, gt=0)
+    speed_mm_s: Positive
+    travel_mm: Positive
+    slide_start_mm: Number
+    slide_sign: integer(ge=-1, le=1)
+    retract_mm: Positive
+    approach_speed_mm_s: Positive
+    rapid_speed_mm_s: Positive
+
+    @model_validator(mode="after")
+    def _depths_and_sign(self) -> "TrialsConfig":
+        if any(later <= earlier for earlier, later in zip(self.depths_mm, self.depths_mm[1:])):
+            raise ValueError("depths_mm must be increasing")
+        if self.slide_sign == 0:
+            raise ValueError("slide_sign must be 1 or -1")
+        return self
 
 
-def _type_problem(value: Any, default: Any, key: str) -> str | None:
-    """What ``value`` must be, judged by the documented default's type, or None when it is."""
-    if isinstance(default, bool):
-        return None if isinstance(value, bool) else "true or false"
-    if isinstance(default, int):
-        return None if _is_number(value) and isinstance(value, int) else "a whole number"
-    if isinstance(default, float):
-        return None if _is_number(value) else "a finite number"
-    if isinstance(default, list):
-        good = (isinstance(value, list) and (len(value) == 2 if key in _PAIRS else len(value) > 0)
-                and all(_is_number(v) for v in value))
-        return None if good else ("a pair of finite numbers" if key in _PAIRS
-                                  else "a non-empty list of finite numbers")
-    return None
+class GeometryConfig(Table):
+    """Whisker frame in stage coordinates (mm, deg), the tip's reach (mm), the plane's tilt (deg)
+    and the fixture's offset from the stage position (mm)."""
+
+    whisker_origin_stage_mm: Pair
+    whisker_angle_deg: Number
+    tip_reach_mm: number(gt=0, le=MAX_REACH_MM)
+    plane_tilt_deg: Number
+    fixture_offset_mm: Pair
 
 
-def _sign_problem(value: Any, key: str) -> str | None:
-    if key in _POSITIVE and not value > 0:
-        return "> 0"
-    if key in _NON_NEGATIVE and not value >= 0:
-        return ">= 0"
-    return None
+class ContactConfig(Table):
+    """First-contact search: threshold (µT), start, step (at most 1 mm) and end (mm), samples."""
+
+    threshold_uT: Positive
+    search_start_mm: NonNegative
+    search_step_mm: number(gt=0, le=1.0)
+    search_max_mm: Positive
+    samples_per_step: integer(ge=1)
+    baseline_samples: integer(ge=1)
 
 
-def _check_types(config: dict[str, Any], defaults: dict[str, Any], where: str) -> None:
-    for section, table in defaults.items():
-        for name, default in table.items():
-            key, value = f"{section}.{name}", config[section][name]
-            says = _type_problem(value, default, key) or _sign_problem(value, key)
-            if says is not None:
-                raise UsageError(f"{where}: {key} = {value!r} must be {says}")
+class StudySafetyConfig(Table):
+    """Overload |z| (µT), margin inside the travel (mm), homing, move timeout (s), and the
+    fraction of sensor frames lost above which a run warns."""
+
+    overload_uT: Positive
+    travel_margin_mm: NonNegative
+    home: Flag
+    move_timeout_s: Positive
+    max_frame_loss: number(ge=0, le=1, says="a fraction of the frames, in 0..1")
 
 
-def _validate(config: dict[str, Any], where: str = "study config") -> None:
-    trials = config["trials"]
-    depths = np.asarray(trials["depths_mm"], float)
-    if depths.size == 0 or np.any(depths <= 0) or np.any(np.diff(depths) <= 0):
-        raise UsageError(f"{where}: trials.depths_mm must be positive and increasing")
-    for key in ("speed_mm_s", "travel_mm", "approach_speed_mm_s", "rapid_speed_mm_s", "retract_mm"):
-        if not float(trials[key]) > 0:
-            raise UsageError(f"{where}: trials.{key} must be positive")
-    if trials["slide_sign"] not in (1, -1):
-        raise UsageError(f"{where}: trials.slide_sign must be 1 or -1")
-    contact = config["contact"]
-    if not 0 < float(contact["search_step_mm"]) <= 1.0:
-        raise UsageError(f"{where}: contact.search_step_mm must be in (0, 1] mm")
-    if not float(contact["threshold_uT"]) > 0:
-        raise UsageError(f"{where}: contact.threshold_uT must be positive")
-    if float(config["safety"]["overload_uT"]) <= float(contact["threshold_uT"]):
-        raise UsageError(f"{where}: safety.overload_uT must exceed contact.threshold_uT")
-    if not 0.0 <= float(config["safety"]["max_frame_loss"]) <= 1.0:
-        raise UsageError(f"{where}: safety.max_frame_loss is a fraction of the frames, in [0, 1]")
+class StudyConfig(Table):
+    """Every setting of the plane study, one table per TOML table (default_study.toml)."""
+
+    trials: TrialsConfig
+    geometry: GeometryConfig
+    contact: ContactConfig
+    sensor: SensorSettings
+    safety: StudySafetyConfig
+
+    @model_validator(mode="after")
+    def _overload_above_contact(self) -> "StudyConfig":
+        if self.safety.overload_uT <= self.contact.threshold_uT:
+            raise ValueError("safety.overload_uT must exceed contact.threshold_uT")
+        return self
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@
 The file has a top-level ``sensor_id`` and the tables ``[whisker]``, ``[magnet]`` (with an
 optional ``[magnet.grid]``) and ``[magnetometer]``, whose keys are the fields of
 `WhiskerParams`, `MagnetParams` (`FieldGrid`) and `MagnetometerParams`. A key left out takes the
-value of `DEFAULT_SENSOR`. Every value is checked here, key by key, so that a typo, a wrong type
+value of `DEFAULT_SENSOR`. Every table is a typed model (`SensorFile`), so that a typo, a wrong type
 or a non-physical number ends in one line naming the file and the key rather than a traceback
 or a silently different sensor. docs/twin.md ("Describe your sensor in a file") has an example;
 sensors/ at the repository root holds the shipped sensors and a few other builds as files.
@@ -14,158 +14,139 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
+
+from pydantic import ValidationInfo, field_validator
 
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import read_toml
+from whiskercal.typedconfig import Table, Text, integer, number, numbers, says_of, shown, validate
 from whiskercal.twin.params import DEFAULT_SENSOR, SENSORS, SensorParams
-from whiskercal.twin.physics.magnet import FieldGrid
 
-__all__ = ["RULES", "load_sensor", "resolve_sensor", "sensor_from_dict", "sensor_to_dict",
+__all__ = ["RULES", "SensorFile", "load_sensor", "resolve_sensor", "sensor_from_dict", "sensor_to_dict",
            "sensor_to_toml"]
 
 SECTIONS = ("whisker", "magnet", "magnetometer")
 
 
-def _is_number(value: Any) -> bool:
-    # TOML booleans are Python ints: refuse them as numbers.
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+_WHISKER, _MAGNET, _METER = DEFAULT_SENSOR.whisker, DEFAULT_SENSOR.magnet, DEFAULT_SENSOR.magnetometer
+_GRID = _MAGNET.grid
+MM, POSITIVE_MM = number(says="a number of mm"), number(gt=0, says="a positive number of mm")
+
+# What each key must be, and its value when a file leaves it out (`DEFAULT_SENSOR`'s). Every
+# field of the parameter classes has a key (tests check it); the limits are what a physical
+# build can have, not what is typical.
 
 
-@dataclass(frozen=True)
-class Number:
-    """A finite number that passes `ok`; `says` completes "must be ..."."""
+class WhiskerTable(Table):
+    """``[whisker]``: the fields of `WhiskerParams`."""
 
-    says: str
-    ok: Callable[[float], bool] = lambda value: True
-
-    def parse(self, value: Any) -> float | None:
-        """The value as a float, or None when it breaks the rule."""
-        return float(value) if _is_number(value) and self.ok(value) else None
-
-
-@dataclass(frozen=True)
-class Integer:
-    """A whole number in low..high (a register field)."""
-
-    low: int
-    high: int
-
-    @property
-    def says(self) -> str:
-        return f"an integer in {self.low}..{self.high}"
-
-    def parse(self, value: Any) -> int | None:
-        """The value as an int, or None when it breaks the rule."""
-        good = isinstance(value, int) and not isinstance(value, bool) and self.low <= value <= self.high
-        return int(value) if good else None
+    length_mm: POSITIVE_MM = _WHISKER.length_mm
+    diameter_mm: POSITIVE_MM = _WHISKER.diameter_mm
+    youngs_modulus_n_per_mm2: number(gt=0, says="a positive number of N/mm²") = \
+        _WHISKER.youngs_modulus_n_per_mm2
+    root_offset_mm: number(ge=0, says="a number of mm >= 0") = _WHISKER.root_offset_mm
+    root_rotational_stiffness_n_mm_per_rad: number(gt=0, says="a positive number of N·mm/rad") = \
+        _WHISKER.root_rotational_stiffness_n_mm_per_rad
+    root_translational_stiffness_n_per_mm: number(gt=0, says="a positive number of N/mm") = \
+        _WHISKER.root_translational_stiffness_n_per_mm
 
 
-@dataclass(frozen=True)
-class Vector:
-    """A list of `length` finite numbers, each passing `ok`, the whole passing `ok_all`."""
+class GridTable(Table):
+    """``[magnet.grid]``: the fields of `FieldGrid`."""
 
-    length: int
-    says: str
-    ok: Callable[[float], bool] = lambda value: True
-    ok_all: Callable[[tuple], bool] = lambda values: True
+    rotation_rad: numbers(2, says="an increasing pair of numbers of rad") = _GRID.rotation_rad
+    shift_mm: numbers(2, says="an increasing pair of numbers of mm") = _GRID.shift_mm
+    rotation_step_rad: number(gt=0, says="a positive number of rad") = _GRID.rotation_step_rad
+    shift_step_mm: POSITIVE_MM = _GRID.shift_step_mm
+    pad_cells: integer(ge=2, le=64) = _GRID.pad_cells
 
-    def parse(self, value: Any) -> tuple[float, ...] | None:
-        """The value as a tuple of floats, or None when it breaks the rule."""
-        if not (isinstance(value, (list, tuple)) and len(value) == self.length):
-            return None
-        if not all(_is_number(item) and self.ok(item) for item in value):
-            return None
-        values = tuple(float(item) for item in value)
-        return values if self.ok_all(values) else None
-
-
-def _positive(value: float) -> bool:
-    return value > 0
+    @field_validator("rotation_rad", "shift_mm")
+    @classmethod
+    def _increasing(cls, pair: tuple[float, ...], info: ValidationInfo) -> tuple[float, ...]:
+        if not pair[0] < pair[1]:
+            unit = "rad" if info.field_name == "rotation_rad" else "mm"
+            raise ValueError(f"must be an increasing pair of numbers of {unit}, not {shown(pair)}")
+        return pair
 
 
-def _increasing(pair: tuple) -> bool:
-    return pair[0] < pair[1]
+class MagnetTable(Table):
+    """``[magnet]``: the fields of `MagnetParams`, with ``[magnet.grid]``."""
+
+    diameter_mm: POSITIVE_MM = _MAGNET.diameter_mm
+    height_mm: POSITIVE_MM = _MAGNET.height_mm
+    # No permanent magnet reaches 2 T (NdFeB: about 1.0-1.5 T); zero would make no field.
+    polarization_T: number(ge=-2.0, le=2.0, says="a non-zero number of T within ±2") = \
+        _MAGNET.polarization_T
+    magnet_center_mm: MM = _MAGNET.magnet_center_mm
+    gap_mm: POSITIVE_MM = _MAGNET.gap_mm
+    sensor_offset_mm: numbers(3, says="a list of 3 numbers of mm (x, y, w)") = _MAGNET.sensor_offset_mm
+    sensor_tilt_rad: number(gt=-math.pi / 2, lt=math.pi / 2, says="a number of rad within ±π/2") = \
+        _MAGNET.sensor_tilt_rad
+    grid: GridTable = GridTable()
+
+    @field_validator("polarization_T")
+    @classmethod
+    def _some_field(cls, value: float) -> float:
+        if value == 0:
+            raise ValueError("must be a non-zero number of T within ±2, not 0")
+        return value
 
 
-# What each key must be. Every field of the parameter classes has a rule (tests check it); the
-# limits are what a physical build can have, not what is typical.
-RULES: dict[str, dict[str, Any]] = {
-    "whisker": {
-        "length_mm": Number("a positive number of mm", _positive),
-        "diameter_mm": Number("a positive number of mm", _positive),
-        "youngs_modulus_n_per_mm2": Number("a positive number of N/mm²", _positive),
-        "root_offset_mm": Number("a number of mm >= 0", lambda v: v >= 0),
-        "root_rotational_stiffness_n_mm_per_rad": Number("a positive number of N·mm/rad", _positive),
-        "root_translational_stiffness_n_per_mm": Number("a positive number of N/mm", _positive),
-    },
-    "magnet": {
-        "diameter_mm": Number("a positive number of mm", _positive),
-        "height_mm": Number("a positive number of mm", _positive),
-        # No permanent magnet reaches 2 T (NdFeB: about 1.0-1.5 T); zero would make no field.
-        "polarization_T": Number("a non-zero number of T within ±2", lambda v: v != 0 and abs(v) <= 2),
-        "magnet_center_mm": Number("a number of mm"),
-        "gap_mm": Number("a positive number of mm", _positive),
-        "sensor_offset_mm": Vector(3, "a list of 3 numbers of mm (x, y, w)"),
-        "sensor_tilt_rad": Number("a number of rad within ±π/2", lambda v: abs(v) < math.pi / 2),
-        "grid": {
-            "rotation_rad": Vector(2, "an increasing pair of numbers of rad", ok_all=_increasing),
-            "shift_mm": Vector(2, "an increasing pair of numbers of mm", ok_all=_increasing),
-            "rotation_step_rad": Number("a positive number of rad", _positive),
-            "shift_step_mm": Number("a positive number of mm", _positive),
-            "pad_cells": Integer(2, 64),
-        },
-    },
-    "magnetometer": {
-        "gain": Integer(0, 7),
-        "res": Integer(0, 3),
-        "osr": Integer(0, 3),
-        "filt": Integer(0, 7),
-        "rate_hz": Number("a positive number of Hz", _positive),
-        "noise_uT_rms": Vector(3, "a list of 3 numbers of µT >= 0 (X, Y, Z)", lambda v: v >= 0),
-        "offset_uT": Vector(3, "a list of 3 numbers of µT (X, Y, Z)"),
-    },
-}
+class MagnetometerTable(Table):
+    """``[magnetometer]``: the fields of `MagnetometerParams`."""
+
+    gain: integer(ge=0, le=7) = _METER.gain
+    res: integer(ge=0, le=3) = _METER.res
+    osr: integer(ge=0, le=3) = _METER.osr
+    filt: integer(ge=0, le=7) = _METER.filt
+    rate_hz: number(gt=0, says="a positive number of Hz") = _METER.rate_hz
+    noise_uT_rms: numbers(3, ge=0, says="a list of 3 numbers of µT >= 0 (X, Y, Z)") = _METER.noise_uT_rms
+    offset_uT: numbers(3, says="a list of 3 numbers of µT (X, Y, Z)") = _METER.offset_uT
 
 
-def _shown(value: Any) -> str:
-    """A value as the user wrote it (TOML-like: strings quoted, numbers bare)."""
-    return json.dumps(value, ensure_ascii=False) if isinstance(value, (str, list, bool)) else repr(value)
+class SensorFile(Table):
+    """A sensor description: ``sensor_id`` and the three tables (a key left out: the default's)."""
+
+    sensor_id: Text
+    whisker: WhiskerTable = WhiskerTable()
+    magnet: MagnetTable = MagnetTable()
+    magnetometer: MagnetometerTable = MagnetometerTable()
+
+    @field_validator("sensor_id")
+    @classmethod
+    def _named(cls, sensor_id: str) -> str:
+        if not (sensor_id.strip() and sensor_id == sensor_id.strip()):
+            raise ValueError(f"must be a non-empty string without surrounding spaces, not {shown(sensor_id)}")
+        return sensor_id
 
 
-def _parse_table(table: Any, rules: dict, default: Any, label: str, where: str) -> Any:
-    """`default` with the keys of `table` replaced, each checked against `rules`."""
-    if not isinstance(table, dict):
-        raise UsageError(f"{where}: [{label}] must be a table of keys, got {_shown(table)}")
-    values = {}
-    for key, value in table.items():
-        rule = rules.get(key)
-        if rule is None:
-            raise UsageError(f"{where}: [{label}] unknown key {key!r} (known: {', '.join(rules)})")
-        if isinstance(rule, dict):
-            values[key] = _parse_table(value, rule, getattr(default, key), f"{label}.{key}", where)
-            continue
-        parsed = rule.parse(value)
-        if parsed is None:
-            raise UsageError(f"{where}: [{label}] {key} must be {rule.says}, got {_shown(value)}")
-        values[key] = parsed
+def _rules(table: type[Table]) -> dict[str, Any]:
+    return {name: _rules(field.annotation) if isinstance(field.annotation, type)
+            and issubclass(field.annotation, Table) else says_of(field)
+            for name, field in table.model_fields.items()}
+
+
+RULES: dict[str, dict[str, Any]] = {name: _rules(SensorFile.model_fields[name].annotation)
+                                    for name in SECTIONS}
+"""What each key of each table must be ("must be ..."), the nested grid as its own dict."""
+
+
+def _part(default: Any, table: Table, label: str, where: str) -> Any:
+    """``default`` (a parameter class) with every value of ``table``."""
+    values = {name: _part(getattr(default, name), value, f"{label}.{name}", where)
+              if isinstance(value, Table) else value for name, value in table}
     try:
         return dataclasses.replace(default, **values)
     except UsageError as error:  # a check of the parameter class itself
-        raise UsageError(f"{where}: [{label}] {error}") from None
+        raise UsageError(f"{where} [{label}] {error}") from None
 
 
-def _sensor_id(data: dict, where: str) -> str:
+def _sensor_id_given(data: dict, where: str) -> None:
     if "sensor_id" not in data:
         raise UsageError(f"{where}: sensor_id is missing; name the build (it is written into every "
                          'dataset), e.g. sensor_id = "lab-110mm"')
-    sensor_id = data["sensor_id"]
-    if not (isinstance(sensor_id, str) and sensor_id.strip() and sensor_id == sensor_id.strip()):
-        raise UsageError(f"{where}: sensor_id must be a non-empty string without surrounding "
-                         f"spaces, got {_shown(sensor_id)}")
-    return sensor_id
 
 
 def _first_difference(sensor: SensorParams, other: SensorParams) -> str:
@@ -174,7 +155,7 @@ def _first_difference(sensor: SensorParams, other: SensorParams) -> str:
     for section in SECTIONS:
         for key, value in ours[section].items():
             if value != theirs[section][key]:
-                return f"[{section}] {key} ({_shown(value)} here, {_shown(theirs[section][key])} there)"
+                return f"[{section}] {key} ({shown(value)} here, {shown(theirs[section][key])} there)"
     return "nothing"
 
 
@@ -182,7 +163,7 @@ def _check_build(sensor: SensorParams, where: str) -> None:
     """Checks across keys: the sample rate, and a shipped id used for another build."""
     meter = sensor.magnetometer
     if not meter.fits_rate():
-        raise UsageError(f"{where}: [magnetometer] osr {meter.osr} with filt {meter.filt} takes "
+        raise UsageError(f"{where} [magnetometer] osr {meter.osr} with filt {meter.filt} takes "
                          f"{meter.sample_time_ms():.2f} ms a sample, longer than the "
                          f"{meter.sample_period_ms():.2f} ms period at rate_hz {meter.rate_hz:g}")
     shipped = SENSORS.get(sensor.sensor_id)
@@ -213,14 +194,11 @@ def sensor_from_dict(data: Any, where: str = "sensor") -> SensorParams:
     """
     if not isinstance(data, dict):
         raise UsageError(f"{where}: a sensor description must be a table of keys")
-    for key in data:
-        if key != "sensor_id" and key not in SECTIONS:
-            raise UsageError(f"{where}: unknown key {key!r} at the top level "
-                             f"(known: sensor_id, {', '.join(SECTIONS)})")
-    sensor_id = _sensor_id(data, where)
-    parts = {name: _parse_table(data.get(name, {}), RULES[name], getattr(DEFAULT_SENSOR, name), name, where)
+    _sensor_id_given(data, where)
+    given = validate(SensorFile, data, where)
+    parts = {name: _part(getattr(DEFAULT_SENSOR, name), getattr(given, name), name, where)
              for name in SECTIONS}
-    sensor = SensorParams(sensor_id=sensor_id, **parts)
+    sensor = SensorParams(sensor_id=given.sensor_id, **parts)
     _check_build(sensor, where)
     return sensor
 
