@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from whiskercal import checks
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import read_toml
+from whiskercal.typedconfig import Table, number, validate
 
 MOUNT_KEYS = ("x_mm", "y_mm", "yaw_deg")
 MAX_OFFSET_MM = 2000.0
@@ -64,24 +64,24 @@ def base_to_world(base_pose, points_mm) -> np.ndarray:
     return np.stack([x, y], axis=-1)
 
 
+class _MountTable(Table):
+    x_mm: number(ge=-MAX_OFFSET_MM, le=MAX_OFFSET_MM) = 0.0
+    y_mm: number(ge=-MAX_OFFSET_MM, le=MAX_OFFSET_MM) = 0.0
+    yaw_deg: number(ge=-360.0, le=360.0) = 0.0
+
+
+class _MountFile(Table):
+    mount: _MountTable
+
+
 def read_mount(path: str | Path) -> Mount:
     """The ``[mount]`` table of a TOML file; a missing table, an unknown key or a value that is
     not a finite number within :data:`MAX_OFFSET_MM` (or ±360°) is one error naming the key."""
     data = read_toml(path)
-    table = data.get("mount")
-    if not isinstance(table, dict):
+    if not isinstance(data.get("mount"), dict):
         raise UsageError(f"{path}: no [mount] table (keys {', '.join(MOUNT_KEYS)})")
-    unknown = sorted(set(table) - set(MOUNT_KEYS))
-    if unknown:
-        raise UsageError(f"{path}: [mount] has unknown key {unknown[0]!r} (known: {', '.join(MOUNT_KEYS)})")
-    values = {}
-    for key in MOUNT_KEYS:
-        value = table.get(key, 0.0)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise UsageError(f"{path}: [mount] {key} must be a number, not {value!r}")
-        limit = 360.0 if key == "yaw_deg" else MAX_OFFSET_MM
-        values[key] = checks.number(value, f"{path}: [mount] {key}", low=-limit, high=limit)
-    return Mount(**values)
+    table = validate(_MountFile, data, str(path)).mount
+    return Mount(**{key: getattr(table, key) for key in MOUNT_KEYS})
 
 
 def write_mount(path: str | Path, mount: Mount, comment: str = "") -> None:
