@@ -35,7 +35,7 @@ class RobotSetup:
     safety: Safety = Safety()
     dry_run: bool = False
     sensor_port: str | None = None
-    connect_timeout_s: float = 5.0
+    connect_timeout_s: float = 10.0
 
 
 def contour_on_robot(setup: RobotSetup, artifact: str | Path, out: str | Path, *,

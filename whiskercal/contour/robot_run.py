@@ -137,7 +137,7 @@ def _follow(robot, samples, follower, rest, loop: RobotLoop, rows, latencies, on
         tic = time.perf_counter()
         z_uT, axial_uT = sample.field_uT[1] - rest[0], sample.field_uT[2] - rest[1]
         step = follower.update(z_uT, robot, axial_uT)
-        latencies.append(time.monotonic() - sample.received_s)
+        latencies.append((time.monotonic() - sample.received_s, sample.transit_s))
         _record(rows, t_s, z_uT, axial_uT, step, robot.pose(), time.perf_counter() - tic)
         if recorder is not None:
             recorder.add(sample.stamp_s, sample.field_uT, robot.effector_pose())
@@ -162,10 +162,14 @@ def _column(name: str, values: list) -> np.ndarray:
     return np.empty((0, width)) if width else np.asarray(values, dtype=str if name in ("phase", "kind") else float)
 
 
-def _latency_summary(latencies: list[float]) -> dict:
-    """From a sample's arrival to its command sent, ms: mean, 95th percentile, max."""
-    if not latencies:
-        return {"mean": math.nan, "p95": math.nan, "max": math.nan, "samples": 0}
-    values = 1e3 * np.asarray(latencies)
-    return {"mean": float(values.mean()), "p95": float(np.percentile(values, 95)),
-            "max": float(values.max()), "samples": int(len(values))}
+def _latency_summary(latencies: list[tuple[float, float]]) -> dict:
+    """ms, mean / 95th percentile / max: from a sample's arrival to its command sent (``loop``:
+    waiting in the queue, the tracker, the follower, the publish), and from its stamp to its
+    arrival (``transit``, NaN where the sender's clock is not this machine's)."""
+    summary: dict = {"samples": len(latencies)}
+    for index, name in enumerate(("loop", "transit")):
+        values = 1e3 * np.asarray([pair[index] for pair in latencies], float)
+        values = values[np.isfinite(values)]
+        summary[name] = ({"mean": float(values.mean()), "p95": float(np.percentile(values, 95)),
+                          "max": float(values.max())} if len(values) else None)
+    return summary

@@ -58,7 +58,7 @@ def parse_url(url: str) -> tuple[str, int]:
 class RosbridgeLink:
     """One rosbridge connection and the run's topics (see the module's docstring)."""
 
-    def __init__(self, url: str, topics: RobotTopics, connect_timeout_s: float = 5.0) -> None:
+    def __init__(self, url: str, topics: RobotTopics, connect_timeout_s: float = 10.0) -> None:
         import roslibpy
 
         self.url, self.topics = url, topics
@@ -101,7 +101,8 @@ class RosbridgeLink:
             field = ros.field_uT(message)
         except (KeyError, TypeError, ValueError):
             return
-        self.samples.put(FieldSample(field, ros.stamp_s(message), time.monotonic()))
+        stamp = ros.stamp_s(message)
+        self.samples.put(FieldSample(field, stamp, time.monotonic(), time.time() - stamp))
 
     def latest_pose(self) -> tuple[np.ndarray, str, float] | None:
         """The newest end-effector pose (x mm, y mm, heading rad), its frame, and when it came

@@ -15,12 +15,14 @@ import numpy as np
 
 @dataclass(frozen=True)
 class FieldSample:
-    """One reading: the field (x, y, z) in µT, its stamp (s, the sender's clock) and when it
-    arrived here (s, ``time.monotonic``)."""
+    """One reading: the field (x, y, z) in µT, its stamp (s, the sender's clock), when it
+    arrived here (s, ``time.monotonic``) and how long after its stamp (s, by this machine's
+    wall clock: meaningful when the sender shares it, as on one machine)."""
 
     field_uT: tuple[float, float, float]
     stamp_s: float
     received_s: float
+    transit_s: float = float("nan")
 
 
 class FieldTopic:

@@ -8,8 +8,9 @@ topic (geometry_msgs/TwistStamped) it obeys. A twist holds until the next one, a
 velocity controller's does.
 
 Simulated time is wall time: sample k is taken at ``k / rate_hz`` s after the start, each
-period's motion is integrated under the twist in force, and a period the solver finishes late is
-counted (``late``) rather than stretched. Its stamps are the wall clock's.
+period's motion is integrated under the twist in force, and a sample the solver finishes more
+than a period late is counted (``late``; ``lag_max_s`` the farthest behind) rather than its
+period stretched. Its stamps are the wall clock's.
 
 The ops served (ROSBRIDGE_PROTOCOL.md): ``advertise``, ``unadvertise``, ``publish``,
 ``subscribe``, ``unsubscribe``, ``call_service`` for ``/rosapi/topics`` (others answer
@@ -75,6 +76,10 @@ class RobotTwinServer:
                       topics.field: ros.FIELD_TYPE}
         self._subscriptions: dict = {}  # connection -> {topic: set of subscription ids}
         self.samples, self.late, self.twists, self.refused = 0, 0, 0, 0
+        self.lag_max_s = 0.0  # the farthest the samples fell behind the wall clock, s
+        self.publishing = True  # False: the twin goes silent (a stalled driver), still obeying
+        # the end effector's last twist taken ((vx, vy) mm/s, turn rad/s) and its fastest, mm/s
+        self.last_twist, self.fastest_mm_s = None, 0.0
         self.last_sample = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stopping: asyncio.Event | None = None  # made on the loop that runs the server
@@ -96,6 +101,8 @@ class RobotTwinServer:
     def apply_twist(self, message: dict) -> None:
         """Command the base from an end-effector twist (world frame, or the base frame's)."""
         (vx, vy), turn = ros.planar_twist(message)
+        self.last_twist = ((vx, vy), turn)
+        self.fastest_mm_s = max(self.fastest_mm_s, math.hypot(vx, vy))
         frame = message.get("header", {}).get("frame_id", "")
         heading = self.mobile.pose()[2]
         if frame == self.topics.base_frame:
@@ -119,14 +126,13 @@ class RobotTwinServer:
         sample = self.mobile.step(0.0)
         k = 0
         while k < count and not self._stopping.is_set():
-            self._publish_sample(sample, start_wall + k * dt)
+            if self.publishing:
+                self._publish_sample(sample, start_wall + k * dt)
             k += 1
             delay = start + k * dt - loop.time()
-            if delay > 0:
-                await asyncio.sleep(delay)
-            else:
-                self.late += 1
-                await asyncio.sleep(0)  # let the connections be served
+            self.lag_max_s = max(self.lag_max_s, -delay)
+            self.late += delay < -dt  # a whole period behind the wall clock
+            await asyncio.sleep(max(delay, 0.0))  # (0: the connections are served meanwhile)
             sample = self.mobile.step(dt)
 
     def _publish_sample(self, sample, stamp: float) -> None:
@@ -245,7 +251,7 @@ class RobotTwinServer:
 
     def stop(self) -> None:
         """End :meth:`run` from any thread (its connections close)."""
-        if self._loop is not None:
+        if self._loop is not None and not self._loop.is_closed():
             self._loop.call_soon_threadsafe(self._stopping.set)
 
 
