@@ -52,8 +52,6 @@ def refuse_robot_options(shape, robot: dict) -> None:
     """On the twin: --shape is needed, and a robot option without --robot is a mistake."""
     from whiskercal.errors import UsageError
 
-    if shape is None:
-        raise UsageError("give --shape (the twin's object), or --robot rosbridge://HOST:PORT")
     defaults = {"pose_topic": "/whiskercal/pose", "twist_topic": "/whiskercal/twist",
                 "field_topic": "/whiskercal/field", "watchdog_ms": 200.0, "max_speed": 20.0,
                 "max_turn": 0.5}
@@ -62,6 +60,8 @@ def refuse_robot_options(shape, robot: dict) -> None:
         if value not in (None, False, defaults.get(name)):
             raise UsageError(f"--{name.replace('_path', '').replace('_', '-')} drives a robot: "
                              "give --robot too")
+    if shape is None:
+        raise UsageError("give --shape (the twin's object), or --robot rosbridge://HOST:PORT")
 
 
 def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_mm_s, duration_s,

@@ -67,7 +67,7 @@ def _announce(server, shape, seed, sensor_id, pose, as_json) -> None:
     topics = server.topics
     info = {"robot": server.url, "topics": {"field": topics.field, "pose": topics.pose,
                                             "twist": topics.twist},
-            "frames": {"world": topics.world_frame, "base": topics.base_frame,
+            "frames": {"world": topics.world_frame, "end_effector": topics.effector_frame,
                        "sensor": topics.sensor_frame},
             "outline": OUTLINE_SPECS[shape], "outline_pose": "0,0,0", "shape": shape,
             "rate_hz": server.rate_hz, "seed": seed, "sensor_id": sensor_id,

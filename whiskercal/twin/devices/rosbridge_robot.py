@@ -36,14 +36,14 @@ HOST = "127.0.0.1"
 
 @dataclass(frozen=True)
 class Topics:
-    """The topic names served; frames: the world (poses, world-frame twists), the sensor's
-    base frame (twists in it are turned into the world), the magnetometer's."""
+    """The topic names served; frames: the world (poses, world-frame twists), the end
+    effector's (twists in it are turned into the world), the magnetometer's."""
 
     pose: str = "/whiskercal/pose"
     twist: str = "/whiskercal/twist"
     field: str = "/whiskercal/field"
     world_frame: str = "world"
-    base_frame: str = "whisker_base"
+    effector_frame: str = "end_effector"
     sensor_frame: str = "magnetometer"
 
 
@@ -99,19 +99,18 @@ class RobotTwinServer:
         return np.array([base[0] - c * mx + s * my, base[1] - s * mx - c * my, heading])
 
     def apply_twist(self, message: dict) -> None:
-        """Command the base from an end-effector twist (world frame, or the base frame's)."""
+        """Command the base from an end-effector twist (world frame, or the end effector's)."""
         (vx, vy), turn = ros.planar_twist(message)
         self.last_twist = ((vx, vy), turn)
         self.fastest_mm_s = max(self.fastest_mm_s, math.hypot(vx, vy))
         frame = message.get("header", {}).get("frame_id", "")
-        heading = self.mobile.pose()[2]
-        if frame == self.topics.base_frame:
-            c, s = math.cos(heading), math.sin(heading)
+        effector = self.effector_pose()
+        if frame == self.topics.effector_frame:
+            c, s = math.cos(effector[2]), math.sin(effector[2])
             vx, vy = c * vx - s * vy, s * vx + c * vy
         elif frame not in ("", self.topics.world_frame):
             raise ValueError(f"twist in frame {frame!r}: this twin takes "
-                             f"{self.topics.world_frame!r} or {self.topics.base_frame!r}")
-        effector = self.effector_pose()
+                             f"{self.topics.world_frame!r} or {self.topics.effector_frame!r}")
         arm = self.mobile.pose()[:2] - effector[:2]  # the base moves with the effector's turn
         velocity = np.array([vx, vy]) + turn * np.array([-arm[1], arm[0]])
         self.mobile.command(velocity, turn)
