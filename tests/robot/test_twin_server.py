@@ -109,3 +109,15 @@ def test_the_server_binds_to_loopback_only():
     server = twin_server(rate_hz=10.0)
     with serve(server):
         assert server.url.startswith("rosbridge://127.0.0.1:")
+
+
+def test_a_twist_in_the_end_effectors_frame_is_turned_into_the_world():
+    import math
+
+    server = twin_server(rate_hz=10.0, pose=[-200.0, 0.0, math.pi / 2])
+    message = ros.twist_message((2.0, 0.0), 0.0, server.topics.effector_frame, 0.0)
+    before = server.mobile.pose()
+    server.apply_twist(message)
+    server.mobile.step(0.5)
+    # the end effector's x axis points along the world's +y: 2 mm/s for 0.5 s there
+    assert np.allclose(server.mobile.pose() - before, [0.0, 1.0, 0.0], atol=1e-12)

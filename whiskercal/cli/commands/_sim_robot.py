@@ -59,8 +59,9 @@ def serve_robot(shape: str, seed: int, sensor, port: int, rate_hz: float, durati
         asyncio.run(server.run(duration_s, ready))
     except KeyboardInterrupt:
         pass
-    click.echo(f"served {server.samples} samples, {server.late} late, {server.twists} twists",
-               err=True)
+    click.echo(f"served {server.samples} samples ({server.late} more than a period late, the "
+               f"farthest {1e3 * server.lag_max_s:.1f} ms behind the wall clock), took "
+               f"{server.twists} twists, refused {server.refused}", err=True)
 
 
 def _announce(server, shape, seed, sensor_id, pose, as_json) -> None:
