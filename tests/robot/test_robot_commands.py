@@ -122,3 +122,16 @@ def test_bad_robot_options_are_refused_with_one_line(tmp_path, words, message):
     assert result.exit_code == 2, result.output
     assert message in result.stderr and result.stderr.count("\n") == 1
     assert not (tmp_path / "r.h5").exists()
+
+
+def test_the_sensor_on_its_serial_port_streams_samples_at_the_boards_rate():
+    from whiskercal.robot import SerialSamples
+
+    samples = SerialSamples("sim://robot-serial/sensor")
+    try:
+        got = [samples.next(0.5) for _ in range(31)]
+    finally:
+        samples.close()
+    stamps = np.array([sample.stamp_s for sample in got])
+    assert np.allclose(np.diff(stamps), 1 / 300, rtol=0.05)  # the board's clock, 300 Hz
+    assert all(len(sample.field_uT) == 3 for sample in got) and abs(got[0].field_uT[1]) > 100

@@ -60,18 +60,22 @@ class SerialSamples:
         self._waiting: deque[FieldSample] = deque()
 
     def next(self, timeout_s: float) -> FieldSample | None:
-        """The oldest sample not yet taken, waiting up to ``timeout_s`` s."""
-        deadline = time.monotonic() + timeout_s
-        while not self._waiting:
-            block = self.client.read_available()
-            now = time.monotonic()
-            for field, stamp in zip(np.asarray(block.field_uT, float), block.t_s):
-                self._waiting.append(FieldSample(tuple(field), float(stamp), now))
-            if not self._waiting:
-                if now >= deadline:
-                    return None
-                time.sleep(0.0005)
+        """The oldest sample not yet taken, waiting up to ``timeout_s`` s (by the port's clock)."""
+        from whiskercal.errors import DeviceError
+
+        if not self._waiting:
+            self._keep(self.client.read_available())
+        if not self._waiting:
+            try:
+                self._keep(self.client.read(1, timeout_s))
+            except DeviceError:  # nothing within the wait: the watchdog's to report
+                return None
         return self._waiting.popleft()
+
+    def _keep(self, block) -> None:
+        now = time.monotonic()
+        for field, stamp in zip(np.asarray(block.field_uT, float), block.t_s):
+            self._waiting.append(FieldSample(tuple(float(v) for v in field), float(stamp), now))
 
     def backlog(self) -> int:
         """Samples read from the port and not yet taken."""
