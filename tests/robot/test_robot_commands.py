@@ -135,3 +135,22 @@ def test_the_sensor_on_its_serial_port_streams_samples_at_the_boards_rate():
     stamps = np.array([sample.stamp_s for sample in got])
     assert np.allclose(np.diff(stamps), 1 / 300, rtol=0.05)  # the board's clock, 300 Hz
     assert all(len(sample.field_uT) == 3 for sample in got) and abs(got[0].field_uT[1]) > 100
+
+
+def test_the_end_effectors_pose_is_read_from_tf_between_the_named_frames_only():
+    pose = ros.pose_message([120.0, -30.0, 0.7], "base_link", 0.0)["pose"]
+    transform = {"header": {"frame_id": "base_link"}, "child_frame_id": "tool0",
+                 "transform": {"translation": pose["position"], "rotation": pose["orientation"]}}
+    other = {**transform, "child_frame_id": "camera"}
+    assert np.allclose(ros.planar_transform({"transforms": [other, transform]}, "base_link", "tool0"),
+                       [120.0, -30.0, 0.7])
+    assert ros.planar_transform({"transforms": [other]}, "base_link", "tool0") is None
+
+
+def test_bad_tf_frames_are_one_line(tmp_path):
+    from served_twin import CALIBRATION
+
+    result = CliRunner().invoke(cli, ["contour", "run", "--artifact", str(CALIBRATION), "--out",
+                                      str(tmp_path / "r.h5"), "--robot", "rosbridge://127.0.0.1:9",
+                                      "--tf-frames", "base_link"])
+    assert result.exit_code == 2 and "--tf-frames must be PARENT,CHILD" in result.stderr

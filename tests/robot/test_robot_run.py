@@ -72,6 +72,10 @@ def test_a_dry_run_prints_every_twist_and_sends_none(tmp_path):
         assert server.twists == 0 and np.allclose(server.mobile.pose(), start)
     assert len(lines) > 100 and all("dry run: not sent" in line for line in lines)
     assert read_contour_run(tmp_path / "dry.h5").config["robot"]["sent"] == 0
+    # a robot's run holds no object: the twin's report says so in one line
+    report = CliRunner().invoke(cli, ["contour", "report", str(tmp_path / "dry.h5"), "--out",
+                                      str(tmp_path / "rep")])
+    assert report.exit_code == 2 and "run on a robot" in report.stderr
 
 
 def test_the_watchdog_stops_a_silent_robot_with_a_zero_twist_and_a_partial_run(tmp_path):

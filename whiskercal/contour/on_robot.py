@@ -88,7 +88,8 @@ def _run(setup: RobotSetup, tracker, target, loop, tip_mm_per_uT, echo, on_progr
 
 def _as_file(run: RobotRun, setup: RobotSetup, artifact, sensor_id: str, target: float,
              tip_mm_per_uT) -> ContourRunFile:
-    robot = {"url": setup.url, "pose_topic": setup.topics.pose, "twist_topic": setup.topics.twist,
+    robot = {"url": setup.url, "pose_topic": setup.topics.pose, "tf_frames": setup.topics.tf_frames,
+             "twist_topic": setup.topics.twist,
              "twist_frame": setup.topics.twist_frame, "field_topic": setup.topics.field,
              "sensor_port": setup.sensor_port, "dry_run": setup.dry_run,
              "mount": {"x_mm": setup.mount.x_mm, "y_mm": setup.mount.y_mm,

@@ -14,6 +14,7 @@ import math
 POSE_TYPE = "geometry_msgs/PoseStamped"
 TWIST_TYPE = "geometry_msgs/TwistStamped"
 FIELD_TYPE = "sensor_msgs/MagneticField"
+TF_TYPE = "tf2_msgs/TFMessage"
 TOPIC_TYPES = ("pose", "twist", "field")
 
 MM_PER_M = 1000.0
@@ -56,6 +57,17 @@ def planar_pose(message: dict) -> tuple[float, float, float]:
     x, y, z, w = (float(q[k]) for k in ("x", "y", "z", "w"))
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
     return float(position["x"]) * MM_PER_M, float(position["y"]) * MM_PER_M, yaw
+
+
+def planar_transform(message: dict, parent: str, child: str) -> tuple[float, float, float] | None:
+    """(x mm, y mm, heading rad) of ``child`` in ``parent`` from a tf2_msgs/TFMessage, or None
+    when it holds no transform between exactly those two frames (a chain is not composed)."""
+    for transform in message.get("transforms", ()):
+        if (transform.get("header", {}).get("frame_id", "").lstrip("/") == parent.lstrip("/")
+                and transform.get("child_frame_id", "").lstrip("/") == child.lstrip("/")):
+            body = transform["transform"]
+            return planar_pose({"position": body["translation"], "orientation": body["rotation"]})
+    return None
 
 
 def twist_message(velocity_mm_s, turn_rad_s: float, frame_id: str, stamp: float) -> dict:

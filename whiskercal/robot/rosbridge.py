@@ -33,14 +33,16 @@ from whiskercal.robot.samples import FieldSample
 
 @dataclass(frozen=True)
 class RobotTopics:
-    """The topics of a robot run: the end effector's pose, the twist it obeys and the frame
-    stamped on it (None: the pose messages' own frame), the field (None: the sensor is on a
-    serial port)."""
+    """The topics of a robot run: the end effector's pose (a PoseStamped topic, or with
+    ``tf_frames`` a tf2_msgs/TFMessage topic holding the transform parent -> child), the twist
+    it obeys and the frame stamped on it (None: the pose messages' own frame), the field (None:
+    the sensor is on a serial port)."""
 
     pose: str = "/whiskercal/pose"
     twist: str = "/whiskercal/twist"
     twist_frame: str | None = None
     field: str | None = "/whiskercal/field"
+    tf_frames: tuple[str, str] | None = None  # (parent, child): the pose topic is TF (/tf)
 
 
 def parse_url(url: str) -> tuple[str, int]:
@@ -75,7 +77,9 @@ class RosbridgeLink:
             raise DeviceError(f"no rosbridge server answered at {url} within "
                               f"{connect_timeout_s:g} s ({type(error).__name__})") from None
         self.ros.on("close", lambda *_: self.lost.set())
-        self._subscriptions = [self._subscribe(topics.pose, ros.POSE_TYPE, self._on_pose)]
+        self._subscriptions = [self._subscribe(topics.pose, ros.POSE_TYPE, self._on_pose)
+                               if topics.tf_frames is None else
+                               self._subscribe(topics.pose, ros.TF_TYPE, self._on_tf)]
         if topics.field is not None:
             self._subscriptions.append(self._subscribe(topics.field, ros.FIELD_TYPE, self._on_field))
         self.twist = roslibpy.Topic(self.ros, topics.twist, ros.TWIST_TYPE)
@@ -95,6 +99,16 @@ class RosbridgeLink:
             return  # a malformed pose is no pose: the watchdog sees the silence
         self._pose = (pose, message.get("header", {}).get("frame_id", ""), time.monotonic())
         self.poses_received += 1
+
+    def _on_tf(self, message: dict) -> None:
+        parent, child = self.topics.tf_frames
+        try:
+            pose = ros.planar_transform(message, parent, child)
+        except (KeyError, TypeError, ValueError):
+            return
+        if pose is not None:  # /tf carries every frame's transforms: only ours is a pose
+            self._pose = (np.array(pose), parent, time.monotonic())
+            self.poses_received += 1
 
     def _on_field(self, message: dict) -> None:
         try:

@@ -9,7 +9,7 @@ import click
 
 from whiskercal.cli.app import App, echo_json
 
-ROBOT_ONLY = ("pose_topic", "twist_topic", "twist_frame", "field_topic", "mount_path",
+ROBOT_ONLY = ("pose_topic", "tf_frames", "twist_topic", "twist_frame", "field_topic", "mount_path",
               "watchdog_ms", "dry_run", "max_speed", "max_turn", "box")
 
 
@@ -21,6 +21,10 @@ def robot_options(function):
                           "(docs/robot.md); `sim serve --robot` serves the twin's."),
         click.option("--pose-topic", default="/whiskercal/pose", show_default=True,
                      help="geometry_msgs/PoseStamped of the end effector."),
+        click.option("--tf-frames", default=None, metavar="PARENT,CHILD",
+                     help="Read the end effector's pose from TF instead: --pose-topic is then "
+                          "a tf2_msgs/TFMessage topic (e.g. /tf) carrying PARENT -> CHILD "
+                          "directly (e.g. base_link,tool0)."),
         click.option("--twist-topic", default="/whiskercal/twist", show_default=True,
                      help="geometry_msgs/TwistStamped the robot's Cartesian controller obeys."),
         click.option("--twist-frame", default=None,
@@ -117,11 +121,23 @@ def robot_setup(robot_url: str, sensor_port, robot: dict):
     positive(robot["watchdog_ms"], "--watchdog-ms", unit="ms")
     safety = Safety(speed_mm_s=robot["max_speed"], turn_rad_s=robot["max_turn"],
                     box_mm=parse_box(robot["box"]), watchdog_s=robot["watchdog_ms"] / 1e3)
-    topics = RobotTopics(pose=robot["pose_topic"], twist=robot["twist_topic"],
+    topics = RobotTopics(pose=robot["pose_topic"], tf_frames=_frames(robot["tf_frames"]),
+                         twist=robot["twist_topic"],
                          twist_frame=robot["twist_frame"],
                          field=None if sensor_port else robot["field_topic"])
     mount = read_mount(robot["mount_path"]) if robot["mount_path"] else Mount()
     return RobotSetup(robot_url, topics, mount, safety, robot["dry_run"], sensor_port)
+
+
+def _frames(text: str | None) -> tuple[str, str] | None:
+    from whiskercal.errors import UsageError
+
+    if text is None:
+        return None
+    parts = [part.strip() for part in text.split(",")]
+    if len(parts) != 2 or not all(parts):
+        raise UsageError(f"--tf-frames must be PARENT,CHILD (e.g. base_link,tool0), not {text!r}")
+    return parts[0], parts[1]
 
 
 def _print(summary: dict, as_json: bool) -> None:
