@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -42,7 +43,9 @@ def test_it_prints_the_url_topics_and_outline_then_serves_for_its_duration():
         _, err = server.communicate(timeout=30)
     finally:
         server.kill()
-    assert server.returncode == 0 and "served 120 samples" in err  # 4 s at 30 Hz
+    served = re.search(r"served (\d+) samples, skipped (\d+)", err)
+    # 4 s at 30 Hz by the wall clock: each taken, or skipped when the machine was too busy
+    assert server.returncode == 0 and int(served[1]) + int(served[2]) == 120 and int(served[1]) > 60
     assert time.monotonic() - started >= 4.0
 
 

@@ -36,7 +36,11 @@ def test_subscribers_get_pose_and_field_at_the_rate_in_ros_units():
         fields = [_until(ws, lambda m: m.get("topic") == "/whiskercal/field")["msg"] for _ in range(30)]
         pose = _until(ws, lambda m: m.get("topic") == "/whiskercal/pose")["msg"]
     stamps = np.array([ros.stamp_s(m) for m in fields])
-    assert np.allclose(np.diff(stamps), 0.01, atol=1e-6)  # the stream's own clock, 100 Hz
+    # the stream's own clock, 100 Hz: whole periods apart (more than one where a busy machine
+    # made the twin skip samples), most one
+    periods = np.diff(stamps) / 0.01
+    assert np.allclose(periods, np.round(periods), atol=1e-4) and np.all(periods >= 1 - 1e-4)
+    assert np.median(periods) == pytest.approx(1.0)
     assert abs(stamps[-1] - time.time()) < 5.0  # stamped by the wall clock
     # the whole field in tesla (rest included), as a board streams it; the pose in metres
     y_uT = np.array([ros.field_uT(m)[1] for m in fields])

@@ -6,8 +6,8 @@ the paper's 30 Hz, beside the in-process run on the same seed at the same rate.
 Each robot run is measured against the served outline (the twin's object where ``sim serve``
 says it stands), in the world frame with no alignment, by ``contour.summary``; the in-process
 run likewise. Rows also give the loop's latency (a sample's arrival to its twist sent), the
-transit (its stamp to its arrival), the samples the loop took against the stream's, and how far
-the server fell behind the wall clock.
+transit (its stamp to its arrival), the samples the loop took against the stream's, and what
+the server reports (the samples it skipped when its solver fell behind the wall clock).
 """
 
 from __future__ import annotations

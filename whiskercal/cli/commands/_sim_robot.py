@@ -59,8 +59,8 @@ def serve_robot(shape: str, seed: int, sensor, port: int, rate_hz: float, durati
         asyncio.run(server.run(duration_s, ready))
     except KeyboardInterrupt:
         pass
-    click.echo(f"served {server.samples} samples ({server.late} more than a period late, the "
-               f"farthest {1e3 * server.lag_max_s:.1f} ms behind the wall clock), took "
+    click.echo(f"served {server.samples} samples, skipped {server.skipped} (the solver behind the "
+               f"wall clock; the latest {1e3 * server.lag_max_s:.1f} ms after its stamp), took "
                f"{server.twists} twists, refused {server.refused}", err=True)
 
 

@@ -7,10 +7,11 @@ field, rest included, as a real board streams it) published at the sensor's rate
 topic (geometry_msgs/TwistStamped) it obeys. A twist holds until the next one, as a Cartesian
 velocity controller's does.
 
-Simulated time is wall time: sample k is taken at ``k / rate_hz`` s after the start, each
-period's motion is integrated under the twist in force, and a sample the solver finishes more
-than a period late is counted (``late``; ``lag_max_s`` the farthest behind) rather than its
-period stretched. Its stamps are the wall clock's.
+Simulated time is wall time: sample k is stamped and taken ``k / rate_hz`` s after the start
+(by the wall clock), each period's motion integrated under the twist in force. When the solver
+falls behind (a busy machine), the samples it has no time for are skipped (``skipped``) and the
+motion is integrated over the whole gap, so the twin's clock never falls behind the wall's;
+``lag_max_s`` is the latest a sample was taken after its stamp.
 
 The ops served (ROSBRIDGE_PROTOCOL.md): ``advertise``, ``unadvertise``, ``publish``,
 ``subscribe``, ``unsubscribe``, ``call_service`` for ``/rosapi/topics`` (others answer
@@ -75,8 +76,8 @@ class RobotTwinServer:
         self.types = {topics.pose: ros.POSE_TYPE, topics.twist: ros.TWIST_TYPE,
                       topics.field: ros.FIELD_TYPE}
         self._subscriptions: dict = {}  # connection -> {topic: set of subscription ids}
-        self.samples, self.late, self.twists, self.refused = 0, 0, 0, 0
-        self.lag_max_s = 0.0  # the farthest the samples fell behind the wall clock, s
+        self.samples, self.skipped, self.twists, self.refused = 0, 0, 0, 0
+        self.lag_max_s = 0.0  # the latest a sample was taken after its stamp, s
         self.publishing = True  # False: the twin goes silent (a stalled driver), still obeying
         # the end effector's last twist taken ((vx, vy) mm/s, turn rad/s) and its fastest, mm/s
         self.last_twist, self.fastest_mm_s = None, 0.0
@@ -127,12 +128,15 @@ class RobotTwinServer:
         while k < count and not self._stopping.is_set():
             if self.publishing:
                 self._publish_sample(sample, start_wall + k * dt)
-            k += 1
-            delay = start + k * dt - loop.time()
-            self.lag_max_s = max(self.lag_max_s, -delay)
-            self.late += delay < -dt  # a whole period behind the wall clock
-            await asyncio.sleep(max(delay, 0.0))  # (0: the connections are served meanwhile)
-            sample = self.mobile.step(dt)
+            due = k + 1
+            gone = int((loop.time() - start) / dt)  # whole periods of wall time since the start
+            if gone > due:  # the solver fell behind: the samples it had no time for are skipped
+                self.skipped += gone - due
+                due = gone
+            await asyncio.sleep(max(start + due * dt - loop.time(), 0.0))  # (0: serve connections)
+            sample = self.mobile.step((due - k) * dt)  # the motion over the whole gap
+            k = due
+            self.lag_max_s = max(self.lag_max_s, loop.time() - (start + k * dt))
 
     def _publish_sample(self, sample, stamp: float) -> None:
         self.samples += 1
