@@ -103,6 +103,11 @@ CASES = [
     ("contour run --shape octagon --artifact cal.h5 --out c.h5 --mu-static 0.1 --mu-kinetic 0.2", 2,
      "must be at least --mu-kinetic"),
     ("contour run --shape octagon --artifact cal.h5 --out c.h5 --mu-static inf", 2, "--mu-static must be"),
+    ("contour run --robot http://x:9090 --artifact cal.h5 --out c.h5", 2, "--robot must be rosbridge://"),
+    ("contour run --robot rosbridge://127.0.0.1:9 --artifact cal.h5 --out c.h5 --box 1,2", 2, "--box must be"),
+    ("contour run --robot rosbridge://127.0.0.1:9 --artifact cal.h5 --out c.h5 --watchdog-ms nan", 2,
+     "--watchdog-ms must be"),
+    ("contour run --artifact cal.h5 --out c.h5 --dry-run", 2, "--dry-run drives a robot"),
     ("contour report raw.h5 --out rep", 4, "not a whiskercal.contour_run file"),
     ("contour report trunc_raw.h5 --out rep", 4, "truncated"),
 ] + [(" ".join(COLLECT + extra.split()), code, words) for extra, code, words in [
