@@ -33,14 +33,14 @@ WATCHDOG_S = 1.0
 
 def run(quick: bool = False, progress=None, artifact: str | Path | None = None,
         duration_s: float | None = None, seed: int = 1) -> dict:
-    """Rows for each shape and rate (``quick``: the octagon only); ``artifact``: a calibration
+    """Rows for each shape and rate (``quick``: the octagon only, 10 s); ``artifact``: a calibration
     with a target (default: the recorded default grid fitted as ``contour-target`` does)."""
     folder = Path(tempfile.mkdtemp(prefix="whiskercal-robot-loop-"))
     if artifact is None:
         from whiskercal.bench.contour_target import calibrations_with_target
 
         artifact = calibrations_with_target(folder, field_table=False)["z-lookup"]
-    duration_s = duration_s or 110.0
+    duration_s = duration_s or (10.0 if quick else 110.0)  # 110 s: the octagon goes round
     rows = []
     for shape in SHAPES[:1] if quick else SHAPES:
         for rate in RATES_HZ:
