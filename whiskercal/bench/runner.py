@@ -124,6 +124,9 @@ COMPARISONS = {c.name: c for c in (
                _module_run("whiskercal.bench.shaft_localizer")),
     Comparison("contour-target", "contour error against the deflection target; the follower's "
                "cost per sample", _module_run("whiskercal.bench.contour_target")),
+    Comparison("robot-loop", "contour run --robot through the twin's rosbridge server at 300 and "
+               "30 Hz against the in-process loop; the loop's latency",
+               _module_run("whiskercal.bench.robot_loop")),
 )}
 
 

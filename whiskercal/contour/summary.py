@@ -12,11 +12,15 @@ import numpy as np
 
 from whiskercal.artifacts.contour_run import ContourRunFile
 from whiskercal.contour.metrics import contour_metrics
+from whiskercal.errors import UsageError
 from whiskercal.twin.outlines import recorded
 
 
 def outline_of(run: ContourRunFile):
-    """The run's object, as recorded."""
+    """The run's object, as recorded; a run on a robot has none (UsageError)."""
+    if len(run.core_mm) == 0:
+        raise UsageError(f"{run.path or 'the run'} was run on a robot and records no object: "
+                         "measure it against the object's outline instead")
     return recorded(run.shape, run.core_mm, run.radius_mm)
 
 

@@ -8,25 +8,30 @@ from types import SimpleNamespace
 import click
 
 from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.errors import UsageError
+from whiskercal.cli.commands._contour_robot import refuse_robot_options, robot_options, run_on_robot
 
 
 @click.group("contour")
 def command() -> None:
     """Follow an object's contour with the calibrated whisker (the paper's closed loop) on the
-    digital twin, and measure the reconstruction against the object's true outline."""
+    digital twin, or on a robot over rosbridge, and measure the reconstruction against the
+    object's true outline."""
 
 
 @command.command("run")
-@click.option("--shape", type=click.Choice(["cylinder", "rounded-rect", "octagon", "wall"]), required=True,
-              help="The object: a Ø160 mm cylinder, a 160 mm square prism with 40 mm corners, or "
-                   "an octagonal prism (70 mm sides, 30 mm corners), or an open wall with a "
-                   "20 mm step and a concave corner.")
+@click.option("--shape", type=click.Choice(["cylinder", "rounded-rect", "octagon", "wall"]), default=None,
+              help="The twin's object: a Ø160 mm cylinder, a 160 mm square prism with 40 mm "
+                   "corners, or an octagonal prism (70 mm sides, 30 mm corners), or an open wall "
+                   "with a 20 mm step and a concave corner (required without --robot).")
 @click.option("--artifact", type=click.Path(dir_okay=False), required=True,
               help="Calibration artifact (CAL.h5) of the twin's sensor, with a target; one from "
                    "a (Y, Z) table (written by `fit` by default) places the contacts from the Y and Z "
                    "axes (docs/contour.md).")
 @click.option("--sensor", "sensor_name", default=None, metavar="ID_OR_PATH",
-              help="The twin's sensor build: a shipped id or a .toml file [default: the default sensor].")
+              help="The twin's sensor build: a shipped id or a .toml file [default: the default "
+                   "sensor]; with --robot, the sensor board's serial port (e.g. /dev/ttyUSB1) "
+                   "instead of --field-topic.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,
               help="TOML file whose [follow] table overrides the controller's constants.")
 @click.option("--target-uT", "target_uT", type=float, default=None,
@@ -50,10 +55,12 @@ def command() -> None:
                    "bag (a folder: metadata.yaml and NAME.mcap) for `whiskercal replay` or "
                    "Foxglove; the static field to replay it with is in the run's config.")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
+@robot_options
 @pass_app
 def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, speed_mm_s,
-                duration_s, mu_static, mu_kinetic, seed, out, record_path, as_json) -> None:
-    """Run the loop around SHAPE and record every sample (Ctrl-C keeps a readable partial run)."""
+                duration_s, mu_static, mu_kinetic, seed, out, record_path, as_json, **robot) -> None:
+    """Run the loop around SHAPE on the twin, or on a robot with --robot, and record every
+    sample (Ctrl-C keeps a readable partial run)."""
     from whiskercal.atomic import refuse_input_as_output
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour import contour_to_file, summarize
@@ -61,6 +68,14 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     from whiskercal.twin.sensor_file import resolve_sensor
 
     refuse_input_as_output(out, [artifact] + ([config_path] if config_path else []), "the run")
+    if robot["robot_url"] is not None:
+        if record_path is not None:
+            raise UsageError("--record writes a twin run's stream; a robot's run is recorded by "
+                             "its own ROS recorder (ros2 bag record), which replay reads")
+        return run_on_robot(app, artifact, sensor_name, config_path, target_uT, speed_mm_s,
+                            duration_s, out, as_json, shape=shape, mu_static=mu_static,
+                            mu_kinetic=mu_kinetic, seed=seed, **robot)
+    refuse_robot_options(shape, robot)
     sensor = resolve_sensor(sensor_name) if sensor_name else None
     with progress_bar(app, "s", description=f"contour {shape}", as_json=as_json) as bar:
         def shown(t_s: float) -> None:

@@ -9,6 +9,7 @@ import time
 import click
 
 from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.commands._sim_robot import OUTLINE_SPECS, robot_sensor, serve_robot
 from whiskercal.twin.scenes import scene_names
 
 
@@ -42,23 +43,48 @@ def command() -> None:
                    "--homing/--origin choose the build), the sensor the twin's Python board.")
 @click.option("--duration", type=float, default=None,
               help="Stop after this many real seconds (default: run until Ctrl-C).")
-@click.option("--json", "as_json", is_flag=True, help="Print the pty paths as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print the pty paths (with --robot: the "
+              "rosbridge URL, topics and outline) as JSON.")
+@click.option("--robot", "as_robot", is_flag=True,
+              help="Serve the twin's mobile base against --shape behind a rosbridge WebSocket on "
+                   "127.0.0.1 instead of the rig's boards (docs/robot.md).")
+@click.option("--shape", type=click.Choice(sorted(OUTLINE_SPECS)), default=None,
+              help="With --robot: the object in front of the base.")
+@click.option("--port", type=int, default=9090, show_default=True,
+              help="With --robot: the WebSocket's port (0: any free one).")
+@click.option("--rate-hz", type=float, default=300.0, show_default=True,
+              help="With --robot: poses and field samples per second (the paper's board: 300 or 30).")
+@click.option("--artifact", type=click.Path(dir_okay=False), default=None,
+              help="With --robot: serve the build this calibration was made on.")
+@click.option("--mount", "mount_path", type=click.Path(dir_okay=False), default=None,
+              help="With --robot: TOML [mount] table; the pose and twists are then the end "
+                   "effector's that carries the base so.")
 @pass_app
 def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod_radius: float,
           stock: bool, homing: str | None, origin: str | None, faults: tuple[str, ...], firmware: str,
-          duration: float | None, as_json: bool) -> None:
-    """Expose a simulated rig on two pseudo-terminals until Ctrl-C.
+          duration: float | None, as_json: bool, as_robot: bool, shape, port, rate_hz, artifact,
+          mount_path) -> None:
+    """Expose a simulated rig on two pseudo-terminals until Ctrl-C (with --robot: the twin's
+    mobile base on a rosbridge WebSocket).
 
     Prints the stage's and the sensor's pty paths; open them with any serial tool or pass
     them to whiskercal commands as device names.
     """
     from whiskercal.checks import number, positive
+    from whiskercal.errors import UsageError
     from whiskercal.twin.devices.simport import PtyBridge, world_from_options
 
     positive(speed, "--speed (simulated seconds per real second)")
     number(rod_radius, "--rod-radius", low=0, unit="mm")
     if duration is not None:
         number(duration, "--duration (leave it out to run until Ctrl-C)", low=0, unit="s")
+    if as_robot:
+        if shape is None:
+            raise UsageError("--robot serves the twin's base against an object: give --shape")
+        return serve_robot(shape, seed, robot_sensor(sensor, artifact), port, rate_hz, duration,
+                           mount_path, as_json)
+    if shape is not None or artifact is not None or mount_path is not None:
+        raise UsageError("--shape, --artifact and --mount are for --robot")
     options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
                "stock": ["1" if stock else "0"], "homing": [homing or ""],
                "origin": [origin or ""], "fault": list(faults)}
