@@ -55,7 +55,7 @@ def compare(shape: str, rate_hz: float, artifact, duration_s: float, seed: int, 
     from whiskercal.contour import contour_record, summarize
     from whiskercal.follow import FollowConfig
 
-    config = dataclasses.replace(FollowConfig(), rate_hz=rate_hz)
+    config = FollowConfig().replace(rate_hz=rate_hz)
     robot, served = robot_run(shape, rate_hz, artifact, duration_s, seed, folder)
     in_process = summarize(contour_record(shape, artifact, config=config, duration_s=duration_s,
                                           seed=seed))

@@ -16,7 +16,6 @@ file, and reports the error.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -80,7 +79,7 @@ def run_on_robot(robot, samples, tracker, target_z_uT: float, loop: RobotLoop,
         robot.stop()
         rest, rate = _rest(robot, samples, loop)
         run.rest_uT, run.rate_hz = rest, rate
-        config = dataclasses.replace(loop.config, rate_hz=rate)
+        config = loop.config.replace(rate_hz=rate)
         run.config = config.to_dict()
         follower = Follower(tracker, target_z_uT, config, reach_mm, tip_mm_per_uT)
         run.complete = _follow(robot, samples, follower, rest, loop, rows, latencies,

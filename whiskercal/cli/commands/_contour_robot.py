@@ -105,7 +105,7 @@ def _follow_config(config_path, speed_mm_s):
     config = load_follow_config(config_path)
     if speed_mm_s is None:
         return config
-    return dataclasses.replace(config, total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
+    return config.replace(total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
 
 
 def robot_setup(robot_url: str, sensor_port, robot: dict):
