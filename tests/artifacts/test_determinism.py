@@ -5,6 +5,7 @@ import sys
 from pathlib import Path
 
 import h5py
+import pytest
 
 RAW = Path(__file__).parents[2] / "data" / "twin-paper-75mm" / "raw_grid.h5"
 
@@ -18,6 +19,7 @@ def _lookup(path):
     return found
 
 
+@pytest.mark.slow
 def test_two_fresh_processes_write_the_same_lookup_and_z_range(tmp_path):
     outputs = [tmp_path / f"cal-{k}.h5" for k in range(2)]
     # the lookup and the surface are compared; the (Y, Z) table would add a minute to each run

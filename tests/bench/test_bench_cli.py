@@ -28,6 +28,7 @@ def _load(bench_dir, name):
     return json.loads((bench_dir / f"{name}.json").read_text())
 
 
+@pytest.mark.slow
 def test_every_comparison_writes_json_and_png_charts(bench_dir):
     bench = json.loads((bench_dir / "bench.json").read_text())
     assert bench["machine"]["cpu_count"] >= 1
@@ -101,6 +102,7 @@ def test_unknown_comparison_is_a_usage_error(tmp_path):
     assert result.exit_code == 2
 
 
+@pytest.mark.slow
 def test_tracker_speed_is_in_the_bench_json(tmp_path):
     result = CliRunner().invoke(cli, ["bench", "--quick", "--only", "tracker-speed", "--out",
                                       str(tmp_path), "--json"], catch_exceptions=False)

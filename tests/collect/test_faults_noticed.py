@@ -44,6 +44,7 @@ def _plan(tmp_path: Path, extra: str = ""):
     return build_plan(load_config(path))
 
 
+@pytest.mark.slow
 def test_frame_loss_above_the_limit_warns_with_both_counts(tmp_path):
     stage, sensor = _world_urls("drop=0.03&corrupt=0.01&seed=5")
     summary = collect(stage, sensor, tmp_path / "raw.h5", _plan(tmp_path))
@@ -57,6 +58,7 @@ def test_frame_loss_above_the_limit_warns_with_both_counts(tmp_path):
     assert shown["frames"]["dropped"] == grid.dropped.sum() > shown["frames"]["corrupt"] > 0
 
 
+@pytest.mark.slow
 def test_frame_loss_below_a_raised_limit_and_a_clean_link_do_not_warn(tmp_path):
     stage, sensor = _world_urls("drop=0.03&corrupt=0.01&seed=5")
     raised = collect(stage, sensor, tmp_path / "a.h5",
@@ -92,6 +94,7 @@ def test_frame_loss_warning_threshold_is_strict_and_the_limit_is_validated(tmp_p
         load_config(path)
 
 
+@pytest.mark.slow
 def test_a_torn_dataset_says_truncated_with_its_journal_and_resumes(tmp_path):
     stage, sensor = _world_urls("seed=4")
     out, plan = tmp_path / "raw.h5", _plan(tmp_path)
@@ -116,6 +119,7 @@ def test_a_torn_dataset_says_truncated_with_its_journal_and_resumes(tmp_path):
     assert resumed.complete and grid.complete and sorted(grid.plan_index) == list(range(len(plan)))
 
 
+@pytest.mark.slow
 def test_a_torn_dataset_without_journal_says_so(tmp_path):
     stage, sensor = _world_urls("seed=4")
     out = tmp_path / "raw.h5"
@@ -130,6 +134,7 @@ def test_a_torn_dataset_without_journal_says_so(tmp_path):
 MISSED_STEPS_AT_S = (44.7, 50.5, 53.4)
 
 
+@pytest.mark.slow
 def test_missed_steps_never_leave_a_point_away_from_where_the_rod_was(tmp_path):
     plan = _plan(tmp_path)
     during_samples = 0

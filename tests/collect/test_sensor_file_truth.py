@@ -5,6 +5,7 @@ import json
 import uuid
 
 import numpy as np
+import pytest
 
 from click.testing import CliRunner
 
@@ -51,6 +52,7 @@ def _collect_on_twin(tmp_path, build_text: str, config_text: str, seed: int):
     return raw_path, build
 
 
+@pytest.mark.slow
 def test_a_toml_build_is_recorded_whole_and_its_truth_found_by_fit(tmp_path):
     assert "lab-build-82mm" not in SENSORS
     raw_path, build = _collect_on_twin(tmp_path, BUILD, CONFIG, seed=3)
@@ -76,6 +78,7 @@ trace_length_mm = 48.0
 """
 
 
+@pytest.mark.slow
 def test_a_config_giving_only_the_trace_length_collects_a_grid_for_that_build(tmp_path):
     raw = read_raw_grid(_collect_on_twin(tmp_path, SHORT_BUILD, ONLY_THE_TRACE_LENGTH, seed=4)[0])
     reach = np.hypot(*raw.rod_center_mm.T)

@@ -96,6 +96,7 @@ def test_after_a_sweep_point_the_rod_leaves_past_the_tip_before_it_rises(tmp_pat
             assert first.end_mm[1] == pytest.approx(start[1])
 
 
+@pytest.mark.slow
 def test_a_sweep_run_on_the_twin_records_its_points_apart_from_the_grid(tmp_path):
     name = f"s{uuid.uuid4().hex[:10]}"
     plan = build_plan(_config(tmp_path, SMALL_WITH_SWEEP))

@@ -29,21 +29,22 @@ def port(request):
     opened.close()
 
 
-# The compiled images on simavr; homing there takes 17 s of the host's time.
+# The compiled images on simavr: seconds of the host's time a check, so the whole suite runs them
+# (make test-all) and the fast tier the same scripts against the other backends.
 EMULATED_BOARDS = ("sensor", "stage")
-SLOW_EMULATED = {("avr", stage_script.check_homing_sets_machine_zero)}
 
 
 def _cases(board, checks):
     backends = BACKENDS + (("avr",) if board in EMULATED_BOARDS else ())
     cases = [pytest.param((backend, board), check, id=f"{backend}-{check.__name__[6:]}",
-                          marks=[pytest.mark.slow] if (backend, check) in SLOW_EMULATED else [])
+                          marks=[pytest.mark.slow] if backend == "avr" else [])
              for backend in backends for check in checks]
     # The same scripts against flashed boards: opt-in, the stage moves (and homes) for real.
     return cases + [pytest.param(("hardware", board), check, id=f"hardware-{check.__name__[6:]}",
                                  marks=pytest.mark.hardware) for check in checks]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("port,check", _cases("stage", stage_script.STAGE_CHECKS), indirect=["port"])
 def test_stage(port, check):
     check(port)
@@ -57,7 +58,7 @@ STAGE_FAULTS = {
 }
 
 
-@pytest.mark.parametrize("backend", BACKENDS + ("avr",))
+@pytest.mark.parametrize("backend", BACKENDS + (pytest.param("avr", marks=pytest.mark.slow),))
 @pytest.mark.parametrize("code", sorted(STAGE_FAULTS))
 def test_stage_fault_alarms(backend, code):
     firmware_options, twin_query = STAGE_FAULTS[code]

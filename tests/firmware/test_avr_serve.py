@@ -3,6 +3,7 @@
 import os
 
 import numpy as np
+import pytest
 import serial
 
 from avr_emulation import emulation_or_skip
@@ -11,6 +12,7 @@ from whiskercal.rig.sensor import SensorClient
 from whiskercal.rig.stage import StageClient
 
 
+@pytest.mark.slow
 def test_sim_serve_runs_the_images_behind_ptys():
     emulation_or_skip("stage")
     emulation_or_skip("sensor")

@@ -88,6 +88,7 @@ def test_an_unknown_tip_model_is_one_line(tmp_path):
     assert result.exit_code == 2 and "spline" in result.output
 
 
+@pytest.mark.slow
 def test_fit_without_options_tries_the_table_and_no_field_table_skips_it(tmp_path):
     # the default's wiring through the command, on a grid that fits in seconds: a rigid root
     # (no suspension) ships the level set and gets the table withheld, with its warning; the

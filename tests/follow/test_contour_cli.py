@@ -24,6 +24,7 @@ def _run_and_report(tmp_path, shape: str, duration_s: int, *options: str):
     return run, json.loads(report.output)
 
 
+@pytest.mark.slow
 def test_a_short_cylinder_run_follows_the_surface_at_the_target(tmp_path):
     run, summary = _run_and_report(tmp_path, "cylinder", 20)
     record = read_contour_run(run)
@@ -39,6 +40,7 @@ def test_a_short_cylinder_run_follows_the_surface_at_the_target(tmp_path):
     assert np.all(np.isfinite(record.columns["estimate_mm"][following]))
 
 
+@pytest.mark.slow
 def test_an_artifact_without_a_target_is_refused_with_one_line(tmp_path):
     from whiskercal.artifacts.raw_grid import read_raw_grid
     from whiskercal.fit import FitOptions, fit
@@ -52,6 +54,7 @@ def test_an_artifact_without_a_target_is_refused_with_one_line(tmp_path):
     assert not (tmp_path / "run.h5").exists()
 
 
+@pytest.mark.slow
 def test_a_short_wall_run_reports_an_open_outline(tmp_path):
     _, summary = _run_and_report(tmp_path, "wall", 10)
     assert summary["shape"] == "wall" and summary["time_to_go_round_s"] is None

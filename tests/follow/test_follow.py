@@ -29,6 +29,7 @@ def test_the_spline_on_a_straight_line_stays_on_it():
     np.testing.assert_allclose(predict_next(points), [12.0, 0.0], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_the_controller_on_a_straight_wall_settles_at_the_target_deflection():
     wall = Outline("wall", np.array([[0.0, 0.0], [800.0, 0.0], [800.0, 800.0], [0.0, 800.0]]) - 400.0,
                    0.001)  # a big square: its bottom face is a straight wall at y = -400

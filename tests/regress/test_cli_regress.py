@@ -25,6 +25,7 @@ def short_copy(tmp_path):
     return tmp_path
 
 
+@pytest.mark.slow
 def test_regress_passes_on_the_recorded_data():
     # What CI runs: every stage recomputed on data/ (about 5 s on 2 cores).
     result = _regress(DATA, "--json")
@@ -35,6 +36,7 @@ def test_regress_passes_on_the_recorded_data():
     assert all(d["changes"] == [] and d["quantities"] > 100 for d in report["datasets"])
 
 
+@pytest.mark.slow
 def test_an_edited_golden_value_is_named_with_how_far_it_moved(short_copy):
     golden_path = short_copy / SHORT / "golden.json"
     document = json.loads(golden_path.read_text(encoding="utf-8"))
@@ -50,6 +52,7 @@ def test_an_edited_golden_value_is_named_with_how_far_it_moved(short_copy):
         in result.stderr
 
 
+@pytest.mark.slow
 def test_perturbed_recordings_fail_naming_fit_and_study_quantities_then_update_round_trips(short_copy):
     with h5py.File(short_copy / SHORT / "raw_grid.h5", "r+") as raw:
         field = raw["points/field_mean_uT"]

@@ -26,6 +26,7 @@ def _run(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
+@pytest.mark.slow
 def test_replay_writes_track_plot_and_summary(log, artifact, tmp_path):
     result = _run("replay", log, "--artifact", artifact, "--out", tmp_path / "out", "--json")
     assert result.exit_code == 0, result.output

@@ -47,6 +47,7 @@ def report_html(twin_files, study_file, bench_dir, tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_report_is_self_contained(report_html):
     page = report_html.read_text(encoding="utf-8")
     sources = re.findall(r'(?:src|href)="([^"#]*)"', page)

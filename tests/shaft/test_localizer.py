@@ -61,10 +61,10 @@ def test_costs_well_under_a_millisecond_per_sample():
     surface = AngleSurface()
     localizer = ShaftLocalizer(surface, ShaftParams(noise_uT=5.0))
     z = surface(path)
-    start = time.perf_counter()
+    start = time.process_time()  # CPU time: what the sample costs, whatever else runs
     for point, value in zip(path, z):
         localizer.update(float(value), point)
-    per_sample_s = (time.perf_counter() - start) / len(path)
+    per_sample_s = (time.process_time() - start) / len(path)
     assert per_sample_s < 1e-3, per_sample_s
 
 

@@ -113,6 +113,7 @@ def test_slip_into_tangential_contact_is_flagged_by_the_study_analysis(calibrati
     assert deep["flagged_tangential"] and deep["failing"]
 
 
+@pytest.mark.slow
 def test_level_set_tip_breaks_down_for_a_stiff_suspension():
     result = stiffness_ratio_probe((1.0, 3.0))
     default, stiff = result["entries"]

@@ -28,6 +28,7 @@ def _invoke(*args):
     return CliRunner().invoke(cli, list(args), catch_exceptions=False)
 
 
+@pytest.mark.slow
 def test_run_then_resume_after_an_unplugged_sensor(tmp_path):
     config = tmp_path / "small.toml"
     config.write_text(SMALL)
@@ -48,6 +49,7 @@ def test_run_then_resume_after_an_unplugged_sensor(tmp_path):
     assert sorted(kept + summary["trials_done"]) == [5.0, 10.0, 15.0]
 
 
+@pytest.mark.slow
 def test_report_json_and_the_artifact_with_the_target(tmp_path, twin_study, twin_calibration):
     result = _invoke("optimal-depth", "report", str(twin_study[0]), "--artifact",
                      str(twin_calibration), "--out", str(tmp_path), "--json")
@@ -94,6 +96,7 @@ def test_a_twin_without_the_plane_is_refused(tmp_path):
     assert not (tmp_path / "s.h5").exists()
 
 
+@pytest.mark.slow
 def test_overload_on_the_twin_backs_off_and_keeps_the_finished_trials(tmp_path):
     from whiskercal.twin.world import get_world
 
