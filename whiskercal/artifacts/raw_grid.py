@@ -493,9 +493,9 @@ def read_plan_fingerprint(path: str | Path) -> str | None:
     """The plan fingerprint a raw dataset was started with ("" when it has none), or None when
     the file does not open (a run killed before its first flush leaves such a file)."""
     try:
-        with h5py.File(path, "r") as handle:
+        with open_h5(path) as handle:
             return str(handle.attrs.get("plan_fingerprint", ""))
-    except OSError:
+    except ArtifactError:
         return None
 
 
