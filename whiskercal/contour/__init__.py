@@ -27,6 +27,22 @@ def contour_to_file(shape: str, artifact: str | Path, out: str | Path, **options
     return record
 
 
+def _target(calibration, target_z_uT: float | None, artifact) -> float:
+    """The deflection target (µT): the one given, else the artifact's; refused before the run
+    unless the artifact's lookup answers it (inside its calibrated z range, not 0)."""
+    from whiskercal.checks import number
+
+    target = calibration.target_z_uT if target_z_uT is None else number(target_z_uT, "--target-uT")
+    if target is None:
+        raise UsageError(f"{artifact} has no deflection target: write one with `whiskercal "
+                         "optimal-depth report`, or give --target-uT")
+    low, high = calibration.z_range_uT
+    if target == 0 or not low <= target <= high:
+        raise UsageError(f"the deflection target {target:g} µT lies outside {artifact}'s "
+                         f"calibrated range [{low:.0f}, {high:.0f}] µT: choose one inside it")
+    return float(target)
+
+
 def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                    target_z_uT: float | None = None, config: FollowConfig = FollowConfig(),
                    speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
@@ -54,10 +70,7 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     mu_kinetic, friction = _friction(shape, mu_kinetic, mu_static)  # before the artifact loads
     sensor = sensor or DEFAULT_SENSOR
     calibration = runtime.load(artifact)
-    target = calibration.target_z_uT if target_z_uT is None else number(target_z_uT, "--target-uT")
-    if target is None:
-        raise UsageError(f"{artifact} has no deflection target: write one with `whiskercal "
-                         "optimal-depth report`, or give --target-uT")
+    target = _target(calibration, target_z_uT, artifact)
     if calibration.sensor_id != sensor.sensor_id:
         raise UsageError(f"{artifact} was calibrated on sensor {calibration.sensor_id!r}, the twin "
                          f"runs {sensor.sensor_id!r}: calibrate that build or pass its --sensor")

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.atomic import atomic_set
 from whiskercal.errors import UsageError
 from whiskercal.jsontools import jsonable
 from whiskercal.paths import ensure_dir
@@ -133,11 +134,14 @@ def write_plot(path: Path, result: ReplayResult, title: str = "") -> Path:
 
 def write_all(out_dir: str | Path, result: ReplayResult, summary: dict, sensor_id: str = "",
               inputs: dict[str, str] | None = None) -> dict[str, Path]:
-    """Write every file of :data:`FILES` into ``out_dir`` (created); return their paths."""
+    """Write every file of :data:`FILES` into ``out_dir`` (created); return their paths. They are
+    renamed into place together once all are written, so a failure leaves the old set whole."""
     ensure_dir(out_dir)
     paths = output_paths(out_dir)
-    write_csv(paths["csv"], result)
-    write_h5(paths["h5"], result, summary, sensor_id, inputs or {})
-    write_plot(paths["png"], result, title=result.source)
-    write_summary(paths["summary"], {**summary, "files": {k: p.name for k, p in paths.items()}})
+    with atomic_set(paths) as scratch:
+        write_csv(scratch["csv"], result)
+        write_h5(scratch["h5"], result, summary, sensor_id, inputs or {})
+        write_plot(scratch["png"], result, title=result.source)
+        write_summary(scratch["summary"],
+                      {**summary, "files": {k: p.name for k, p in paths.items()}})
     return paths

@@ -44,6 +44,14 @@ def draw(run: ContourRunFile, path: Path) -> Path:
     return save_png(fig, path)
 
 
+REPORT_FILES = ("contour.png", "contour.html", "contour.json")
+
+
+def report_paths(out_dir: str | Path) -> list[Path]:
+    """Where :func:`write_report` writes (:data:`REPORT_FILES`)."""
+    return [Path(out_dir) / name for name in REPORT_FILES]
+
+
 def write_report(run: ContourRunFile, out_dir: str | Path) -> dict:
     """Write contour.png, contour.html and contour.json into ``out_dir``; return the summary."""
     out_dir = ensure_dir(Path(out_dir))

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import click
 
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 
 
 @click.group("contour")
@@ -46,17 +46,21 @@ def command() -> None:
               help="Seeds the start pose and the magnetometer noise.")
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="The run file (HDF5).")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
+@force_option
 @pass_app
 def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, speed_mm_s,
-                duration_s, mu_static, mu_kinetic, seed, out, as_json) -> None:
+                duration_s, mu_static, mu_kinetic, seed, out, as_json, force) -> None:
     """Run the loop around SHAPE and record every sample (Ctrl-C keeps a readable partial run)."""
-    from whiskercal.atomic import refuse_input_as_output
+    from whiskercal.atomic import refuse_existing, refuse_input_as_output
+    from whiskercal.checks import seed as check_seed
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour import contour_to_file, summarize
     from whiskercal.follow import load_follow_config
     from whiskercal.twin.sensor_file import resolve_sensor
 
     refuse_input_as_output(out, [artifact] + ([config_path] if config_path else []), "the run")
+    refuse_existing([out], force, "the run")
+    check_seed(seed)
     sensor = resolve_sensor(sensor_name) if sensor_name else None
     with progress_bar(app, "s", description=f"contour {shape}", as_json=as_json) as bar:
         def shown(t_s: float) -> None:
@@ -78,11 +82,16 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), required=True,
               help="Directory for contour.png, contour.html and contour.json.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-def report_command(run_path, out_dir, as_json) -> None:
+@force_option
+def report_command(run_path, out_dir, as_json, force) -> None:
     """Measure a run against the object's true outline, in the world frame, without alignment."""
+    from whiskercal.atomic import refuse_existing, refuse_input_as_output
     from whiskercal.contour import read_contour_run
-    from whiskercal.report.contour import write_report
+    from whiskercal.report.contour import report_paths, write_report
 
+    for output in report_paths(out_dir):
+        refuse_input_as_output(output, [run_path])
+    refuse_existing(report_paths(out_dir), force)
     _print(write_report(read_contour_run(run_path), out_dir), as_json)
 
 

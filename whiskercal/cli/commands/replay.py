@@ -6,7 +6,7 @@ import time
 
 import click
 
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 
 
 def _rest(rest: str | None, rest_uT: float | None):
@@ -49,11 +49,12 @@ def _rest(rest: str | None, rest_uT: float | None):
 @click.option("--allow-extrapolated", is_flag=True,
               help="Answer z in a range the artifact marks as extrapolated (flagged).")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@force_option
 @pass_app
 def command(app: App, log: str, artifact: str, out_dir: str, time_column: str | None,
             field_column: str | None, delimiter: str | None, time_unit: str, rest: str | None,
             rest_uT: float | None, rest_samples: int, sign: str, out_of_range: str,
-            allow_extrapolated: bool, as_json: bool) -> None:
+            allow_extrapolated: bool, as_json: bool, force: bool) -> None:
     """Replay LOG (a CSV/TSV table or a whiskercal raw-grid / plane-study HDF5 file) through the
     calibration's tracker: collision detection, tip lookup and Kalman filter, sample by sample.
 
@@ -64,12 +65,14 @@ def command(app: App, log: str, artifact: str, out_dir: str, time_column: str | 
     from whiskercal import runtime
     from whiskercal.artifacts.h5io import sha256_file
     from whiskercal.replay import ReplayOptions, read_stream, replay, write_all
-    from whiskercal.replay.output import refuse_inputs_as_outputs
+    from whiskercal.atomic import refuse_existing
+    from whiskercal.replay.output import output_paths, refuse_inputs_as_outputs
 
     started = time.perf_counter()
     options = ReplayOptions(rest=_rest(rest, rest_uT), rest_samples=rest_samples, sign=int(sign),
                             out_of_range=out_of_range)
     refuse_inputs_as_outputs(out_dir, [log, artifact])
+    refuse_existing(output_paths(out_dir).values(), force, "the replay output")
     calibration = runtime.load(artifact, allow_extrapolated=allow_extrapolated)
     stream = read_stream(log, time_column, field_column, delimiter, time_unit)
     result = replay(stream, calibration, options)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 
 
 @click.command("report")
@@ -19,17 +19,20 @@ from whiskercal.cli.app import App, echo_json, pass_app
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="The HTML file to write (figures embedded, no external resources).")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
+@force_option
 @pass_app
 def command(app: App, calibration: str, raw_path: str | None, study_path: str | None,
-            bench_dir: str | None, out_path: str, as_json: bool) -> None:
+            bench_dir: str | None, out_path: str, as_json: bool, force: bool) -> None:
     """Write an HTML report of a calibration artifact (CALIBRATION.h5).
 
     One self-contained file: the grid and fit residual map, the level sets and traced tips,
     the lookup curve and its error (against the twin's truth when the raw grid has one), the
     study table and figures, the speed-accuracy charts, and provenance (hashes, versions, times).
     """
+    from whiskercal.atomic import refuse_existing
     from whiskercal.report.build import write_report
 
+    refuse_existing([out_path], force, "the report")
     if app.interactive:
         click.echo("drawing the report ...", err=True)
     path = write_report(out_path, calibration, raw_path, study_path, bench_dir)
