@@ -51,7 +51,7 @@ import numpy as np
 from whiskercal.artifacts import shaft_surface as shaft_surface_group
 from whiskercal.artifacts.h5io import (as_text, check_schema, now_iso, open_h5, read_array,
                                        read_json_attr, sha256_file, write_array, write_provenance,
-                                       write_whole)
+                                       write_whole, malformed_is_an_error)
 from whiskercal.atomic import refuse_input_as_output, write_bytes
 from whiskercal.artifacts.shaft_surface import ShaftSurfaceData
 from whiskercal.errors import ArtifactError, UsageError
@@ -287,14 +287,14 @@ def read_calibration(path: str | Path) -> CalibrationData:
         or missing a part.
     """
     path = Path(path)
-    with open_h5(path) as handle:
+    with open_h5(path) as handle, malformed_is_an_error(path, "calibration artifact"):
         version = check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         try:
             data = _read(handle, path)
         except KeyError as error:
             raise ArtifactError(f"{path}: incomplete calibration artifact ({error})") from None
         data.schema_version = version
-    validate(data, path)
+        validate(data, path)
     return data
 
 
@@ -391,6 +391,12 @@ def _read_truth(metrics: h5py.Group | None) -> dict[str, np.ndarray] | None:
     return {key: dataset[()] for key, dataset in metrics["truth"].items()}
 
 
+def _finite_collision(collision: dict) -> bool:
+    values = [collision.get(key, 0.0) for key in ("threshold_uT", "static_uT")]
+    values = [np.nan if value is None else float(value) for value in values]  # NaN is read as None
+    return bool(np.all(np.isfinite(values)) and values[0] > 0)
+
+
 def validate(data: CalibrationData, path: str | Path = "") -> None:
     """Check shapes and values that the runtime relies on; raise ArtifactError on the first fault."""
     where = f"{path}: " if path else ""
@@ -416,6 +422,8 @@ def validate(data: CalibrationData, path: str | Path = "") -> None:
          "evenly spaced axes"),
         (_load_branches_ok(data.load_branches), "load branches: fields and tips of one shape "
          "(na, nm, 2), a positive noise (2,) and an increasing Y range (2,)"),
+        (_finite_collision(data.collision), "a finite collision threshold > 0 and static reading "
+         "(the release may be NaN: the threshold's)"),
     ]
     for ok, expectation in checks:
         if not ok:

@@ -66,7 +66,7 @@ def write_contour_run(path: str | Path, run: ContourRunFile) -> Path:
 
 def read_contour_run(path: str | Path) -> ContourRunFile:
     """Read a contour-run file; ArtifactError names the file and what is wrong with it."""
-    with h5io.open_h5(path) as handle:
+    with h5io.open_h5(path) as handle, h5io.malformed_is_an_error(path, "contour run"):
         h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         columns = {}
         for name in UNITS:

@@ -3,19 +3,20 @@
 from __future__ import annotations
 
 
+import contextlib
 import datetime as _dt
 import hashlib
 import io
 import json
 import re
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 import h5py
 import numpy as np
 
 from whiskercal import __version__
-from whiskercal.errors import ArtifactError
+from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.jsontools import jsonable
 from whiskercal.paths import not_regular_reason
 
@@ -197,3 +198,39 @@ def create_trials_file(path: str | Path, *, schema: str, schema_version: str, se
         handle.create_group("trials")
 
     write_whole(path, write)
+
+
+def read_sensor_id(path: str | Path) -> str:
+    """The ``sensor_id`` a whiskercal file was written for ("" when it names none)."""
+    with open_h5(path) as handle:
+        return as_text(handle.attrs.get("sensor_id", ""))
+
+
+def other_sensor(expected_id: str, path: str | Path, what: str, allow: bool) -> str | None:
+    """Refuse a file of another sensor than ``expected_id`` (its ``sensor_id`` attribute) with
+    :class:`UsageError`; with ``allow``, return the warning instead. None when they match."""
+    found = read_sensor_id(path)
+    if found == expected_id:
+        return None
+    message = (f"{what} {path} was recorded on sensor {found or 'unnamed'!r}, the calibration "
+               f"on {expected_id!r}")
+    if not allow:
+        raise UsageError(f"{message}: its results would not be this sensor's (pass "
+                         "--allow-other-sensor to use it anyway)")
+    return message
+
+
+# what reading a file of a known schema raises when its content is not what the schema says
+_MALFORMED = (KeyError, ValueError, TypeError, IndexError, AttributeError)
+
+
+@contextlib.contextmanager
+def malformed_is_an_error(path: str | Path, what: str) -> Iterator[None]:
+    """Turn what a reader raises on content the schema does not allow (a missing group or
+    attribute, text where a number belongs, a non-JSON config, columns of other lengths) into
+    one :class:`ArtifactError` naming the file and the fault (``--debug`` shows the cause)."""
+    try:
+        yield
+    except _MALFORMED as error:
+        detail = f"missing {error}" if isinstance(error, KeyError) else f"{error}"
+        raise ArtifactError(f"{path}: malformed {what} ({detail})") from error

@@ -19,8 +19,9 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
-from whiskercal.artifacts.h5io import (check_schema, open_h5, read_array, read_json_attr,
-                                       sha256_file, write_array, write_provenance)
+from whiskercal.artifacts.h5io import (check_schema, malformed_is_an_error, open_h5, read_array,
+                                       read_json_attr, sha256_file, write_array,
+                                       write_provenance)
 from whiskercal.errors import ArtifactError
 
 SCHEMA = "whiskercal.raw_grid"
@@ -453,7 +454,7 @@ def read_raw_grid(path: str | Path, *, stream: bool = False) -> RawGrid:
             raise
         hint = journal_hint(path) or "no collection journal next to it; record it again"
         raise ArtifactError(f"{error}; {hint}") from None
-    with handle:
+    with handle, malformed_is_an_error(path, "raw grid"):
         check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         grid = _grid_from(handle, path)
         if stream:

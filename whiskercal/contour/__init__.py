@@ -3,8 +3,11 @@ reconstructed contour against the object's true outline (docs/contour.md)."""
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 from whiskercal.artifacts.contour_run import ContourRunFile, read_contour_run, write_contour_run
 from whiskercal.contour.run import ContourRun, run_contour
@@ -21,10 +24,35 @@ def contour_to_file(shape: str, artifact: str | Path, out: str | Path, **options
     """Run the loop on the twin against ``shape`` with the calibration ``artifact`` (see
     :func:`contour_record` for the options) and write the run to ``out``, also when stopped
     early (then ``complete`` is False)."""
-    record = contour_record(shape, artifact, **options)
-    write_contour_run(out, record)
+    asked = options.pop("stop_requested", None)
+    with interrupt_as_stop() as interrupted:  # the file is written whole, also after a Ctrl-C
+        record = contour_record(shape, artifact, **options,
+                                stop_requested=lambda: interrupted() or bool(asked and asked()))
+        write_contour_run(out, record)
     record.path = str(out)
     return record
+
+
+@contextlib.contextmanager
+def interrupt_as_stop() -> Iterator[Callable[[], bool]]:
+    """Turn Ctrl-C (SIGINT) into a request the loop reads between two steps, and yield that test.
+
+    A KeyboardInterrupt raised wherever the signal lands (inside a compiled numba kernel, an
+    HDF5 call, halfway through recording a sample) can surface as a SystemError or leave the
+    columns of unequal length; asked between steps, the run stops with every sample whole.
+    Off the main thread, where no handler can be set, Ctrl-C stays a KeyboardInterrupt; a
+    process started with SIGINT ignored keeps ignoring it.
+    """
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is signal.SIG_IGN):  # started with Ctrl-C ignored
+        yield lambda: False
+        return
+    requested = threading.Event()
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: requested.set())
+    try:
+        yield requested.is_set
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _target(calibration, target_z_uT: float | None, artifact) -> float:
