@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
-from whiskercal.checks import number
+from whiskercal.checks import integer, number
 from whiskercal.tomlconfig import merge_overrides, read_toml
 
 
@@ -108,6 +108,8 @@ class FollowConfig:
         for item in fields(self):
             low = 0.0 if item.name in _MAY_BE_ZERO else 1e-9
             number(getattr(self, item.name), f"follow config {item.name}", low=low)
+            if item.type in (int, "int"):  # counts: 1.5 or 1e30 would fail only inside the loop
+                integer(getattr(self, item.name), f"follow config {item.name}")
         if self.stop_heading_deg <= self.slow_heading_deg:
             number(self.stop_heading_deg, "follow config stop_heading_deg (above slow_heading_deg)",
                    low=self.slow_heading_deg + 1e-9)
