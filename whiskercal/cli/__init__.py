@@ -63,7 +63,8 @@ def _usage_error(error: click.UsageError) -> None:
     (its usage and "Try" lines would make three); a group called bare still shows its help."""
     if isinstance(error, click.exceptions.NoArgsIsHelpError):
         raise error
-    path = error.ctx.command_path if error.ctx is not None else "whiskercal"
+    words = error.ctx.command_path.split()[1:] if error.ctx is not None else []
+    path = " ".join(["whiskercal", *words])  # the program's name, however it was started
     abort(f"{error.format_message().rstrip('.')}; see '{path} --help'", error.exit_code)
 
 
