@@ -187,6 +187,7 @@ CASES = [
     ("--out c.h5 --config deep.toml", 2, "nested too deeply"),
     ("--out c.h5 --config fifo.toml", 2, "is a FIFO, not a regular file"),
     ("--out c.h5 --config tinystep.toml", 2, "choose a coarser step"),
+    ("--out fifo.h5 --resume", 2, "fifo.h5: is a FIFO, not a regular file: nothing to resume"),
 ]] + [
     ("collect --stage sim://{w}/stage?nosuch=1 --sensor " + SENSOR + " --out c.h5", 3, "unknown sim:// option"),
     ("collect --stage sim://{w}/stage?seed=abc --sensor " + SENSOR + " --out c.h5", 2, "seed must be an integer"),

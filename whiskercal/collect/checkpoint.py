@@ -23,6 +23,7 @@ from whiskercal.artifacts.raw_grid import (POINT_FIELDS, STREAM_FIELDS, Baseline
                                            read_plan_fingerprint, read_raw_grid)
 from whiskercal.collect.journal import Journal, decode_line, journal_path, replay
 from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.paths import not_regular_reason
 
 
 def _header_record(header: RawHeader) -> dict[str, Any]:
@@ -162,6 +163,10 @@ def recorded_fingerprint(path: str | Path) -> str:
     """
     path = Path(path)
     journal_file = journal_path(path)
+    for name in (journal_file, path):
+        reason = not_regular_reason(name)
+        if reason is not None:
+            raise UsageError(f"{name}: {reason}: nothing to resume")
     if journal_file.exists():
         with open(journal_file, "rb") as handle:
             header = decode_line(handle.readline())
