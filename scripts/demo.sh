@@ -29,7 +29,8 @@ CONTOUR="$OUT/contour-cylinder.h5"
 CONTOUR_DIR="$OUT/contour"
 CONTOUR_S=90
 # The demo owns these outputs: a rerun starts them afresh (collect never overwrites a dataset).
-rm -rf "$RAW" "$RAW.journal" "$CAL" "$FIT_LOG" "$STUDY" "$STUDY.partial" "$STUDY_DIR" "$FINAL" "$HTML"
+rm -rf "$RAW" "$RAW.journal" "$CAL" "$FIT_LOG" "$STUDY" "$STUDY.partial" "$STUDY_DIR" "$FINAL" "$HTML" \
+    "$CONTOUR" "$CONTOUR_DIR"
 
 collect_config=()
 study_config=()

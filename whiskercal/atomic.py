@@ -17,7 +17,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO
 
@@ -48,6 +48,29 @@ def _new_file_mode(path: Path) -> int:
         return 0o666 & ~umask
 
 
+def _scratch_beside(path: Path) -> Path:
+    """A new empty hidden file in ``path``'s folder; one clear error when the folder is read-only,
+    full or missing."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    except OSError as error:
+        raise UsageError(f"cannot write {path}: {error.strerror or error}") from None
+    os.close(fd)
+    return Path(name)
+
+
+def _put_in_place(scratch: Path, path: Path) -> None:
+    try:
+        _fsync_path(scratch)
+        os.replace(scratch, path)
+    except OSError as error:
+        raise _write_failed(path, error) from None
+
+
+def _write_failed(path: Path, error: OSError) -> UsageError:
+    return UsageError(f"cannot write {path}: {error.strerror or error} (any old file is kept)")
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; when the block ends without an exception, the
@@ -59,14 +82,11 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     writers that choose a format by suffix must be told the format.
     """
     path = Path(path)
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-    os.close(fd)
-    scratch = Path(name)
+    scratch = _scratch_beside(path)
     try:
         os.chmod(scratch, _new_file_mode(path))
         yield scratch
-        _fsync_path(scratch)
-        os.replace(scratch, path)
+        _put_in_place(scratch, path)
     except BaseException:
         scratch.unlink(missing_ok=True)
         raise
@@ -85,17 +105,60 @@ def atomic_open(path: str | Path, mode: str = "w", encoding: str | None = "utf-8
 
 
 def write_text(path: str | Path, text: str, encoding: str = "utf-8") -> Path:
-    """Write ``text`` to ``path`` atomically; return the path."""
-    with atomic_open(path, "w", encoding=encoding) as handle:
-        handle.write(text)
+    """Write ``text`` to ``path`` atomically; return the path. A full disk or a read-only folder is
+    one :class:`UsageError`, and the old file is left whole."""
+    try:
+        with atomic_open(path, "w", encoding=encoding) as handle:
+            handle.write(text)
+    except OSError as error:
+        raise _write_failed(Path(path), error) from None
     return Path(path)
 
 
 def write_bytes(path: str | Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically; return the path."""
-    with atomic_open(path, "wb") as handle:
-        handle.write(data)
+    """Write ``data`` to ``path`` atomically; return the path (errors as :func:`write_text`)."""
+    try:
+        with atomic_open(path, "wb") as handle:
+            handle.write(data)
+    except OSError as error:
+        raise _write_failed(Path(path), error) from None
     return Path(path)
+
+
+@contextlib.contextmanager
+def atomic_set(paths: Mapping[str, str | Path]) -> Iterator[dict[str, Path]]:
+    """Like :func:`atomic_path` for a set of files written together: yield a temporary path for
+    each, and rename them all over their destinations only when the block ends without an
+    exception, so a failure while writing any of them (a full disk) leaves the old set whole.
+
+    The renames come last and need no space; a kill between two of them leaves some files new.
+    """
+    scratch: dict[str, Path] = {}
+    try:
+        for key, path in paths.items():
+            scratch[key] = _scratch_beside(Path(path))
+            os.chmod(scratch[key], _new_file_mode(Path(path)))
+        yield scratch
+        for key, path in paths.items():
+            _fsync_path(scratch[key])
+        for key, path in paths.items():
+            os.replace(scratch[key], path)
+    except BaseException:
+        for temporary in scratch.values():
+            temporary.unlink(missing_ok=True)
+        raise
+    for folder in {Path(path).parent for path in paths.values()}:
+        _fsync_path(folder, directory=True)
+
+
+def refuse_existing(paths: Iterable[str | Path], force: bool, what: str = "the output") -> None:
+    """The one rule for outputs: an existing output is refused with :class:`UsageError` unless
+    ``force`` is set, and then the command replaces it atomically (by :func:`atomic_path`)."""
+    if force:
+        return
+    for path in paths:
+        if os.path.lexists(path):
+            raise UsageError(f"{what} {path} already exists: pass --force to replace it")
 
 
 def _same_file(a: Path, b: Path) -> bool:

@@ -31,8 +31,8 @@ def positive(value, name: str, *, high: float = math.inf, unit: str = "") -> flo
     return number(value, name, low=0.0, low_open=True, high=high, unit=unit)
 
 
-def integer(value, name: str, *, low: int | None = None) -> int:
-    """``value`` (an int or its decimal text) as an int >= ``low``, or a UsageError."""
+def integer(value, name: str, *, low: int | None = None, high: int | None = None) -> int:
+    """``value`` (an int or its decimal text) as an int in [``low``, ``high``], or a UsageError."""
     if isinstance(value, bool):
         raise UsageError(f"{name} must be an integer, not {value!r}")
     try:
@@ -41,7 +41,18 @@ def integer(value, name: str, *, low: int | None = None) -> int:
         raise UsageError(f"{name} must be an integer, not {value!r}") from None
     if low is not None and result < low:
         raise UsageError(f"{name} must be an integer >= {low}, not {value!r}")
+    if high is not None and result > high:
+        raise UsageError(f"{name} must be an integer <= {high}, not {value!r}")
     return result
+
+
+# seeds are stored as 64-bit HDF5 attributes and fed to numpy's generators: 0 .. 2**32 - 1
+SEED_MAX = 2**32 - 1
+
+
+def seed(value, name: str = "--seed") -> int:
+    """``value`` as a random seed in [0, :data:`SEED_MAX`], or a UsageError."""
+    return integer(value, name, low=0, high=SEED_MAX)
 
 
 def _range_text(low: float, high: float, low_open: bool, unit: str) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from whiskercal.atomic import atomic_path
+from whiskercal.errors import UsageError
 from whiskercal.paths import ensure_dir
 
 
@@ -30,6 +31,9 @@ def save_png(fig, path: str | Path, dpi: int = 110) -> Path:
         fig.tight_layout()
         with atomic_path(path) as scratch:
             fig.savefig(scratch, dpi=dpi, format="png")  # the scratch name has no .png suffix
+    except OSError as error:  # a full disk: the old figure is kept
+        raise UsageError(f"cannot write {path}: {error.strerror or error} (any old file is "
+                         "kept)") from None
     finally:
         pyplot().close(fig)
     return path

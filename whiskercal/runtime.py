@@ -65,6 +65,7 @@ import numpy as np
 from whiskercal.artifacts.calibration import (CalibrationData, collision_params_of,
                                               kalman_params_of, lookup_of, problem_of,
                                               read_calibration)
+from whiskercal.artifacts.h5io import malformed_is_an_error
 from whiskercal.errors import UsageError
 from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.load_branches import LoadBranches
@@ -350,7 +351,9 @@ def load(path: str | Path, allow_extrapolated: bool = False) -> Calibration:
     if not isinstance(allow_extrapolated, (bool, np.bool_)):
         raise UsageError("allow_extrapolated must be True or False, "
                          f"not {type(allow_extrapolated).__name__}")
-    return Calibration(read_calibration(path), allow_extrapolated)
+    data = read_calibration(path)
+    with malformed_is_an_error(path, "calibration artifact"):  # settings of the wrong type
+        return Calibration(data, allow_extrapolated)
 
 
 def _z_scalar(z_uT) -> float:

@@ -8,12 +8,16 @@ from pathlib import Path
 from typing import Any
 
 from whiskercal.errors import UsageError
+from whiskercal.paths import not_regular_reason
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
     """A TOML file as a nested dict, with one clear error when it is missing or not TOML
     (not UTF-8, bad syntax, or nested deeper than the parser can follow)."""
     path = Path(path)
+    reason = not_regular_reason(path)
+    if reason is not None:
+        raise UsageError(f"{path}: {reason}")
     try:
         with open(path, "rb") as handle:
             return tomllib.load(handle)
@@ -25,6 +29,8 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise UsageError(f"{path}: not valid TOML ({error})") from None
     except RecursionError:
         raise UsageError(f"{path}: not valid TOML (arrays or tables nested too deep)") from None
+    except OSError as error:
+        raise UsageError(f"{path}: cannot read the config file ({error.strerror or error})") from None
 
 
 def merge_overrides(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:

@@ -192,7 +192,7 @@ def test_fit_warns_of_an_underfitting_surface_with_the_numbers(raw_file, tmp_pat
     warnings = _surface_warnings(read_calibration(out).metrics["warnings"])
     assert len(warnings) == 1 and "1.02 µT noise expected at the grid points" in warnings[0]
     good = json.loads(run("fit", NO_TABLE, str(raw_file), "--out", str(out), "--degree", "5",
-                          "--json").output)
+                          "--force", "--json").output)
     assert _surface_warnings(good["warnings"]) == [] and good["cv_rmse"] < 2 * good["expected_noise_uT"]
 
 

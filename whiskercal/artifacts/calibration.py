@@ -38,9 +38,9 @@ only.
 
 from __future__ import annotations
 
+import io
 import json
 import math
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,10 +50,11 @@ import numpy as np
 
 from whiskercal.artifacts import shaft_surface as shaft_surface_group
 from whiskercal.artifacts.h5io import (as_text, check_schema, now_iso, open_h5, read_array,
-                                       read_json_attr, sha256_file, write_array, write_provenance)
-from whiskercal.atomic import atomic_path, refuse_input_as_output
+                                       read_json_attr, sha256_file, write_array, write_provenance,
+                                       write_whole, malformed_is_an_error)
+from whiskercal.atomic import refuse_input_as_output, write_bytes
 from whiskercal.artifacts.shaft_surface import ShaftSurfaceData
-from whiskercal.errors import ArtifactError
+from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.paths import ensure_dir
 
 SCHEMA = "whiskercal.calibration"
@@ -154,27 +155,31 @@ def write_calibration(path: str | Path, data: CalibrationData) -> Path:
     Raises
     ------
     ArtifactError
-        When the file or its directory cannot be written.
+        When the file or its directory cannot be written (a read-only folder, a full disk: the
+        old file is kept whole).
     """
     path = Path(path)
+
+    def write(handle: h5py.File) -> None:
+        write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
+                         sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
+        handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
+        _write_surface(handle.create_group("surface"), data)
+        _write_trace(handle, data)
+        _write_lookup(handle.create_group("lookup"), data)
+        _write_settings(handle, data)
+        _write_metrics(handle.create_group("metrics"), data)
+        if data.field_table is not None:
+            _write_field_table(handle.create_group("field_table"), data.field_table)
+        if data.load_branches is not None:
+            _write_load_branches(handle.create_group("load_branches"), data.load_branches)
+        if data.shaft_surface is not None:
+            shaft_surface_group.write(handle, data.shaft_surface)
+
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
-            write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
-                             sensor_id=data.sensor_id, inputs=data.inputs, config=data.config)
-            handle.attrs["rod_radius_mm"] = float(data.rod_radius_mm)
-            _write_surface(handle.create_group("surface"), data)
-            _write_trace(handle, data)
-            _write_lookup(handle.create_group("lookup"), data)
-            _write_settings(handle, data)
-            _write_metrics(handle.create_group("metrics"), data)
-            if data.field_table is not None:
-                _write_field_table(handle.create_group("field_table"), data.field_table)
-            if data.load_branches is not None:
-                _write_load_branches(handle.create_group("load_branches"), data.load_branches)
-            if data.shaft_surface is not None:
-                shaft_surface_group.write(handle, data.shaft_surface)
-    except OSError as error:
+        ensure_dir(path.parent)
+        write_whole(path, write)
+    except (OSError, UsageError) as error:
         raise ArtifactError(f"{path}: cannot write the calibration artifact ({error})") from None
     return path
 
@@ -282,14 +287,14 @@ def read_calibration(path: str | Path) -> CalibrationData:
         or missing a part.
     """
     path = Path(path)
-    with open_h5(path) as handle:
+    with open_h5(path) as handle, malformed_is_an_error(path, "calibration artifact"):
         version = check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         try:
             data = _read(handle, path)
         except KeyError as error:
             raise ArtifactError(f"{path}: incomplete calibration artifact ({error})") from None
         data.schema_version = version
-    validate(data, path)
+        validate(data, path)
     return data
 
 
@@ -386,6 +391,12 @@ def _read_truth(metrics: h5py.Group | None) -> dict[str, np.ndarray] | None:
     return {key: dataset[()] for key, dataset in metrics["truth"].items()}
 
 
+def _finite_collision(collision: dict) -> bool:
+    values = [collision.get(key, 0.0) for key in ("threshold_uT", "static_uT")]
+    values = [np.nan if value is None else float(value) for value in values]  # NaN is read as None
+    return bool(np.all(np.isfinite(values)) and values[0] > 0)
+
+
 def validate(data: CalibrationData, path: str | Path = "") -> None:
     """Check shapes and values that the runtime relies on; raise ArtifactError on the first fault."""
     where = f"{path}: " if path else ""
@@ -411,6 +422,8 @@ def validate(data: CalibrationData, path: str | Path = "") -> None:
          "evenly spaced axes"),
         (_load_branches_ok(data.load_branches), "load branches: fields and tips of one shape "
          "(na, nm, 2), a positive noise (2,) and an increasing Y range (2,)"),
+        (_finite_collision(data.collision), "a finite collision threshold > 0 and static reading "
+         "(the release may be NaN: the threshold's)"),
     ]
     for ok, expectation in checks:
         if not ok:
@@ -463,10 +476,10 @@ def write_with_target(calibration_path: str | Path, out_path: str | Path, target
     ensure_dir(out_path.parent)
     input_sha = sha256_file(calibration_path)
     try:
-        with atomic_path(out_path) as scratch:
-            shutil.copyfile(calibration_path, scratch)
-            with h5py.File(scratch, "r+") as handle:
-                _add_target(handle, target, input_sha)
+        buffer = io.BytesIO(calibration_path.read_bytes())
+        with h5py.File(buffer, "r+") as handle:  # in memory: see h5io.write_whole
+            _add_target(handle, target, input_sha)
+        write_bytes(out_path, buffer.getvalue())
     except OSError as error:
         raise ArtifactError(f"{calibration_path}: cannot write a copy with the target "
                             f"({error})") from None

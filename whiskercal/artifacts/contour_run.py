@@ -18,7 +18,6 @@ import h5py
 import numpy as np
 
 from whiskercal.artifacts import h5io
-from whiskercal.atomic import atomic_path
 
 SCHEMA = "whiskercal.contour_run"
 SCHEMA_VERSION = "1.2.0"  # 1.1: the Z axis column (axial_uT); 1.2: twin_slips; optional on reading
@@ -49,8 +48,7 @@ class ContourRunFile:
 
 def write_contour_run(path: str | Path, run: ContourRunFile) -> Path:
     """Write ``run`` to ``path`` atomically (replaced whole)."""
-    path = Path(path)
-    with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
+    def write(handle: h5py.File) -> None:
         h5io.write_provenance(handle, schema=SCHEMA, schema_version=SCHEMA_VERSION,
                               sensor_id=run.sensor_id, config=run.config)
         for key in ("shape", "radius_mm", "target_z_uT", "seed", "complete", "wall_s"):
@@ -62,12 +60,13 @@ def write_contour_run(path: str | Path, run: ContourRunFile) -> Path:
             if values.dtype.kind == "U":
                 values = values.astype("S")
             h5io.write_array(samples, name, values, UNITS.get(name, "1"))
-    return path
+
+    return h5io.write_whole(path, write)
 
 
 def read_contour_run(path: str | Path) -> ContourRunFile:
     """Read a contour-run file; ArtifactError names the file and what is wrong with it."""
-    with h5io.open_h5(path) as handle:
+    with h5io.open_h5(path) as handle, h5io.malformed_is_an_error(path, "contour run"):
         h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         columns = {}
         for name in UNITS:

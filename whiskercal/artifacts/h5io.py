@@ -3,20 +3,22 @@
 from __future__ import annotations
 
 
+import contextlib
 import datetime as _dt
 import hashlib
+import io
 import json
 import re
-import shutil
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 import h5py
 import numpy as np
 
 from whiskercal import __version__
-from whiskercal.errors import ArtifactError
+from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.jsontools import jsonable
+from whiskercal.paths import not_regular_reason
 
 
 def sha256_file(path: str | Path, chunk_bytes: int = 1 << 20) -> str:
@@ -99,10 +101,26 @@ def read_array(group: h5py.Group, name: str, path: str | Path = "") -> np.ndarra
 
 
 def open_h5(path: str | Path, mode: str = "r") -> h5py.File:
-    """Open an HDF5 file, turning 'not found' and 'not HDF5' into one clear error."""
+    """Open an HDF5 file, turning 'not found', 'not a regular file' and 'not HDF5' into one clear
+    error; a file opened for reading that holds a soft or external link, or a dataset stored
+    outside it, is refused (the recorded SHA-256 covers only this file's bytes)."""
     path = Path(path)
     if mode == "r" and not path.exists():
         raise ArtifactError(f"{path}: no such file")
+    reason = not_regular_reason(path)
+    if reason is not None:
+        raise ArtifactError(f"{path}: {reason}")
+    handle = _open(path, mode)
+    if mode in ("r", "r+", "a"):
+        try:
+            refuse_links(handle, path)
+        except BaseException:
+            handle.close()
+            raise
+    return handle
+
+
+def _open(path: Path, mode: str) -> h5py.File:
     try:
         return h5py.File(path, mode)
     except OSError as error:
@@ -115,29 +133,104 @@ def open_h5(path: str | Path, mode: str = "r") -> h5py.File:
         raise ArtifactError(f"{path}: cannot open as HDF5 ({error})") from None
 
 
+def refuse_links(handle: h5py.File, path: str | Path) -> None:
+    """Refuse a file whose content reaches outside it or through another name: a soft or external
+    link, or a dataset with external or virtual storage. whiskercal never writes any of them."""
+    def link_kind(name: str) -> str | None:  # a value other than None ends h5py's visit there
+        link = handle.get(name, getlink=True)
+        if isinstance(link, h5py.ExternalLink):
+            return f"/{name} is an external link"
+        return f"/{name} is a soft link" if isinstance(link, h5py.SoftLink) else None
+
+    def outside(name: str, item) -> str | None:
+        if isinstance(item, h5py.Dataset) and (item.is_virtual or item.external is not None):
+            return f"dataset /{name} is stored outside the file"
+        return None
+
+    # raising inside h5py's visit callback would surface as a SystemError: return, then raise
+    found = handle.visit_links(link_kind) or handle.visititems(outside)
+    if found:
+        raise ArtifactError(f"{path}: {found}: refused (a whiskercal file holds its data itself)")
+
+
 # HDF5's own words for a file shorter than its superblock says it is
 _TRUNCATED = re.compile(r"truncated file: eof = (?P<eof>\d+).*stored_eof = (?P<stored>\d+)")
 
 
-def update_copy(path: str | Path, write) -> None:
-    """Apply ``write(handle)`` to a copy of the HDF5 file at ``path`` and rename the copy over it
-    (flushed first): a crash leaves the old file or the new one, never a torn one."""
-    from whiskercal.atomic import atomic_path
+def write_whole(path: str | Path, write: Callable[[h5py.File], None]) -> Path:
+    """Build a new HDF5 file with ``write(handle)`` in memory, then write its bytes to ``path``
+    atomically (:func:`whiskercal.atomic.write_bytes`).
 
-    with atomic_path(path) as scratch:
-        shutil.copyfile(path, scratch)
-        with h5py.File(scratch, "r+") as handle:
-            write(handle)
+    HDF5 left to write a file itself meets a full disk halfway through its own buffers and may
+    crash the process when it later closes that file; in memory, only a plain write can fail,
+    as one clear error, with the old file left whole.
+    """
+    from whiskercal.atomic import write_bytes
+
+    buffer = io.BytesIO()
+    with h5py.File(buffer, "w") as handle:
+        write(handle)
+    return write_bytes(path, buffer.getvalue())
+
+
+def update_copy(path: str | Path, write) -> None:
+    """Apply ``write(handle)`` to a copy of the HDF5 file at ``path`` (made in memory) and write
+    it over the file atomically: a crash or a full disk leaves the old file or the new one, never
+    a torn one."""
+    from whiskercal.atomic import write_bytes
+
+    with open_h5(path):  # the checks every read gets (links, a regular file)
+        pass
+    buffer = io.BytesIO(Path(path).read_bytes())
+    with h5py.File(buffer, "r+") as handle:
+        write(handle)
+    write_bytes(path, buffer.getvalue())
 
 
 def create_trials_file(path: str | Path, *, schema: str, schema_version: str, sensor_id: str,
                        config: Mapping[str, Any]) -> None:
     """Write a new, empty file of trials (provenance, ``complete`` false, a ``trials`` group)
     atomically: the study writers' start."""
-    from whiskercal.atomic import atomic_path
-
-    with atomic_path(path) as scratch, h5py.File(scratch, "w") as handle:
+    def write(handle: h5py.File) -> None:
         write_provenance(handle, schema=schema, schema_version=schema_version,
                          sensor_id=sensor_id, config=config)
         handle.attrs["complete"] = False
         handle.create_group("trials")
+
+    write_whole(path, write)
+
+
+def read_sensor_id(path: str | Path) -> str:
+    """The ``sensor_id`` a whiskercal file was written for ("" when it names none)."""
+    with open_h5(path) as handle:
+        return as_text(handle.attrs.get("sensor_id", ""))
+
+
+def other_sensor(expected_id: str, path: str | Path, what: str, allow: bool) -> str | None:
+    """Refuse a file of another sensor than ``expected_id`` (its ``sensor_id`` attribute) with
+    :class:`UsageError`; with ``allow``, return the warning instead. None when they match."""
+    found = read_sensor_id(path)
+    if found == expected_id:
+        return None
+    message = (f"{what} {path} was recorded on sensor {found or 'unnamed'!r}, the calibration "
+               f"on {expected_id!r}")
+    if not allow:
+        raise UsageError(f"{message}: its results would not be this sensor's (pass "
+                         "--allow-other-sensor to use it anyway)")
+    return message
+
+
+# what reading a file of a known schema raises when its content is not what the schema says
+_MALFORMED = (KeyError, ValueError, TypeError, IndexError, AttributeError)
+
+
+@contextlib.contextmanager
+def malformed_is_an_error(path: str | Path, what: str) -> Iterator[None]:
+    """Turn what a reader raises on content the schema does not allow (a missing group or
+    attribute, text where a number belongs, a non-JSON config, columns of other lengths) into
+    one :class:`ArtifactError` naming the file and the fault (``--debug`` shows the cause)."""
+    try:
+        yield
+    except _MALFORMED as error:
+        detail = f"missing {error}" if isinstance(error, KeyError) else f"{error}"
+        raise ArtifactError(f"{path}: malformed {what} ({detail})") from error

@@ -211,7 +211,7 @@ def read_study(path: str | Path) -> Study:
         When the file is missing, not HDF5, or not a study of a supported version.
     """
     path = Path(path)
-    with h5io.open_h5(path) as handle:
+    with h5io.open_h5(path) as handle, h5io.malformed_is_an_error(path, "study file"):
         h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         trials = [_read_trial(handle, name) for name in sorted(handle.get("trials", {}))]
         study = Study(path=path, config=h5io.read_json_attr(handle, "config", {}),

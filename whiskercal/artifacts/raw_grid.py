@@ -19,8 +19,9 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
-from whiskercal.artifacts.h5io import (check_schema, open_h5, read_array, read_json_attr,
-                                       sha256_file, write_array, write_provenance)
+from whiskercal.artifacts.h5io import (check_schema, malformed_is_an_error, open_h5, read_array,
+                                       read_json_attr, sha256_file, write_array,
+                                       write_provenance)
 from whiskercal.errors import ArtifactError
 
 SCHEMA = "whiskercal.raw_grid"
@@ -453,7 +454,7 @@ def read_raw_grid(path: str | Path, *, stream: bool = False) -> RawGrid:
             raise
         hint = journal_hint(path) or "no collection journal next to it; record it again"
         raise ArtifactError(f"{error}; {hint}") from None
-    with handle:
+    with handle, malformed_is_an_error(path, "raw grid"):
         check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         grid = _grid_from(handle, path)
         if stream:
@@ -493,9 +494,9 @@ def read_plan_fingerprint(path: str | Path) -> str | None:
     """The plan fingerprint a raw dataset was started with ("" when it has none), or None when
     the file does not open (a run killed before its first flush leaves such a file)."""
     try:
-        with h5py.File(path, "r") as handle:
+        with open_h5(path) as handle:
             return str(handle.attrs.get("plan_fingerprint", ""))
-    except OSError:
+    except ArtifactError:
         return None
 
 

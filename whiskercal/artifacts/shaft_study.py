@@ -130,7 +130,7 @@ def read_shaft_study(path: str | Path) -> ShaftStudy:
     Raises ArtifactError when the file is missing, not HDF5, or not a shaft study it reads.
     """
     path = Path(path)
-    with h5io.open_h5(path) as handle:
+    with h5io.open_h5(path) as handle, h5io.malformed_is_an_error(path, "shaft study file"):
         h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, path)
         trials = []
         for name, group in sorted(handle["trials"].items()):

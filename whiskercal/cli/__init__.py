@@ -39,15 +39,33 @@ class LazyGroup(click.Group):
             return None
         return importlib.import_module(module_name).command
 
+    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except click.UsageError as error:
+            _usage_error(error)
+
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
+        except click.UsageError as error:
+            _usage_error(error)
         except WhiskercalError as error:
             if ctx.obj is not None and ctx.obj.debug:
                 raise
             abort(str(error), error.exit_code)
         except KeyboardInterrupt:
             abort("interrupted", 130)
+
+
+def _usage_error(error: click.UsageError) -> None:
+    """click's usage error as the project's one line, naming the ``--help`` that explains it
+    (its usage and "Try" lines would make three); a group called bare still shows its help."""
+    if isinstance(error, click.exceptions.NoArgsIsHelpError):
+        raise error
+    words = error.ctx.command_path.split()[1:] if error.ctx is not None else []
+    path = " ".join(["whiskercal", *words])  # the program's name, however it was started
+    abort(f"{error.format_message().rstrip('.')}; see '{path} --help'", error.exit_code)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

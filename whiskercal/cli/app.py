@@ -39,3 +39,8 @@ def echo_json(payload: Any) -> None:
 
 
 pass_app = click.make_pass_decorator(App, ensure=True)
+
+# The one rule for outputs: an existing one is refused; --force replaces it atomically.
+force_option = click.option("--force", is_flag=True,
+                            help="Replace outputs that exist already (each written whole, then "
+                            "renamed over the old one).")

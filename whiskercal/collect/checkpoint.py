@@ -23,6 +23,7 @@ from whiskercal.artifacts.raw_grid import (POINT_FIELDS, STREAM_FIELDS, Baseline
                                            read_plan_fingerprint, read_raw_grid)
 from whiskercal.collect.journal import Journal, decode_line, journal_path, replay
 from whiskercal.errors import ArtifactError, UsageError
+from whiskercal.paths import not_regular_reason
 
 
 def _header_record(header: RawHeader) -> dict[str, Any]:
@@ -91,18 +92,26 @@ class Checkpoint:
             When there is nothing to resume or the recorded plan and configuration differ.
         """
         path = Path(path)
-        records = _records_to_resume(path)
-        recorded = records[0]
-        if recorded["fingerprint"] != header.fingerprint:
-            raise UsageError(f"{path}: cannot resume: it was recorded with a different plan or "
-                             "configuration (start a new file or use the original config)")
-        recorded_header = _header_from_record(recorded)
-        state = _rebuild(path, recorded_header, records)
         journal_file = journal_path(path)
-        if not journal_file.exists():
-            _write_journal(journal_file, records)
-        return cls(path, RawGridWriter.open_append(path), Journal(journal_file),
-                   recorded_header, state)
+        had_journal = journal_file.exists()
+        journal = Journal(journal_file)  # locked before anything is read or rebuilt
+        try:
+            records = _records_to_resume(path, had_journal)
+            recorded = records[0]
+            if recorded["fingerprint"] != header.fingerprint:
+                raise UsageError(f"{path}: cannot resume: it was recorded with a different plan "
+                                 "or configuration (start a new file or use the original config)")
+            recorded_header = _header_from_record(recorded)
+            state = _rebuild(path, recorded_header, records)
+            if not had_journal:
+                for record in records:
+                    journal.append(record)
+            return cls(path, RawGridWriter.open_append(path), journal, recorded_header, state)
+        except BaseException:
+            journal.close()
+            if not had_journal:  # the journal this call made holds nothing yet
+                journal_file.unlink(missing_ok=True)
+            raise
 
     def add_point(self, point: PointRecord, stream: StreamChunk | None = None,
                   truth: Mapping[str, Any] | None = None) -> None:
@@ -154,6 +163,10 @@ def recorded_fingerprint(path: str | Path) -> str:
     """
     path = Path(path)
     journal_file = journal_path(path)
+    for name in (journal_file, path):
+        reason = not_regular_reason(name)
+        if reason is not None:
+            raise UsageError(f"{name}: {reason}: nothing to resume")
     if journal_file.exists():
         with open(journal_file, "rb") as handle:
             header = decode_line(handle.readline())
@@ -171,10 +184,9 @@ def recorded_fingerprint(path: str | Path) -> str:
     raise UsageError(f"{path}: nothing to resume (no readable file or journal)")
 
 
-def _records_to_resume(path: Path) -> list[dict[str, Any]]:
-    journal_file = journal_path(path)
-    if journal_file.exists():
-        return replay(journal_file)
+def _records_to_resume(path: Path, had_journal: bool) -> list[dict[str, Any]]:
+    if had_journal:
+        return replay(journal_path(path))
     if path.exists():
         return _records_from_h5(path)
     raise UsageError(f"{path}: nothing to resume (no such file or journal)")
@@ -202,24 +214,21 @@ def _records_from_h5(path: Path) -> list[dict[str, Any]]:
     return records
 
 
-def _write_journal(journal_file: Path, records: list[dict[str, Any]]) -> None:
-    journal = Journal(journal_file)
-    for record in records:
-        journal.append(record)
-    journal.close()
-
-
 def _rebuild(path: Path, header: RawHeader, records: list[dict[str, Any]]) -> dict[str, Any]:
     """Write the records into a fresh HDF5 file and rename it over ``path``; return the state."""
     staging = path.with_name(path.name + ".rebuild")
     writer = RawGridWriter.create(staging, header)
     state: dict[str, Any] = {"taken": [], "baselines": {}}
     try:
-        for record in records[1:]:
-            _apply(writer, record, state)
-    finally:
-        writer.close()
-    os.replace(staging, path)
+        try:
+            for record in records[1:]:
+                _apply(writer, record, state)
+        finally:
+            writer.close()
+        os.replace(staging, path)
+    except BaseException:
+        staging.unlink(missing_ok=True)
+        raise
     return state
 
 

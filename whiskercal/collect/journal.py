@@ -12,13 +12,14 @@ Line format: ``<crc32 as 8 hex digits> <json>\\n``. No pickle: only JSON is ever
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import zlib
 from pathlib import Path
 from typing import Any, Iterator
 
-from whiskercal.errors import ArtifactError
+from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.jsontools import jsonable
 
 
@@ -62,6 +63,18 @@ class Journal:
         self.path = Path(path)
         self._fsync = fsync
         self._handle = open(self.path, "ab")
+        self._lock()
+
+    def _lock(self) -> None:
+        """Hold the journal for this run alone: a second run on the same file (two ``collect
+        --resume`` at once) is refused before it reads or rebuilds anything. The lock ends with
+        the process, however it ends."""
+        try:
+            fcntl.flock(self._handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self._handle.close()
+            raise UsageError(f"{self.path} is held by another collect run on the same file: "
+                             "wait for it to end (or stop it), then --resume") from None
 
     def append(self, record: dict[str, Any]) -> None:
         """Write one record and make it durable."""

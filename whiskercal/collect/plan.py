@@ -55,9 +55,18 @@ def inside_bands(grid: GridConfig, points_mm: np.ndarray) -> np.ndarray:
             & (angle_deg <= grid.angle_max_deg + _EDGE_EPS))
 
 
+# the square lattice the bands are cut from, at most (a 1 mm step over a 500 mm reach is about
+# a million); a finer step is refused before its arrays are allocated
+MAX_LATTICE_POINTS = 1_000_000
+
+
 def lattice_points(grid: GridConfig) -> np.ndarray:
     """Whisker-frame lattice points (n, 2) mm inside the reach and angle bands (unordered)."""
     n_max = int(np.ceil(grid.reach_max_mm / grid.step_mm))
+    if (2 * n_max + 1) ** 2 > MAX_LATTICE_POINTS:
+        raise UsageError(f"grid.step_mm = {grid.step_mm:g} over a reach of {grid.reach_max_mm:g} mm "
+                         f"asks for a lattice of {(2 * n_max + 1) ** 2:.3g} points, more than "
+                         f"{MAX_LATTICE_POINTS:.0e}: choose a coarser step")
     steps = np.arange(-n_max, n_max + 1) * grid.step_mm
     points = np.column_stack([a.ravel() for a in np.meshgrid(steps, steps)])
     return points[inside_bands(grid, points)]

@@ -104,6 +104,18 @@ def twin_sensor_description(rig: RigSession) -> dict | None:
     return sensor_to_dict(sensor)
 
 
+def refuse_other_fixture(rig: RigSession) -> None:
+    """Refuse a simulated stage that carries an object other than the rod (the plane study's
+    plane): its contacts would be stored as rod positions of a grid. An empty stage is let run,
+    so that collect can say nothing was touched."""
+    world = getattr(rig.sensor_port, "world", None)  # one world behind both sim:// ports
+    fixture = getattr(getattr(world, "config", None), "fixture", None)
+    if fixture is not None and fixture.name not in ("rod", "none"):
+        raise UsageError(f"the simulated stage carries the {fixture.name} scene, not the rod: a "
+                         "calibration grid is collected with scene=rod (the plane is for "
+                         "`optimal-depth run`)")
+
+
 def _sensor_id(config: CollectConfig, rig: RigSession) -> str:
     if config.rig.sensor_id:
         return config.rig.sensor_id
@@ -168,6 +180,7 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
 def _session(rig: RigSession, out: Path, plan: GridPlan, resume: bool, on_progress,
              stop_requested) -> RunSummary:
     """Check, open the checkpoint and run the collector on an open rig session."""
+    refuse_other_fixture(rig)
     check_limits(plan, rig.travel_mm)
     header = make_header(plan, rig.devices, _sensor_id(plan.config, rig),
                          twin_sensor_description(rig))

@@ -3,8 +3,11 @@ reconstructed contour against the object's true outline (docs/contour.md)."""
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 from whiskercal.artifacts.contour_run import ContourRunFile, read_contour_run, write_contour_run
 from whiskercal.contour.run import ContourRun, run_contour
@@ -26,18 +29,59 @@ def contour_to_file(shape: str, artifact: str | Path, out: str | Path, **options
 
     bag = options.pop("record", None)
     refuse_existing(bag)
-    record = contour_record(shape, artifact, **options)
-    if bag is not None:
-        from whiskercal.twin.params import DEFAULT_SENSOR
-        from whiskercal.twin.truth import static_field_uT
+    asked = options.pop("stop_requested", None)
+    with interrupt_as_stop() as interrupted:  # the file is written whole, also after a Ctrl-C
+        record = contour_record(shape, artifact, **options,
+                                stop_requested=lambda: interrupted() or bool(asked and asked()))
+        if bag is not None:
+            from whiskercal.twin.params import DEFAULT_SENSOR
+            from whiskercal.twin.truth import static_field_uT
 
-        rest = static_field_uT(options.get("sensor") or DEFAULT_SENSOR).tolist()
-        record.config["record"] = {"bag": str(bag), "rest_field_uT": rest}
-    write_contour_run(out, record)
+            rest = static_field_uT(options.get("sensor") or DEFAULT_SENSOR).tolist()
+            record.config["record"] = {"bag": str(bag), "rest_field_uT": rest}
+        write_contour_run(out, record)
     record.path = str(out)
     if bag is not None:
         record_bag(bag, record.columns, rest)
     return record
+
+
+@contextlib.contextmanager
+def interrupt_as_stop() -> Iterator[Callable[[], bool]]:
+    """Turn Ctrl-C (SIGINT) into a request the loop reads between two steps, and yield that test.
+
+    A KeyboardInterrupt raised wherever the signal lands (inside a compiled numba kernel, an
+    HDF5 call, halfway through recording a sample) can surface as a SystemError or leave the
+    columns of unequal length; asked between steps, the run stops with every sample whole.
+    Off the main thread, where no handler can be set, Ctrl-C stays a KeyboardInterrupt; a
+    process started with SIGINT ignored keeps ignoring it.
+    """
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is signal.SIG_IGN):  # started with Ctrl-C ignored
+        yield lambda: False
+        return
+    requested = threading.Event()
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: requested.set())
+    try:
+        yield requested.is_set
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _target(calibration, target_z_uT: float | None, artifact) -> float:
+    """The deflection target (µT): the one given, else the artifact's; refused before the run
+    unless the artifact's lookup answers it (inside its calibrated z range, not 0)."""
+    from whiskercal.checks import number
+
+    target = calibration.target_z_uT if target_z_uT is None else number(target_z_uT, "--target-uT")
+    if target is None:
+        raise UsageError(f"{artifact} has no deflection target: write one with `whiskercal "
+                         "optimal-depth report`, or give --target-uT")
+    low, high = calibration.z_range_uT
+    if target == 0 or not low <= target <= high:
+        raise UsageError(f"the deflection target {target:g} µT lies outside {artifact}'s "
+                         f"calibrated range [{low:.0f}, {high:.0f}] µT: choose one inside it")
+    return float(target)
 
 
 def contour_record(shape: str, artifact: str | Path, *, sensor=None,
@@ -65,10 +109,7 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     mu_kinetic, friction = _friction(shape, mu_kinetic, mu_static)  # before the artifact loads
     sensor = sensor or DEFAULT_SENSOR
     calibration = runtime.load(artifact)
-    target = calibration.target_z_uT if target_z_uT is None else number(target_z_uT, "--target-uT")
-    if target is None:
-        raise UsageError(f"{artifact} has no deflection target: write one with `whiskercal "
-                         "optimal-depth report`, or give --target-uT")
+    target = _target(calibration, target_z_uT, artifact)
     if calibration.sensor_id != sensor.sensor_id:
         raise UsageError(f"{artifact} was calibrated on sensor {calibration.sensor_id!r}, the twin "
                          f"runs {sensor.sensor_id!r}: calibrate that build or pass its --sensor")

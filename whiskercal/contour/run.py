@@ -73,12 +73,12 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
     sample = robot.step(0.0)
     try:
         for index in range(steps):
-            if stop_requested is not None and stop_requested():
-                break
             tic = time.perf_counter()
             step = follower.update(sample.z_uT, robot, sample.axial_uT)
             _record(rows, index * dt, sample, step, robot.pose(), time.perf_counter() - tic)
             if sample.kind == "collision":  # driven into the wall: a real run would end here
+                break
+            if stop_requested is not None and stop_requested():  # after a sample: never empty
                 break
             sample = robot.step(dt)
             if on_progress is not None and index % int(config.rate_hz) == 0:
@@ -88,7 +88,8 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
     except KeyboardInterrupt:  # Ctrl-C: keep what was run (complete stays False)
         pass
     run.wall_s = time.perf_counter() - started
-    run.columns = {name: np.asarray(values) for name, values in rows.items()}
+    whole = min(len(values) for values in rows.values())  # an interrupt mid-sample: drop it
+    run.columns = {name: np.asarray(values[:whole]) for name, values in rows.items()}
     return run
 
 

@@ -17,7 +17,7 @@ from whiskercal.fit.shaft_surface import shaft_surface_for
 from whiskercal.fit.tip_model import (adopt_joint_lookup, choose_tip_model,
                                       refuse_unless_resolved)
 from whiskercal.fit.trace_length import resolve_trace_length
-from whiskercal.fit.truth import compare_with_twin_truth
+from whiskercal.fit.truth import compare_with_twin_truth, refuse_z_against_truth
 from whiskercal.model.calibrate import (Calibration, CalibrationOptions, calibrate,
                                         calibrate_surface, trace_lookup)
 from whiskercal.model.errors import ExtrapolationLimitError, FitError, ModelError
@@ -49,6 +49,7 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
         (``model.errors``: too few points, a degree out of range, a grid that stops short of
         the tip without ``allow_extrapolation``...).
     """
+    refuse_z_against_truth(raw)
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
     model_options = options.calibration_options(length_mm)
     calibration, untraceable = calibrate_grid(raw, model_options, progress)

@@ -112,3 +112,29 @@ def compare_with_twin_truth(raw, calibration) -> TruthComparison | None:
     after = np.linalg.norm(calibration.contact_points_mm - true_contact, axis=1)[known]
     return replace(comparison, contact_error_uncorrected_mm=float(np.mean(before)),
                    contact_error_corrected_mm=float(np.mean(after)))
+
+
+# |true z| above which a point is taken as pressed for the sign check, µT (well above any noise)
+PRESSED_UT = 100.0
+
+
+def refuse_z_against_truth(raw) -> None:
+    """Refuse, before any fitting, a twin grid whose z reads against its own truth: the pressed
+    points' measured z and the twin's noise-free z of the same poses have opposite signs (the
+    Y axis read flipped, or the truth belongs to other readings).
+
+    Raises
+    ------
+    UsageError
+        When the pressed points' z and true z point opposite ways.
+    """
+    from whiskercal.errors import UsageError
+
+    if raw.truth is None or "z_uT" not in raw.truth:
+        return
+    true_z, z = np.asarray(raw.truth["z_uT"], float), np.asarray(raw.z_uT, float)
+    pressed = np.isfinite(true_z) & np.isfinite(z) & (np.abs(true_z) > PRESSED_UT)
+    if pressed.sum() >= 3 and float(np.dot(z[pressed], true_z[pressed])) < 0:
+        raise UsageError(f"the grid's z reads against the twin's truth at its {int(pressed.sum())} "
+                         "pressed points (opposite signs): its Y axis reads flipped; record it "
+                         "again with the sensor as calibrated")

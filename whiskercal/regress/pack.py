@@ -17,8 +17,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from whiskercal.artifacts.h5io import open_h5
-from whiskercal.atomic import atomic_path, refuse_input_as_output
+from whiskercal.artifacts.h5io import open_h5, write_whole
+from whiskercal.atomic import refuse_input_as_output
 
 # Float64 datasets stored as float32 (twin ground truth and the plane's per-sample line point).
 FLOAT32_PATTERNS = ("truth/*/tip_mm", "truth/*/contact_mm", "truth/*/z_uT",
@@ -39,9 +39,12 @@ def compact_copy(source: str | Path, destination: str | Path) -> Path:
     """
     source, destination = Path(source), Path(destination)
     refuse_input_as_output(destination, [source], "the compact copy")
-    with open_h5(source) as src, atomic_path(destination) as scratch, h5py.File(scratch, "w") as dst:
-        _copy_attrs(src, dst)
-        src.visititems(lambda name, item: _copy_item(name, item, dst))
+    with open_h5(source) as src:
+        def write(dst: h5py.File) -> None:
+            _copy_attrs(src, dst)
+            src.visititems(lambda name, item: _copy_item(name, item, dst))
+
+        write_whole(destination, write)
     return destination
 
 

@@ -14,6 +14,7 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.atomic import atomic_set
 from whiskercal.errors import UsageError
 from whiskercal.jsontools import jsonable
 from whiskercal.paths import ensure_dir
@@ -164,16 +165,21 @@ def write_all(out_dir: str | Path, result: ReplayResult, summary: dict, sensor_i
               field_uT: np.ndarray | None = None) -> dict[str, Path]:
     """Write every file of :data:`FILES` into ``out_dir`` (created): the world plot and the bag
     only when the replay had poses (the bag's field stream is ``field_uT``, the readings as
-    recorded); return their paths."""
+    recorded); return their paths. The files are renamed into place together once all are
+    written, so a failure leaves the old set whole; the bag, a folder, is written after them."""
     ensure_dir(out_dir)
     paths = output_paths(out_dir)
     if result.world_mm is None:
         paths = {k: p for k, p in paths.items() if k not in WITH_POSES_ONLY}
-    write_csv(paths["csv"], result)
-    write_h5(paths["h5"], result, summary, sensor_id, inputs or {})
-    write_plot(paths["png"], result, title=result.source)
+    files = {k: p for k, p in paths.items() if k != "bag"}
+    with atomic_set(files) as scratch:
+        write_csv(scratch["csv"], result)
+        write_h5(scratch["h5"], result, summary, sensor_id, inputs or {})
+        write_plot(scratch["png"], result, title=result.source)
+        if "world_png" in scratch:
+            write_world_plot(scratch["world_png"], result, title=result.source)
+        write_summary(scratch["summary"],
+                      {**summary, "files": {k: p.name for k, p in paths.items()}})
     if "bag" in paths:
-        write_world_plot(paths["world_png"], result, title=result.source)
         write_track_bag(paths["bag"], result, result.z_uT if field_uT is None else field_uT)
-    write_summary(paths["summary"], {**summary, "files": {k: p.name for k, p in paths.items()}})
     return paths

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from whiskercal.artifacts.contour_run import ContourRunFile
-from whiskercal.atomic import atomic_path
+from whiskercal.atomic import write_text
 from whiskercal.contour.metrics import distances_mm
 from whiskercal.contour.summary import followed, outline_of, summarize
 from whiskercal.paths import ensure_dir
@@ -44,6 +44,14 @@ def draw(run: ContourRunFile, path: Path) -> Path:
     return save_png(fig, path)
 
 
+REPORT_FILES = ("contour.png", "contour.html", "contour.json")
+
+
+def report_paths(out_dir: str | Path) -> list[Path]:
+    """Where :func:`write_report` writes (:data:`REPORT_FILES`)."""
+    return [Path(out_dir) / name for name in REPORT_FILES]
+
+
 def write_report(run: ContourRunFile, out_dir: str | Path) -> dict:
     """Write contour.png, contour.html and contour.json into ``out_dir``; return the summary."""
     out_dir = ensure_dir(Path(out_dir))
@@ -56,7 +64,6 @@ def write_report(run: ContourRunFile, out_dir: str | Path) -> dict:
                             "is for comparison with the paper only.")),
         Section("Figure", figure(png.read_bytes(), "contacts coloured by their distance to the outline"))])
     for name, text in (("contour.html", page), ("contour.json", json.dumps(summary, indent=2))):
-        with atomic_path(out_dir / name) as scratch:
-            scratch.write_text(text, encoding="utf-8")
+        write_text(out_dir / name, text)
     summary["figures"] = [str(png)]
     return summary

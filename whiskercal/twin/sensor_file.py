@@ -247,7 +247,7 @@ def sensor_to_toml(sensor: SensorParams) -> str:
 
 def load_sensor(path: str | Path) -> SensorParams:
     """The sensor described by the TOML file at `path` (see the module's docstring)."""
-    if not Path(path).is_file():
+    if not Path(path).exists():
         raise UsageError(f"{path}: no such sensor file")
     return sensor_from_dict(read_toml(path), str(path))
 

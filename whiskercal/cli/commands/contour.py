@@ -7,9 +7,9 @@ from types import SimpleNamespace
 
 import click
 
-from whiskercal.cli.app import App, echo_json, pass_app
-from whiskercal.errors import UsageError
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 from whiskercal.cli.commands._contour_robot import refuse_robot_options, robot_options, run_on_robot
+from whiskercal.errors import UsageError
 
 
 @click.group("contour")
@@ -56,18 +56,23 @@ def command() -> None:
                    "Foxglove; the static field to replay it with is in the run's config.")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
 @robot_options
+@force_option
 @pass_app
 def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, speed_mm_s,
-                duration_s, mu_static, mu_kinetic, seed, out, record_path, as_json, **robot) -> None:
+                duration_s, mu_static, mu_kinetic, seed, out, record_path, as_json, force,
+                **robot) -> None:
     """Run the loop around SHAPE on the twin, or on a robot with --robot, and record every
     sample (Ctrl-C keeps a readable partial run)."""
-    from whiskercal.atomic import refuse_input_as_output
+    from whiskercal.atomic import refuse_existing, refuse_input_as_output
+    from whiskercal.checks import seed as check_seed
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour import contour_to_file, summarize
     from whiskercal.follow import load_follow_config
     from whiskercal.twin.sensor_file import resolve_sensor
 
     refuse_input_as_output(out, [artifact] + ([config_path] if config_path else []), "the run")
+    refuse_existing([out], force, "the run")
+    check_seed(seed)
     if robot["robot_url"] is not None:
         if record_path is not None:
             raise UsageError("--record writes a twin run's stream; a robot's run is recorded by "
@@ -104,11 +109,16 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), required=True,
               help="Directory for contour.png, contour.html and contour.json.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-def report_command(run_path, out_dir, as_json) -> None:
+@force_option
+def report_command(run_path, out_dir, as_json, force) -> None:
     """Measure a run against the object's true outline, in the world frame, without alignment."""
+    from whiskercal.atomic import refuse_existing, refuse_input_as_output
     from whiskercal.contour import read_contour_run
-    from whiskercal.report.contour import write_report
+    from whiskercal.report.contour import report_paths, write_report
 
+    for output in report_paths(out_dir):
+        refuse_input_as_output(output, [run_path])
+    refuse_existing(report_paths(out_dir), force)
     _print(write_report(read_contour_run(run_path), out_dir), as_json)
 
 

@@ -7,8 +7,8 @@ import time
 import click
 import numpy as np
 
-from whiskercal.atomic import refuse_input_as_output
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.atomic import refuse_existing, refuse_input_as_output
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 
 
 def _trusted_or_none(trusted) -> list[float] | None:
@@ -111,12 +111,13 @@ def _summary(data, elapsed_s: float) -> dict:
               "error estimate says it cannot be trusted. Adds 30-60 s to a fit of the default "
               "grid, minutes on long builds; --no-field-table leaves it out.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit summary as JSON.")
+@force_option
 @pass_app
 def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, samples: int,
             tracer: str, interpolant: str, trace_length_mm: float | None,
             entry_radius_mm: float | None, max_extension_mm: float | None,
             allow_extrapolation: bool, no_rod_correction: bool, threshold_uT: float | None,
-            tip_model: str, field_table: bool, as_json: bool) -> None:
+            tip_model: str, field_table: bool, as_json: bool, force: bool) -> None:
     """Fit a raw calibration grid (RAW.h5) and write the calibration artifact.
 
     Fits the surface z = f(x, y), traces the level set f = z from the root for the whisker's
@@ -143,6 +144,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     from whiskercal.fit.args import parse_degree
 
     refuse_input_as_output(out_path, [raw], "the calibration artifact")
+    refuse_existing([out_path], force, "the calibration artifact")
     started = time.perf_counter()
     grid = read_raw_grid(raw)
     options = FitOptions(

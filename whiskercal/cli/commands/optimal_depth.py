@@ -6,8 +6,8 @@ from pathlib import Path
 
 import click
 
-from whiskercal.atomic import refuse_input_as_output
-from whiskercal.cli.app import App, abort, echo_json, pass_app
+from whiskercal.atomic import refuse_existing, refuse_input_as_output
+from whiskercal.cli.app import App, abort, echo_json, force_option, pass_app
 
 
 @click.group("optimal-depth")
@@ -73,15 +73,21 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
 @click.option("--tie", "tie_mm", type=float, default=0.05, show_default=True,
               help="Target rule: scores within this (mm) of the lowest tie, and the shallowest "
                    "tied depth wins.")
+@click.option("--allow-other-sensor", is_flag=True,
+              help="Analyse a study recorded on another sensor than the artifact's (refused "
+              "otherwise), with a warning.")
 @click.option("--json", "as_json", is_flag=True, help="Print the per-trial table and the choice as JSON.")
+@force_option
 def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
                    out_artifact: Path | None, no_figures: bool, allow_missing: bool,
-                   margin_weight_mm: float, tie_mm: float, as_json: bool) -> None:
+                   margin_weight_mm: float, tie_mm: float, allow_other_sensor: bool,
+                   as_json: bool, force: bool) -> None:
     """Analyse a study: errors, slips, failing trials; choose and write the target.
 
     STUDY_PATH is the file `optimal-depth run` wrote.
     """
     from whiskercal import runtime
+    from whiskercal.artifacts.h5io import other_sensor
     from whiskercal.checks import number
     from whiskercal.study.artifact_target import target_artifact_path, write_target
     from whiskercal.study.figures import figure_paths, write_figures
@@ -91,9 +97,14 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
     number(tie_mm, "--tie", low=0, unit="mm")
     out_dir = out_dir or Path(study_path).parent
     destination = out_artifact or target_artifact_path(artifact_path, out_dir)
-    for output in [destination] + ([] if no_figures else figure_paths(out_dir)):
+    outputs = [destination] + ([] if no_figures else figure_paths(out_dir))
+    for output in outputs:
         refuse_input_as_output(output, [study_path, artifact_path])  # before any work
+    refuse_existing(outputs, force)
     calibration = runtime.load(artifact_path)
+    warning = other_sensor(calibration.sensor_id, study_path, "the study", allow_other_sensor)
+    if warning:
+        click.echo(f"warning: {warning}", err=True)
     report = build_report(study_path, calibration, margin_weight_mm=margin_weight_mm,
                           allow_missing=allow_missing, tie_mm=tie_mm)
     if not no_figures:

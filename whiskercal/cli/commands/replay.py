@@ -6,7 +6,7 @@ import time
 
 import click
 
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 
 
 def _rest(rest: str | None, rest_uT: float | None):
@@ -109,6 +109,7 @@ def _options(options):
 @click.option("--allow-extrapolated", is_flag=True,
               help="Answer z in a range the artifact marks as extrapolated (flagged).")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@force_option
 @pass_app
 def command(app: App, log: str, artifact: str, out_dir: str, as_json: bool, **settings) -> None:
     """Replay LOG through the calibration's tracker: collision detection, tip lookup and Kalman
@@ -122,12 +123,14 @@ def command(app: App, log: str, artifact: str, out_dir: str, as_json: bool, **se
     (docs/replay.md). With --poses (and --mount) the contacts are placed in the world frame.
     """
     from whiskercal import runtime
+    from whiskercal.atomic import refuse_existing
     from whiskercal.recording import regular_file
-    from whiskercal.replay.output import refuse_inputs_as_outputs
+    from whiskercal.replay.output import output_paths, refuse_inputs_as_outputs
 
     started = time.perf_counter()
     options = _replay_options(settings)
     refuse_inputs_as_outputs(out_dir, [log, artifact])
+    refuse_existing(output_paths(out_dir).values(), settings.pop("force"), "the replay output")
     calibration = runtime.load(regular_file(artifact, "the artifact"),
                                allow_extrapolated=settings["allow_extrapolated"])
     stream = _read_stream(log, settings)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 
 
 @click.command("report")
@@ -18,18 +18,29 @@ from whiskercal.cli.app import App, echo_json, pass_app
               help="A directory written by `whiskercal bench`: its speed-accuracy charts.")
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="The HTML file to write (figures embedded, no external resources).")
+@click.option("--allow-other-sensor", is_flag=True,
+              help="Use a raw grid or study recorded on another sensor than the calibration's "
+              "(refused otherwise), with a warning.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
+@force_option
 @pass_app
 def command(app: App, calibration: str, raw_path: str | None, study_path: str | None,
-            bench_dir: str | None, out_path: str, as_json: bool) -> None:
+            bench_dir: str | None, out_path: str, allow_other_sensor: bool, as_json: bool,
+            force: bool) -> None:
     """Write an HTML report of a calibration artifact (CALIBRATION.h5).
 
     One self-contained file: the grid and fit residual map, the level sets and traced tips,
     the lookup curve and its error (against the twin's truth when the raw grid has one), the
     study table and figures, the speed-accuracy charts, and provenance (hashes, versions, times).
     """
-    from whiskercal.report.build import write_report
+    from whiskercal.atomic import refuse_existing, refuse_input_as_output
+    from whiskercal.report.build import other_sensor_inputs, report_inputs, write_report
 
+    refuse_input_as_output(out_path, report_inputs(calibration, raw_path, study_path, bench_dir),
+                           "the report")
+    refuse_existing([out_path], force, "the report")
+    for warning in other_sensor_inputs(calibration, raw_path, study_path, allow_other_sensor):
+        click.echo(f"warning: {warning}", err=True)
     if app.interactive:
         click.echo("drawing the report ...", err=True)
     path = write_report(out_path, calibration, raw_path, study_path, bench_dir)

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import click
 
-from whiskercal.atomic import refuse_input_as_output
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.atomic import refuse_existing, refuse_input_as_output
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 
 
 @click.group("shaft-study")
@@ -59,8 +59,9 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path,
               help="Directory for the figures [default: next to the study file].")
 @click.option("--no-figures", is_flag=True, help="Skip drawing the PNG figures.")
 @click.option("--json", "as_json", is_flag=True, help="Print the per-trial table as JSON.")
+@force_option
 def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None, no_figures: bool,
-                   as_json: bool) -> None:
+                   as_json: bool, force: bool) -> None:
     """Localize every trial's contact and measure it against the twin's truth."""
     from whiskercal import runtime
     from whiskercal.shaftstudy.figures import figure_paths, write_figures
@@ -70,6 +71,7 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None, 
     if not no_figures:
         for output in figure_paths(out_dir):
             refuse_input_as_output(output, [study_path, artifact_path])
+        refuse_existing(figure_paths(out_dir), force)
     report = build_report(study_path, runtime.load(artifact_path))
     if not no_figures:
         report.figures = write_figures(report.series, out_dir)

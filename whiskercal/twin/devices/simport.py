@@ -23,7 +23,8 @@ import urllib.parse
 import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
-from whiskercal.checks import integer, number
+from whiskercal.checks import number
+from whiskercal.checks import seed as seed_value
 from whiskercal.errors import UsageError
 from whiskercal.twin.world import World, create_world, get_world
 
@@ -93,7 +94,7 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         sensor = resolve_sensor(value("sensor", ""))
     world = create_world(
         name, scene=value("scene", "rod"), sensor=sensor,
-        seed=integer(value("seed", 0), "sim:// option seed", low=0),
+        seed=seed_value(value("seed", 0), "sim:// option seed"),
         rod_radius_mm=number(value("rod_radius", 1.5), "sim:// option rod_radius", low=0, unit="mm"),
         stock=_flag(value("stock", "0"), "stock"), homing=_homing(value("homing", "")),
         origin=_origin(value("origin", "")),

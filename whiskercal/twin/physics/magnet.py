@@ -36,6 +36,11 @@ from whiskercal.errors import UsageError
 TESLA_TO_UT = 1e6
 
 
+# the field table's nodes, at most: each holds the exact field and its spline coefficients (3 + 3
+# floats) besides the temporaries that compute them; a finer grid is refused before it is built
+MAX_FIELD_GRID_NODES = 2_000_000
+
+
 @dataclass(frozen=True)
 class FieldGrid:
     """Where the interpolation table is valid: root rotation (rad) and root shift (mm) ranges.
@@ -59,6 +64,18 @@ class FieldGrid:
                 raise UsageError(f"FieldGrid.{name} must be an increasing pair of finite numbers.")
         if not (self.rotation_step_rad > 0 and self.shift_step_mm > 0 and self.pad_cells >= 2):
             raise UsageError("FieldGrid steps must be positive and pad_cells at least 2.")
+        nodes = self.nodes()
+        if nodes > MAX_FIELD_GRID_NODES:
+            raise UsageError(f"the magnet's field grid (rotation step {self.rotation_step_rad:g} "
+                             f"rad, shift step {self.shift_step_mm:g} mm) asks for {nodes:.3g} "
+                             f"nodes, more than {MAX_FIELD_GRID_NODES:.0e}: choose coarser steps")
+
+    def nodes(self) -> int:
+        """How many nodes the field table holds (rotation x shift x shift, with the padding)."""
+        count = [int(np.ceil((high - low) / step - 1e-9)) + 2 * self.pad_cells + 1
+                 for (low, high), step in ((self.rotation_rad, self.rotation_step_rad),
+                                           (self.shift_mm, self.shift_step_mm))]
+        return count[0] * count[1] ** 2
 
 
 @dataclass(frozen=True)
