@@ -74,7 +74,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                           run.columns, {"follow": run.config, "artifact": str(artifact),
                                         "tip_mm_per_uT": tip_mm_per_uT,
                                         "mu_kinetic": float(mu_kinetic),
-                                        "mu_static": None if friction is None else friction.mu_static})
+                                        "mu_static": None if friction is None else friction.mu_static},
+                          transitions=run.transitions)
 
 
 def _friction(shape: str, mu_kinetic, mu_static):

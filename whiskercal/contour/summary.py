@@ -40,6 +40,16 @@ def time_to_go_round_s(run: ContourRunFile) -> float | None:
     return float(run.columns["t_s"][mask][done[0]] - run.columns["t_s"][mask][0]) if done.size else float("nan")
 
 
+# the phase of a follower stopped for good ("gave-up" in runs written before the phases were named)
+STOPPED = ("stopped", "gave-up")
+_PRESSED = ("follow", "round-edge", "enter-corner")  # touching, the target reached (or turning)
+
+
+def contacts_lost(phase: np.ndarray) -> int:
+    """How often the follower backed off from following, or from turning about a corner."""
+    return int(np.sum((phase[1:] == "back-off") & np.isin(phase[:-1], _PRESSED)))
+
+
 def summarize(run: ContourRunFile) -> dict:
     """Every number of the report (JSON-able)."""
     mask, columns = followed(run), run.columns
@@ -48,8 +58,8 @@ def summarize(run: ContourRunFile) -> dict:
     return {"shape": run.shape, "sensor_id": run.sensor_id, "target_z_uT": run.target_z_uT,
             **metrics, "slips": int(np.sum(columns["slip"])),
             "twin_slips": int(np.sum(columns["twin_slips"])) if "twin_slips" in columns else None,
-            "contacts_lost": int(np.sum((columns["phase"][1:] == "back-off") & (columns["phase"][:-1] == "follow"))),
-            "gave_up": bool(np.any(columns["phase"] == "gave-up")),
+            "contacts_lost": contacts_lost(columns["phase"]),
+            "gave_up": bool(np.any(np.isin(columns["phase"], STOPPED))),
             "collided": bool(np.any(columns["kind"] == "collision")),
             "time_to_go_round_s": time_to_go_round_s(run), "duration_s": duration,
             "follow_share": float(np.mean(mask)) if len(mask) else 0.0,
