@@ -50,6 +50,13 @@ def contacts_lost(phase: np.ndarray) -> int:
     return int(np.sum((phase[1:] == "back-off") & np.isin(phase[:-1], _PRESSED)))
 
 
+def rules_fired(run: ContourRunFile) -> dict[str, int]:
+    """How often each rule changed the controller's phase (``follow.phases.RULES``; empty for
+    runs recorded before the phases were)."""
+    rules, counts = np.unique(run.transitions.get("rule", np.zeros(0, str)), return_counts=True)
+    return {str(rule): int(count) for rule, count in zip(rules, counts)}
+
+
 def summarize(run: ContourRunFile) -> dict:
     """Every number of the report (JSON-able)."""
     mask, columns = followed(run), run.columns
@@ -68,4 +75,4 @@ def summarize(run: ContourRunFile) -> dict:
             "control_ms_mean": 1e3 * float(np.mean(columns["control_s"])) if len(columns["control_s"]) else 0.0,
             "control_ms_max": 1e3 * float(np.max(columns["control_s"])) if len(columns["control_s"]) else 0.0,
             "realtime_factor": duration / run.wall_s if run.wall_s > 0 else float("nan"),
-            "complete": run.complete, "seed": run.seed}
+            "rules_fired": rules_fired(run), "complete": run.complete, "seed": run.seed}
