@@ -50,6 +50,19 @@ def contacts_lost(phase: np.ndarray) -> int:
     return int(np.sum((phase[1:] == "back-off") & np.isin(phase[:-1], _PRESSED)))
 
 
+def reachable(run: ContourRunFile, dense: np.ndarray) -> np.ndarray:
+    """The part of the (densely sampled) outline the run can follow: all of a closed one; an
+    open one's from where the twin's tip first touched it to its end (the follower keeps the
+    object on its left, so it never goes back past its start)."""
+    if outline_of(run).closed:
+        return dense
+    touched = run.columns["true_contact_mm"]
+    touched = touched[np.isfinite(touched[:, 0])] if len(touched) else touched
+    if not len(touched):
+        return dense
+    return dense[int(np.argmin(np.linalg.norm(dense - touched[0], axis=1))):]
+
+
 def rules_fired(run: ContourRunFile) -> dict[str, int]:
     """How often each rule changed the controller's phase (``follow.phases.RULES``; empty for
     runs recorded before the phases were)."""
@@ -60,7 +73,8 @@ def rules_fired(run: ContourRunFile) -> dict[str, int]:
 def summarize(run: ContourRunFile) -> dict:
     """Every number of the report (JSON-able)."""
     mask, columns = followed(run), run.columns
-    metrics = contour_metrics(columns["estimate_mm"][mask], outline_of(run).dense())
+    dense = outline_of(run).dense()
+    metrics = contour_metrics(columns["estimate_mm"][mask], dense, reachable(run, dense))
     duration = float(columns["t_s"][-1]) if len(columns["t_s"]) else 0.0
     return {"shape": run.shape, "sensor_id": run.sensor_id, "target_z_uT": run.target_z_uT,
             **metrics, "slips": int(np.sum(columns["slip"])),

@@ -8,6 +8,10 @@ from the last); a cubic B-spline through the last ``key_points`` predicts the ne
 surface's direction; the sensor turns so that the whisker leans ``tilt_deg`` back from the
 surface's inward normal; a PID on z minus the target sets the normal speed, and the tangential
 speed takes what is left of the total. The object is kept on the left (counter-clockwise).
+
+The controller's state is one ``follow.phases.Phase``; each sample goes to the handler of the
+phase it is in, and every change of phase is one of the named rules of ``follow.phases.RULES``,
+logged in the step returned.
 """
 
 from __future__ import annotations
