@@ -106,7 +106,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     from whiskercal.twin.outlines import outline
     from whiskercal.twin.params import DEFAULT_SENSOR
 
-    mu_kinetic, friction = _friction(shape, mu_kinetic, mu_static)  # before the artifact loads
+    shape_outline = outline(shape)  # an unknown shape is refused before the artifact loads
+    mu_kinetic, friction = _friction(shape_outline, mu_kinetic, mu_static)
     sensor = sensor or DEFAULT_SENSOR
     calibration = runtime.load(artifact)
     target = _target(calibration, target_z_uT, artifact)
@@ -116,7 +117,6 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     if speed_mm_s is not None:
         config = config.replace(total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
-    shape_outline = outline(shape)
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)  # scales the PID to the build
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
                       config, duration_s, seed, on_progress, stop_requested, friction,
@@ -126,16 +126,17 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                           run.columns, {"follow": run.config, "artifact": str(artifact),
                                         "tip_mm_per_uT": tip_mm_per_uT,
                                         "mu_kinetic": float(mu_kinetic),
-                                        "mu_static": None if friction is None else friction.mu_static})
+                                        "mu_static": None if friction is None else friction.mu_static},
+                          transitions=run.transitions)
 
 
-def _friction(shape: str, mu_kinetic, mu_static):
+def _friction(shape_outline, mu_kinetic, mu_static):
     """The checked coefficients: (mu_kinetic, a ``Coulomb`` or None: frictionless)."""
     from whiskercal.checks import number
     from whiskercal.twin.physics.coulomb import Coulomb
 
     mu_kinetic = number(mu_kinetic, "--mu-kinetic", low=0.0, high=2.0)
-    if shape == "wall" and (mu_kinetic or mu_static is not None):
+    if not shape_outline.closed and (mu_kinetic or mu_static is not None):
         raise UsageError("friction is not modelled on the wall: leave out --mu-static and --mu-kinetic")
     if mu_static is None:  # no stick-slip: mu_s = mu_k, or frictionless
         return mu_kinetic, Coulomb(mu_kinetic, mu_kinetic) if mu_kinetic else None

@@ -5,7 +5,8 @@ with no alignment of any kind. ``aligned_mean_error_mm``: the same after the est
 the similarity (scale, rotation, translation) that best lays it onto the outline, as the paper's
 evaluation did; reported apart, only to compare with the paper, and NaN where the alignment
 degenerates (scales the estimate by less than half or more than twice). ``coverage``: the share
-of the outline's length within 2 mm of some estimate. ``contour evaluate`` measures any
+of the outline's reachable length (all of a closed outline; an open one's from where the run
+first touched it on) within 2 mm of some estimate. ``contour evaluate`` measures any
 reconstruction against any outline (``contour.evaluate``).
 """
 
@@ -58,8 +59,11 @@ def coverage(points_mm: np.ndarray, outline_mm: np.ndarray) -> float:
     return float(np.mean(np.isfinite(distance)))
 
 
-def contour_metrics(points_mm: np.ndarray, outline_mm: np.ndarray) -> dict[str, float]:
-    """The metrics of the module's docstring for estimated contacts (n, 2) and a dense outline."""
+def contour_metrics(points_mm: np.ndarray, outline_mm: np.ndarray,
+                    reachable_mm: np.ndarray | None = None) -> dict[str, float]:
+    """The metrics of the module's docstring for estimated contacts (n, 2) and a dense outline;
+    the coverage of ``reachable_mm`` (a dense part of it; None: all of it)."""
+    reachable_mm = outline_mm if reachable_mm is None else reachable_mm
     if len(points_mm) == 0:
         nan = float("nan")
         return {"mean_error_mm": nan, "std_error_mm": nan, "max_error_mm": nan,
@@ -68,4 +72,4 @@ def contour_metrics(points_mm: np.ndarray, outline_mm: np.ndarray) -> dict[str, 
     aligned = aligned_errors_mm(points_mm, outline_mm)
     return {"mean_error_mm": float(errors.mean()), "std_error_mm": float(errors.std()),
             "max_error_mm": float(errors.max()), "aligned_mean_error_mm": float(aligned.mean()),
-            "coverage": coverage(points_mm, outline_mm), "contacts": int(len(points_mm))}
+            "coverage": coverage(points_mm, reachable_mm), "contacts": int(len(points_mm))}

@@ -5,7 +5,9 @@ duration of robot time (or until stopped), recording every sample: time, z and t
 axis (fed to the tracker, which uses it when the calibration carries a (Y, Z) table), the
 estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind,
 the slips the follower detected and the twin's true slip events (with stick-slip friction).
-The estimate is never aligned to the truth; docs/contour.md has the metrics.
+Each change of the follower's phase is recorded too (:data:`TRANSITION_COLUMNS`: the sample,
+its time, the two phases and the rule). The estimate is never aligned to the truth;
+docs/contour.md has the metrics.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from whiskercal.twin.outlines import Outline
 
 COLUMNS = ("t_s", "z_uT", "axial_uT", "estimate_mm", "true_tip_mm", "true_contact_mm", "pose", "slip",
            "phase", "kind", "control_s", "twin_slips")
+TRANSITION_COLUMNS = ("sample", "t_s", "source", "target", "rule")
 
 
 @dataclass
@@ -35,6 +38,7 @@ class ContourRun:
     config: dict
     seed: int
     columns: dict[str, np.ndarray] = field(default_factory=dict)
+    transitions: dict[str, np.ndarray] = field(default_factory=dict)
     complete: bool = False
     wall_s: float = 0.0
 
@@ -68,6 +72,7 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
     follower = Follower(tracker, target_z_uT, config, reach_mm, tip_mm_per_uT)
     run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
     rows: dict[str, list] = {name: [] for name in COLUMNS}
+    changes: dict[str, list] = {name: [] for name in TRANSITION_COLUMNS}
     dt, steps = 1.0 / config.rate_hz, int(round(duration_s * config.rate_hz))
     started = time.perf_counter()
     sample = robot.step(0.0)
@@ -76,6 +81,7 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
             tic = time.perf_counter()
             step = follower.update(sample.z_uT, robot, sample.axial_uT)
             _record(rows, index * dt, sample, step, robot.pose(), time.perf_counter() - tic)
+            _record_transitions(changes, index, index * dt, step)
             if sample.kind == "collision":  # driven into the wall: a real run would end here
                 break
             if stop_requested is not None and stop_requested():  # after a sample: never empty
@@ -90,6 +96,9 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
     run.wall_s = time.perf_counter() - started
     whole = min(len(values) for values in rows.values())  # an interrupt mid-sample: drop it
     run.columns = {name: np.asarray(values[:whole]) for name, values in rows.items()}
+    transitions = _transition_arrays(changes)
+    kept = transitions["sample"] < whole
+    run.transitions = {name: values[kept] for name, values in transitions.items()}
     return run
 
 
@@ -101,3 +110,16 @@ def _record(rows, t_s: float, sample, step, pose, control_s: float) -> None:
                         ("kind", sample.kind), ("control_s", control_s),
                         ("twin_slips", sample.slips)):
         rows[name].append(value)
+
+
+def _record_transitions(changes, index: int, t_s: float, step) -> None:
+    for transition in step.transitions:
+        for name, value in (("sample", index), ("t_s", t_s), ("source", transition.source.value),
+                            ("target", transition.target.value), ("rule", transition.rule)):
+            changes[name].append(value)
+
+
+def _transition_arrays(changes) -> dict[str, np.ndarray]:
+    """The transitions as columns (typed also when there are none)."""
+    kinds = {"sample": np.int64, "t_s": float, "source": str, "target": str, "rule": str}
+    return {name: np.asarray(values, dtype=kinds[name]) for name, values in changes.items()}

@@ -44,16 +44,47 @@ def time_to_go_round_s(run: ContourRunFile) -> float | None:
     return float(run.columns["t_s"][mask][done[0]] - run.columns["t_s"][mask][0]) if done.size else float("nan")
 
 
+# the phase of a follower stopped for good ("gave-up" in runs written before the phases were named)
+STOPPED = ("stopped", "gave-up")
+_PRESSED = ("follow", "round-edge", "enter-corner")  # touching, the target reached (or turning)
+
+
+def contacts_lost(phase: np.ndarray) -> int:
+    """How often the follower backed off from following, or from turning about a corner."""
+    return int(np.sum((phase[1:] == "back-off") & np.isin(phase[:-1], _PRESSED)))
+
+
+def reachable(run: ContourRunFile, dense: np.ndarray) -> np.ndarray:
+    """The part of the (densely sampled) outline the run can follow: all of a closed one; an
+    open one's from where the twin's tip first touched it to its end (the follower keeps the
+    object on its left, so it never goes back past its start)."""
+    if outline_of(run).closed:
+        return dense
+    touched = run.columns["true_contact_mm"]
+    touched = touched[np.isfinite(touched[:, 0])] if len(touched) else touched
+    if not len(touched):
+        return dense
+    return dense[int(np.argmin(np.linalg.norm(dense - touched[0], axis=1))):]
+
+
+def rules_fired(run: ContourRunFile) -> dict[str, int]:
+    """How often each rule changed the controller's phase (``follow.phases.RULES``; empty for
+    runs recorded before the phases were)."""
+    rules, counts = np.unique(run.transitions.get("rule", np.zeros(0, str)), return_counts=True)
+    return {str(rule): int(count) for rule, count in zip(rules, counts)}
+
+
 def summarize(run: ContourRunFile) -> dict:
     """Every number of the report (JSON-able)."""
     mask, columns = followed(run), run.columns
-    metrics = contour_metrics(columns["estimate_mm"][mask], outline_of(run).dense())
+    dense = outline_of(run).dense()
+    metrics = contour_metrics(columns["estimate_mm"][mask], dense, reachable(run, dense))
     duration = float(columns["t_s"][-1]) if len(columns["t_s"]) else 0.0
     return {"shape": run.shape, "sensor_id": run.sensor_id, "target_z_uT": run.target_z_uT,
             **metrics, "slips": int(np.sum(columns["slip"])),
             "twin_slips": int(np.sum(columns["twin_slips"])) if "twin_slips" in columns else None,
-            "contacts_lost": int(np.sum((columns["phase"][1:] == "back-off") & (columns["phase"][:-1] == "follow"))),
-            "gave_up": bool(np.any(columns["phase"] == "gave-up")),
+            "contacts_lost": contacts_lost(columns["phase"]),
+            "gave_up": bool(np.any(np.isin(columns["phase"], STOPPED))),
             "collided": bool(np.any(columns["kind"] == "collision")),
             "time_to_go_round_s": time_to_go_round_s(run), "duration_s": duration,
             "follow_share": float(np.mean(mask)) if len(mask) else 0.0,
@@ -62,4 +93,4 @@ def summarize(run: ContourRunFile) -> dict:
             "control_ms_mean": 1e3 * float(np.mean(columns["control_s"])) if len(columns["control_s"]) else 0.0,
             "control_ms_max": 1e3 * float(np.max(columns["control_s"])) if len(columns["control_s"]) else 0.0,
             "realtime_factor": duration / run.wall_s if run.wall_s > 0 else float("nan"),
-            "complete": run.complete, "seed": run.seed}
+            "rules_fired": rules_fired(run), "complete": run.complete, "seed": run.seed}

@@ -8,6 +8,10 @@ from the last); a cubic B-spline through the last ``key_points`` predicts the ne
 surface's direction; the sensor turns so that the whisker leans ``tilt_deg`` back from the
 surface's inward normal; a PID on z minus the target sets the normal speed, and the tangential
 speed takes what is left of the total. The object is kept on the left (counter-clockwise).
+
+The controller's state is one ``follow.phases.Phase``; each sample goes to the handler of the
+phase it is in, and every change of phase is one of the named rules of ``follow.phases.RULES``,
+logged in the step returned.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from whiskercal.follow.config import FollowConfig
+from whiskercal.follow.phases import RULES, TOUCHING, TURNING, Phase, Transition
 from whiskercal.follow.predictor import surface_step
 
 
@@ -36,22 +41,28 @@ class Robot(Protocol):
 @dataclass(frozen=True)
 class Step:
     """What one sample did: the contact point estimated (world, mm; NaN without one), the phase
-    ("approach", "press", "follow", "back-off", "search", "gave-up"), whether a slip was seen,
-    and the commands sent."""
+    that handled the sample (a ``Phase``'s value), whether a slip was seen, the commands sent,
+    and the changes of phase made during the sample (``Transition``; a rule that fires while a
+    sample is handled takes effect from the next one)."""
 
     contact_mm: np.ndarray
     phase: str
     slip: bool
     velocity_mm_s: np.ndarray
     turn_rad_s: float
+    transitions: tuple = ()
 
 
 def _unit(angle: float) -> np.ndarray:
     return np.array([math.cos(angle), math.sin(angle)])
 
 
+_NO_CONTACT = np.full(2, np.nan)
+
+
 class Follower:
-    """The controller (see the module's docstring) over a runtime ``Tracker``."""
+    """The controller (see the module's docstring) over a runtime ``Tracker``; its state is one
+    ``Phase`` (``phase``), changed only by the rules of ``follow.phases.RULES``."""
 
     def __init__(self, tracker, target_z_uT: float, config: FollowConfig = FollowConfig(),
                  reach_mm: float = 78.0, tip_mm_per_uT: float | None = None) -> None:
@@ -61,27 +72,28 @@ class Follower:
         self.tracker, self.target_z_uT, self.config = tracker, float(target_z_uT), config
         self.reach_mm = float(reach_mm)  # centre of rotation to the undeflected tip
         self.gain_scale = 1.0 if tip_mm_per_uT is None else float(tip_mm_per_uT) / config.gains_tip_mm_per_uT
+        self.phase = Phase.APPROACH
+        self._resume = Phase.PRESS  # the phase a turn about a corner returns to
+        self._last_turn: Phase | None = None  # the turning phase the last corner rule moved to
+        self._log: list[Transition] = []  # this sample's changes of phase
         self.keys: deque = deque(maxlen=config.key_points)
         self.tangent: np.ndarray | None = None
         self._samples, self._integral, self._last_error = 0, 0.0, None
         self._recent_z: deque = deque(maxlen=max(2, int(config.slip_window_s * config.rate_hz)))
         self._last_raw: np.ndarray | None = None
-        self.contacted = False
-        self.pressed = False
-        self.gave_up = False  # a search passed the last key point without finding the surface
-        self._backing, self._touching, self._lined_up = 0, False, False
+        self._backing, self._lined_up = 0, False  # back-off samples left; the search's first leg done
         self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
         self._missing, self._grace = 0, int(round(config.lost_after_s * config.rate_hz))
-        # (tangential travel commanded so far, mm; the contact then): for a tip held ahead
+        # (tangential travel commanded so far, mm; the contact then; |z|): for a tip held ahead
         self._travel, self._progress = 0.0, deque()
         self._search_turned = 0  # turns of the search line about the last key point so far
-        self._far_side = False  # the last sample felt the object on the whisker's far side
         self._dwell = 0  # samples following since the last key point
-        self._past_edge = False  # the surface's direction was last turned by an edge rule
-        self._held_rising = False
-        self._fell_gradually = False  # the last sample's |z| fell by half, gradually (_slip)
-        self._turning = False  # a corner rule turned the direction; the heading not round yet
         self._left_outward: np.ndarray | None = None  # the surface left at a concave corner
+
+    @property
+    def gave_up(self) -> bool:
+        """Stopped for good (phase ``stopped``)."""
+        return self.phase is Phase.STOPPED
 
     def update(self, z_uT: float, robot: Robot, axial_uT: float | None = None) -> Step:
         """Feed one z sample (µT from rest) and, when the magnetometer streams it, the chip's Z
@@ -91,69 +103,177 @@ class Follower:
         state = (self.tracker.update(float(z_uT)) if axial_uT is None
                  else self.tracker.update(float(z_uT), float(axial_uT)))
         pose = robot.pose()
-        self.contacted |= state.contact
-        slip = self._slip(z_uT, state.raw_tip_mm)
+        slip, fell_gradually = self._slip(z_uT, state.raw_tip_mm)
         tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
         # bent the other way: the object is on the whisker's far side, no tip to trust
-        self._far_side = bool(z_uT * self.target_z_uT < 0 and state.contact)
-        if self._far_side:
+        far_side = bool(z_uT * self.target_z_uT < 0 and state.contact)
+        if far_side:
             tip = None
-        if self.gave_up:  # for good: a person must look at why the surface was not found
-            return self._stop_for_good(robot, slip)
-        if self._backing > 0:  # backing off is finished even if the wire still touches: it
-            return self._find_contact(robot, pose, slip)  # is leaving the object
-        if tip is None and self._touching and self._missing < self._grace:
-            return self._within_grace(z_uT, pose, robot, slip)
-        if not self.contacted or tip is None:
-            return self._find_contact(robot, pose, slip)
+        self._log = []
+        velocity, turn, contact, label = self._handle(z_uT, tip, far_side, fell_gradually, pose)
+        robot.command(velocity, turn)
+        return Step(contact, label.value, slip, velocity, turn, tuple(self._log))
+
+    def _to(self, rule: str, target: Phase | None = None) -> None:
+        """Change phase by ``rule`` (``follow.phases.RULES``), logged; ``target`` for the rule
+        whose target is the phase a turn interrupted."""
+        spec = RULES[rule]
+        if self.phase not in spec.sources:
+            raise RuntimeError(f"rule {rule!r} fired in phase {self.phase.value}")
+        source, self.phase = self.phase, spec.target or target
+        if self.phase in TURNING:
+            self._resume = source
+        self._log.append(Transition(source, self.phase, rule))
+
+    # -- the phases' handlers: each returns (velocity mm/s, turn rad/s, contact, the phase that
+    # handled the sample) -----------------------------------------------------------------------
+    def _handle(self, z_uT, tip, far_side, fell_gradually, pose):
+        """The current phase's handler, after the rules checked at a sample's start."""
+        if self.phase is Phase.STOPPED:
+            return self._stopped()
+        if self.phase is Phase.BACK_OFF and self._backing == 0:  # backed off
+            if tip is None:
+                self._to("backed off" if self.keys else "backed off, no key point")
+            else:
+                self._to("touched")
+        if self.phase is Phase.BACK_OFF:  # for its whole time, even if the wire still touches:
+            return self._back_off(pose)  # it is leaving the object
+        if self.phase in TOUCHING:
+            if tip is None:
+                return self._without_tip(z_uT, far_side, pose)
+            return self._touching(z_uT, tip, fell_gradually, pose)
+        if tip is not None:
+            self._to("touched")
+            return self._touching(z_uT, tip, fell_gradually, pose)
+        if self.phase is Phase.SEARCH:
+            return self._searching(far_side, pose)
+        self._integral = 0.0
+        return self._approach_velocity(pose), 0.0, _NO_CONTACT, Phase.APPROACH
+
+    def _stopped(self):
+        """Stand still from now on: a person must look at why."""
+        return np.zeros(2), 0.0, _NO_CONTACT, Phase.STOPPED
+
+    def _stop(self, rule: str):
+        self._to(rule)
+        return self._stopped()
+
+    def _without_tip(self, z_uT: float, far_side: bool, pose: np.ndarray):
+        """Touching, no tip this sample. A sample or two without one (the collision detector's
+        hysteresis near its threshold, the first touch) is not a lost contact: hold still for a
+        moment, or, before the target is first reached, press on (standing still, a tip stuck
+        by friction at its first touch can hold z just under the threshold until the grace runs
+        out, and the sensor backs off, over and over). After that the contact is lost; lost
+        with the wire bent the other way, the surface goes on ahead of the tip (a concave
+        corner): its direction turns away from the object about the last key point."""
+        if self._missing < self._grace:
+            self._missing += 1
+            velocity, turn = (np.zeros(2), 0.0) if self._pressed() else self._press_on(z_uT, pose)
+            return velocity, turn, _NO_CONTACT, self.phase
+        if far_side and self.keys and self.tangent is not None:
+            self._turn_direction(self.keys[-1], toward_object=False)
+            self._restart_keys(self.keys[-1] + self.config.search_standoff_mm * self.tangent)
+            self._start_back_off("far side")
+        else:
+            self._start_back_off("contact lost")
+        return self._back_off(pose)
+
+    def _pressed(self) -> bool:
+        """Has the target been reached since this contact was made?"""
+        return Phase.FOLLOW in (self.phase, self._resume if self.phase in TURNING else None)
+
+    def _start_back_off(self, rule: str) -> None:
+        self._to(rule)
+        self._backing = int(self.config.backoff_s * self.config.rate_hz)
+        self._lined_up = False
+        self._progress.clear()
+
+    def _back_off(self, pose: np.ndarray):
+        """Straight back along the whisker: the wire leaves the object."""
+        self._integral = 0.0
+        self._backing -= 1
+        velocity = -self.config.approach_speed_mm_s * _unit(pose[2])
+        return velocity, 0.0, _NO_CONTACT, Phase.BACK_OFF
+
+    def _searching(self, far_side: bool, pose: np.ndarray):
+        """Searching, no tip: come in again (``_search``); the object met on the whisker's far
+        side is a surface ahead (its direction turns away from the object about the last key
+        point, and the search comes in a standoff past that corner, so that the whisker's line
+        clears the surface it leaves), or, after an edge rule, a line come in over the edge's
+        rounding, not onto the face (it comes in further along)."""
+        self._integral = 0.0
+        if not far_side:
+            velocity, turn = self._search(pose)
+            if self.phase is Phase.STOPPED:
+                return self._stopped()
+            return velocity, turn, _NO_CONTACT, Phase.SEARCH
+        if self._last_turn is Phase.ROUND_EDGE:
+            self._last_turn = None
+        else:
+            self._turn_direction(self.keys[-1], toward_object=False)
+        self._restart_keys(self.keys[-1] + self.config.search_standoff_mm * self.tangent)
+        self._start_back_off("far side")
+        return self._back_off(pose)
+
+    def _touching(self, z_uT: float, tip: np.ndarray, fell_gradually: bool, pose: np.ndarray):
+        """A tip while touching. After a corner rule, until the heading is within
+        slow_heading_deg of the new direction, the tip stays on the corner (the last key point)
+        and the sensor turns about it; the estimates of a tip held there wander (its axial push
+        read as a bend), so they add no key point and fire no rule."""
         self._missing, self._search_turned = 0, 0
         contact = _rotation(pose[2]) @ tip + pose[:2]
-        self._touching = True
-        # first reach the target deflection, then move along; while pressing, the tip slides
-        # along the (frictionless) surface, round a bend too, and the heading follows it
-        phase = "follow" if self.pressed else "press"
-        self.pressed |= abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
-        if self._turning:
-            # after a corner rule, until the heading is within slow_heading_deg of the new one:
-            # the tip stays on the corner (the last key point) and the sensor turns about it;
-            # the estimates of a tip held there wander (its axial push read as a bend), so they
-            # add no key point and fire no rule
-            self._turning = (abs(_wrap(self._target_heading() - pose[2]))
-                             >= math.radians(self.config.slow_heading_deg))
-            if self._turning:
-                return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip)
-        if self._fell_gradually and phase == "follow":
+        if self.phase in TURNING:
+            lag = abs(_wrap(self._target_heading() - pose[2]))
+            if lag >= math.radians(self.config.slow_heading_deg):
+                if self._reached(z_uT):
+                    self._resume = Phase.FOLLOW
+                velocity, turn = self._turn_about(self.keys[-1], z_uT, pose)
+                return velocity, turn, _NO_CONTACT, self.phase
+            self._to("heading round", self._resume)
+        return self._press_or_follow(z_uT, contact, fell_gradually, pose)
+
+    def _reached(self, z_uT: float) -> bool:
+        return abs(z_uT) >= self.config.press_share * abs(self.target_z_uT)
+
+    def _press_or_follow(self, z_uT: float, contact: np.ndarray, fell_gradually: bool,
+                         pose: np.ndarray):
+        """First reach the target deflection, then move along; while pressing, the tip slides
+        along the (frictionless) surface, round a bend too, and the heading follows it."""
+        label = self.phase
+        following = label is Phase.FOLLOW
+        if fell_gradually and following:
             # |z| halved within the slip window, step by small step, the wire still touching:
             # not a slip (one snap) but a tip held in a concave corner, pushed along the wire as
             # the sensor moves on. Turning about the corner kept pushing it until z read no
             # contact, the tip still caught, and backing off drove the wire into both walls
-            return self._stop_for_good(robot, slip)
+            return self._stop("held in a corner")
+        if label is Phase.PRESS and self._reached(z_uT):
+            self._to("target reached")
         self._key_point(contact, pose)
-        velocity, turn = self._action(z_uT, pose, moving=phase == "follow")
-        if not self._turning:  # (a key point's rule, an edge or a step back, may have turned it)
-            self._corner_rules(contact, pose, z_uT, float(velocity @ self.tangent), phase == "follow")
-        if self._turning:
-            return self._at_corner(z_uT, pose, robot, phase, slip, contact)
+        velocity, turn = self._action(z_uT, pose, moving=following)
+        if self.phase not in TURNING:  # (a key point's rule, an edge or a step back, may have turned it)
+            self._corner_rules(contact, pose, z_uT, float(velocity @ self.tangent), following)
+        if self.phase in TURNING:
+            return self._at_corner(z_uT, pose, contact, label)
         # turn about the contact, not the sensor's base: the base moves so that the tip stays put
         arm = pose[:2] - contact
-        velocity = velocity + turn * np.array([-arm[1], arm[0]])
-        robot.command(velocity, turn)
-        return Step(contact, phase, slip, velocity, turn)
+        return velocity + turn * np.array([-arm[1], arm[0]]), turn, contact, label
 
     def _corner_rules(self, contact: np.ndarray, pose: np.ndarray, z_uT: float,
                       tangential_mm_s: float, following: bool) -> None:
         """The edge and concave-corner rules that watch the deflection and the held tip
         (docs/contour.md, the controller's rule 7); each turns the surface's direction."""
         config = self.config
-        kept = abs(z_uT) >= config.press_share * abs(self.target_z_uT)
+        kept = self._reached(z_uT)
         # counted only while the heading keeps up: turning about the contact adds no key point
         lag = abs(_wrap(self._target_heading() - pose[2]))
         self._dwell = self._dwell + 1 if following and lag < math.radians(config.stop_heading_deg) else 0
-        if following and self._held_ahead(contact, tangential_mm_s, z_uT):
+        held, rising = self._held_ahead(contact, tangential_mm_s, z_uT) if following else (False, False)
+        if following and held:
             # held with the deflection kept, not rising: on an edge (the surface bends toward
             # the object); held as the deflection falls, or rises (the base comes nearer a tip
             # that cannot go on): against a surface ahead (a concave corner)
-            self._turn_at_corner(contact, toward_object=kept and not self._held_rising)
+            self._turn_at_corner(contact, "edge held" if kept and not rising else "held ahead")
         elif (following and lag < math.radians(config.slow_heading_deg)
               and abs(z_uT) > config.rise_share * abs(self.target_z_uT)
               and self._lags(contact, config.rise_progress_share)):
@@ -162,90 +282,29 @@ class Follower:
             # surface ahead (a concave corner), before the held tip's estimates wander (its axial
             # push read as a bend). A tip that keeps going on is pressed harder by a direction
             # not yet the surface's (after a search, say), not held by a surface ahead
-            self._turn_at_corner(contact)
+            self._turn_at_corner(contact, "rise ahead")
         elif kept and self._dwell > config.dwell_s * config.rate_hz:
             # no new key point for that long while following at the target: the contact stays
             # on an edge while the sensor turns about it; the surface bends toward the object
-            self._turn_at_corner(contact, toward_object=True)
+            self._turn_at_corner(contact, "edge dwell")
 
-    def _at_corner(self, z_uT: float, pose: np.ndarray, robot: Robot, phase: str, slip: bool,
-                   contact: np.ndarray) -> Step:
+    def _at_corner(self, z_uT: float, pose: np.ndarray, contact: np.ndarray, label: Phase):
         """A corner rule has just turned the direction: turn about the corner, unless that
         would bring the base to the surface it leaves (a concave corner narrower than the bent
         whisker's reach): then stop for good rather than crash."""
         if self._swings_into_left(pose, contact):
-            return self._stop_for_good(robot, slip)
-        return self._turn_about(self.keys[-1], z_uT, pose, robot, phase, slip, contact)
+            return self._stop("corner too narrow")
+        velocity, turn = self._turn_about(self.keys[-1], z_uT, pose)
+        return velocity, turn, contact, label
 
-    def _within_grace(self, z_uT: float, pose: np.ndarray, robot: Robot, slip: bool) -> Step:
-        """A sample or two without a tip (the collision detector's hysteresis near its
-        threshold, the first touch) is not a lost contact: hold still for a moment, or, before
-        the target is first reached, press on (standing still, a tip stuck by friction at its
-        first touch can hold z just under the threshold until the grace runs out, and the
-        sensor backs off, over and over)."""
-        self._missing += 1
-        velocity, turn = (np.zeros(2), 0.0) if self.pressed else self._press_on(z_uT, pose)
-        robot.command(velocity, turn)
-        return Step(np.full(2, np.nan), "follow" if self.pressed else "press", slip, velocity, turn)
-
-    def _stop_for_good(self, robot: Robot, slip: bool) -> Step:
-        """Stand still from now on (phase "gave-up"): a person must look at why."""
-        self.gave_up = True
-        robot.command(np.zeros(2), 0.0)
-        return Step(np.full(2, np.nan), "gave-up", slip, np.zeros(2), 0.0)
-
-    def _turn_about(self, pivot: np.ndarray, z_uT: float, pose: np.ndarray, robot: Robot,
-                    phase: str, slip: bool, contact: np.ndarray | None = None) -> Step:
+    def _turn_about(self, pivot: np.ndarray, z_uT: float, pose: np.ndarray) -> tuple[np.ndarray, float]:
         """Turn about ``pivot`` (world, mm: the corner) toward the heading the surface asks
-        for, pressing to the target, with no motion along; the step's contact is NaN (an
-        estimate of a held tip is not a point of the surface)."""
+        for, pressing to the target, with no motion along."""
         velocity, turn = self._action(z_uT, pose, moving=False)
         arm = pose[:2] - pivot
-        velocity = velocity + turn * np.array([-arm[1], arm[0]])
-        robot.command(velocity, turn)
-        return Step(np.full(2, np.nan) if contact is None else contact, phase, slip, velocity, turn)
+        return velocity + turn * np.array([-arm[1], arm[0]]), turn
 
     # -- pieces ---------------------------------------------------------------------------------
-    def _find_contact(self, robot: Robot, pose: np.ndarray, slip: bool) -> Step:
-        """No tip: before the first contact move toward the object; after losing one (the tip
-        slipped off an edge or past a corner) first back off, so that the wire clears the object,
-        then line up with the last key point and come in again (``_search``), and press to the
-        target before moving along."""
-        if self._touching or (self._far_side and self._backing == 0 and self.contacted and self.keys):
-            # contact just lost (while pressing or following), or a search met the object on
-            # the whisker's far side: back off; in the second case, and when the contact was
-            # lost to the far side, the surface goes on ahead of the tip (a concave corner):
-            # it turns away from the object about the last key point
-            if self._far_side and self.keys and self.tangent is not None:
-                if self._past_edge and not self._touching:
-                    # a search past an edge met it with the whisker's far side: the line came
-                    # in over the edge's rounding, not onto the face; come in further along
-                    self._past_edge = False
-                    self._restart_keys(self.keys[-1] + self.config.search_standoff_mm * self.tangent)
-                else:
-                    # the surface ahead begins at the corner: come in onto it a standoff past
-                    # the corner, so that the whisker's line clears the surface it leaves
-                    self._turn_at_corner(self.keys[-1])
-                    self._restart_keys(self.keys[-1] + self.config.search_standoff_mm * self.tangent)
-            self.pressed, self._backing = False, int(self.config.backoff_s * self.config.rate_hz)
-            self._lined_up = False
-            self._progress.clear()
-        self._touching = self._turning = False  # (the search lines up on its own)
-        self._integral = 0.0
-        if self._backing > 0:  # straight back along the whisker: the wire leaves the object
-            self._backing -= 1
-            velocity = -self.config.approach_speed_mm_s * _unit(pose[2])
-            robot.command(velocity, 0.0)
-            return Step(np.full(2, np.nan), "back-off", slip, velocity, 0.0)
-        if self.contacted and self.keys and self.tangent is not None:
-            velocity, turn = self._search(pose)
-            robot.command(velocity, turn)
-            return Step(np.full(2, np.nan), "gave-up" if self.gave_up else "search", slip, velocity, turn)
-        phase = "approach" if not self.contacted else "search"
-        velocity = self._approach_velocity(pose)
-        robot.command(velocity, 0.0)
-        return Step(np.full(2, np.nan), phase, slip, velocity, 0.0)
-
     def _search(self, pose: np.ndarray) -> tuple[np.ndarray, float]:
         """Come back to the surface where it was last felt, as the first approach did: first
         bring the free tip to ``search_standoff_mm`` short of the last key point along the line
@@ -253,7 +312,7 @@ class Follower:
         Returning straight toward the key point can leave the tip past a corner, or the object
         on the whisker's far side. When the free tip passes the key point by ``search_standoff_mm``
         without a contact, the surface is not where it was felt (or the whisker went past it):
-        the sensor stops there for good (``gave_up``) rather than push on into the unknown."""
+        the sensor stops there for good (phase ``stopped``) rather than push on into the unknown."""
         config = self.config
         heading = self._target_heading()
         along = _unit(heading)
@@ -266,7 +325,7 @@ class Follower:
         if self._lined_up:
             if (free_tip - self.keys[-1]) @ along > config.search_standoff_mm:
                 if self._search_turned >= config.search_turns:
-                    self.gave_up = True  # the surface is not where it was felt: stop, do not push on
+                    self._to("not found")  # the surface is not where it was felt: do not push on
                     return np.zeros(2), 0.0
                 # past an edge the surface bends toward the object: look for it there, about
                 # the last key point, rather than straight on
@@ -283,18 +342,18 @@ class Follower:
         arm = pose[:2] - free_tip  # turn about the free tip
         return tip_velocity + turn * np.array([-arm[1], arm[0]]), turn
 
-    def _held_ahead(self, contact: np.ndarray, tangential_mm_s: float, z_uT: float) -> bool:
+    def _held_ahead(self, contact: np.ndarray, tangential_mm_s: float,
+                    z_uT: float) -> tuple[bool, bool]:
         """Is the tip held while the sensor moves along (a surface ahead of it: a concave
         corner)? True when the contact has gone less than ``stall_share`` of the last
-        ``stall_travel_mm`` of tangential motion commanded along the surface. Sets
-        ``_held_rising``: |z| has risen over that travel (the base nearing a held tip)."""
+        ``stall_travel_mm`` of tangential motion commanded along the surface. And has |z|
+        risen over that travel (the base nearing a held tip)?"""
         config = self.config
         self._travel += max(tangential_mm_s, 0.0) / config.rate_hz
         self._progress.append((self._travel, contact, abs(z_uT)))
         while len(self._progress) > 1 and self._travel - self._progress[1][0] >= config.stall_travel_mm:
             self._progress.popleft()
-        self._held_rising = abs(z_uT) > self._progress[0][2]
-        return self._lags(contact, config.stall_share)
+        return self._lags(contact, config.stall_share), abs(z_uT) > self._progress[0][2]
 
     def _lags(self, contact: np.ndarray, share: float) -> bool:
         """Has the contact gone less than ``share`` of the tangential travel commanded over the
@@ -304,16 +363,21 @@ class Follower:
             return False
         return float((contact - before) @ self.tangent) < share * (self._travel - travel)
 
-    def _turn_at_corner(self, contact: np.ndarray, toward_object: bool = False) -> None:
+    def _turn_at_corner(self, contact: np.ndarray, rule: str) -> None:
+        """A corner rule fired at ``contact``: turn the surface's direction there (toward the
+        object for a rule that rounds an edge) and move to the rule's turning phase, in which
+        the sensor turns about the corner until its heading follows."""
+        self._turn_direction(contact, toward_object=RULES[rule].target is Phase.ROUND_EDGE)
+        self._to(rule)
+
+    def _turn_direction(self, contact: np.ndarray, toward_object: bool) -> None:
         """The tip is held: the surface turns there, away from the object (a surface ahead, a
         concave corner) or toward it (an edge). Turn its direction by ``corner_turn_deg`` (or
-        ``edge_hold_turn_deg``) and start the key points afresh from the corner (the catch-up
-        rule then holds the sensor still while it turns, about the contact)."""
+        ``edge_hold_turn_deg``) and start the key points afresh from the corner."""
         turn = self.config.edge_hold_turn_deg if toward_object else -self.config.corner_turn_deg
-        self._past_edge = toward_object
+        self._last_turn = Phase.ROUND_EDGE if toward_object else Phase.ENTER_CORNER
         if not toward_object and self._left_outward is None:  # the surface followed up to here
             self._left_outward = np.array([self.tangent[1], -self.tangent[0]])
-        self._turning = True
         self.tangent = _unit(_angle(self.tangent) + math.radians(turn))
         self._restart_keys(contact)
 
@@ -321,7 +385,7 @@ class Follower:
         """After a concave corner's rule: would turning about the corner to the heading asked
         for, the whisker bent as now, bring the base within ``corner_clearance_mm`` of the
         surface left there (its line through the corner)?"""
-        if self._past_edge or self._left_outward is None:
+        if self._last_turn is Phase.ROUND_EDGE or self._left_outward is None:
             return False
         corner = self.keys[-1]
         arm = float(np.linalg.norm(pose[:2] - contact))
@@ -353,10 +417,10 @@ class Follower:
             # the contact went back against the surface's direction: no surface turns back on
             # itself; a tip held in a concave corner, its axial push read as a deflection, moves
             # the estimates toward the base. The corner is the last key point before the step.
-            self._turn_at_corner(self.keys[-2])
+            self._turn_at_corner(self.keys[-2], "step back")
             return
         self._bend_mm = self._bend_radius_mm()
-        if self.pressed and len(self.keys) >= 3 and self._round_an_edge():
+        if self.phase is Phase.FOLLOW and len(self.keys) >= 3 and self._round_an_edge():
             return  # (not on the first key points: the first direction is only the approach's)
         if len(self.keys) >= 2:  # a chord until the spline has its key points
             self.tangent = self._turned_toward(self._surface_direction())
@@ -371,7 +435,8 @@ class Follower:
         if _wrap(_angle(step) - _angle(self.tangent)) <= math.radians(self.config.edge_turn_deg):
             return False
         self.tangent = step / float(np.linalg.norm(step))
-        self._past_edge = self._turning = True
+        self._last_turn = Phase.ROUND_EDGE
+        self._to("edge step")
         last_two = list(self.keys)[-2:]
         self.keys.clear()
         self.keys.extend(last_two)
@@ -458,18 +523,19 @@ class Follower:
                                    + config.kd_mm_per_uT * derivative)
         return float(np.clip(speed, -limit, limit))
 
-    def _slip(self, z_uT: float, raw_tip) -> bool:
-        """A sudden drop of |z| or a jump of the raw tip (docs/contour.md)."""
+    def _slip(self, z_uT: float, raw_tip) -> tuple[bool, bool]:
+        """A sudden drop of |z| or a jump of the raw tip (docs/contour.md); and whether the
+        drop came gradually (``_gradual_fall``: a tip held in a concave corner)."""
         self._recent_z.append(abs(z_uT))
         dropped = (max(self._recent_z) > abs(self.target_z_uT) * 0.8
                    and abs(z_uT) < self.config.slip_drop * max(self._recent_z))
         jumped = (raw_tip is not None and self._last_raw is not None
                   and float(np.linalg.norm(raw_tip - self._last_raw)) > self.config.slip_jump_mm)
         self._last_raw = None if raw_tip is None else np.asarray(raw_tip, float)
-        self._fell_gradually = dropped and self._gradual_fall()
+        gradual = bool(dropped and self._gradual_fall())
         if dropped:
             self._recent_z.clear()
-        return bool(dropped or jumped)
+        return bool(dropped or jumped), gradual
 
     def _gradual_fall(self) -> bool:
         """Did the fall of |z| over the slip window come in many small steps (no sample's fall

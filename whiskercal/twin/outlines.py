@@ -9,7 +9,11 @@ the twin's frictionless shape contact (``physics.obstacles.Circle`` / ``Polygon`
 The wall (:class:`WallOutline`) is open and not convex: a straight wall 300 mm long with a 20 mm
 step out half-way (its top edge rounded, 3 mm), ending in a 90° concave corner where a second
 wall, 150 mm long, turns toward the robot. The twin meets it as overlapping convex pieces
-(``obstacle()``).
+(``obstacle()``). Two more open scenes take a parameter (:func:`open_scene`): ``corner:deg=N``,
+a straight wall 300 mm long into a concave corner whose free side opens N degrees (60 to 120),
+and out along a second wall 150 mm long; ``step:mm=H``, a straight wall with a step of H mm
+(4 to 40) down toward the object half-way along its first 300 mm (the step's top edge rounded,
+3 mm), going on 150 mm past the step's foot.
 """
 
 from __future__ import annotations
@@ -90,10 +94,13 @@ def regular_core(sides: int, apothem_mm: float) -> np.ndarray:
 
 
 def outline(name: str, center_mm=(0.0, 0.0), rotation_rad: float = 0.0):
-    """One of :data:`SCENES`, centred at ``center_mm`` and turned by ``rotation_rad`` (the wall
-    stands where it is built, its concave corner at the origin)."""
+    """One of :data:`SCENES`, or an open scene with its parameter (:func:`open_scene`), centred
+    at ``center_mm`` and turned by ``rotation_rad`` (an open scene stands where it is built, its
+    concave corner at the origin)."""
     if name == WALL:
         return WallOutline(WALL, WALL_CORNERS_MM.copy(), WALL_EDGE_RADIUS_MM)
+    if name.split(":")[0] in OPEN_KINDS:
+        return open_scene(name)
     if name == "cylinder":
         core, radius = np.zeros((1, 2)), 80.0
     elif name == "rounded-rect":  # 160 mm wide, corners of 40 mm radius
@@ -102,7 +109,8 @@ def outline(name: str, center_mm=(0.0, 0.0), rotation_rad: float = 0.0):
         apothem = 70.0 / (2 * math.tan(math.pi / 8))
         core, radius = regular_core(8, apothem - 30.0), 30.0
     else:
-        raise UsageError(f"unknown shape {name!r}; use one of {', '.join(SCENES)}")
+        raise UsageError(f"unknown shape {name!r}; use one of {', '.join(SCENES)}, "
+                         "corner:deg=N or step:mm=H")
     turn = np.array([[math.cos(rotation_rad), -math.sin(rotation_rad)],
                      [math.sin(rotation_rad), math.cos(rotation_rad)]])
     return Outline(name, core @ turn.T + np.asarray(center_mm, float), radius)
@@ -110,8 +118,30 @@ def outline(name: str, center_mm=(0.0, 0.0), rotation_rad: float = 0.0):
 
 def recorded(name: str, core_mm, radius_mm: float):
     """An outline as a contour run records it (its name, core and radius)."""
-    kind = WallOutline if name == WALL else Outline
+    kind = {WALL: WallOutline, "corner": CornerOutline, "step": StepOutline}.get(name.split(":")[0], Outline)
     return kind(name, np.asarray(core_mm, float), float(radius_mm))
+
+
+OPEN_KINDS = {"corner": ("deg", 60.0, 120.0), "step": ("mm", 4.0, 40.0)}  # parameter, its range
+
+
+def open_scene(name: str):
+    """``corner:deg=N`` or ``step:mm=H`` (the module's docstring); UsageError names what is
+    wrong with any other."""
+    kind, _, parameter = name.partition(":")
+    key, low, high = OPEN_KINDS[kind]
+    given, _, text = parameter.partition("=")
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if given != key or not low <= value <= high:
+        raise UsageError(f"shape {name!r}: write {kind}:{key}=V with V from {low:g} to {high:g}")
+    if kind == "corner":
+        direction = np.array([math.cos(math.radians(value)), math.sin(math.radians(value))])
+        return CornerOutline(name, np.array([[300.0, 0.0], [0.0, 0.0], list(150.0 * direction)]), 0.0)
+    core = np.array([[300.0, value], [150.0, value], [150.0, 0.0], [-150.0, 0.0]])
+    return StepOutline(name, core, WALL_EDGE_RADIUS_MM)
 
 
 # The wall's surface, the solid on the left walking along it: the step's top (y = 20 mm), the step
@@ -191,3 +221,58 @@ def _outward(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Unit outward normal (to the right walking from a to b: the solid is on the left)."""
     edge = (b - a) / np.linalg.norm(b - a)
     return np.array([edge[1], -edge[0]])
+
+
+def _rounded_edge(corner_mm: np.ndarray, radius_mm: float) -> np.ndarray:
+    """The arc (31 points) that rounds a 90° convex edge from +x round to -y of ``corner_mm``
+    (the top edge of a step down toward -x, the solid below and to the right)."""
+    angles = np.linspace(math.pi / 2, math.pi, 31)
+    centre = corner_mm + np.array([radius_mm, -radius_mm])
+    return centre + radius_mm * np.column_stack([np.cos(angles), np.sin(angles)])
+
+
+@dataclass(frozen=True)
+class CornerOutline(WallOutline):
+    """A straight wall (y = 0, walked toward -x, the solid below) into a concave corner at the
+    origin and out along a second wall (its last core point's direction, the solid on its
+    left): the corner's free side opens as far as that direction's angle."""
+
+    def obstacle(self) -> tuple[Polygon, ...]:
+        """The two walls' pieces (each a half-plane's slab, which the solid contains) and the
+        corner's parallelogram, whose vertex at the corner lies between the two walls' normals
+        (a tip held there, pushed by both, is its tip-on-vertex contact)."""
+        (x_end, _), corner, second = self.core_mm
+        depth, beyond = _WALL_DEPTH_MM, _WALL_BEYOND_MM
+        along = second / np.linalg.norm(second)
+        behind = np.array([-along[1], along[0]])  # the solid's side of the second wall
+        first = np.array([[-depth, -depth], [x_end + beyond, -depth], [x_end + beyond, 0.0], [-depth, 0.0]])
+        length = float(np.linalg.norm(second)) + beyond
+        wall = np.array([corner - depth * along, corner + length * along,
+                         corner + length * along + depth * behind, corner - depth * along + depth * behind])
+        back = np.array([-depth, 0.0])
+        square = np.array([corner + back - depth * along, corner - depth * along, corner, corner + back])
+        return tuple(Polygon(piece) for piece in (first, wall, square))
+
+    def corner_pieces(self) -> dict[int, int]:
+        return {2: 2}
+
+
+@dataclass(frozen=True)
+class StepOutline(WallOutline):
+    """A straight wall with a step down toward the object (walked toward -x, the solid below):
+    the step's top (y = H), its rounded edge, its face (x = 150 mm), the concave foot, the wall
+    beyond (y = 0)."""
+
+    def obstacle(self) -> tuple[Polygon, ...]:
+        """The step's block (with its rounded edge), the lower wall's slab and a square behind
+        the step's foot (the foot its vertex between the two walls' normals)."""
+        (x_end, height), (x_step, _), _, (x_far, _) = self.core_mm
+        depth, beyond = _WALL_DEPTH_MM, _WALL_BEYOND_MM
+        edge = _rounded_edge(np.array([x_step, height]), self.radius_mm)
+        step = np.vstack([[[x_step, -depth], [x_end + beyond, -depth], [x_end + beyond, height]], edge])
+        low = np.array([[x_far - beyond, -depth], [x_step, -depth], [x_step, 0.0], [x_far - beyond, 0.0]])
+        foot = np.array([[x_step, -depth], [x_step + depth, -depth], [x_step + depth, 0.0], [x_step, 0.0]])
+        return tuple(Polygon(piece) for piece in (step, low, foot))
+
+    def corner_pieces(self) -> dict[int, int]:
+        return {2: 3}

@@ -20,10 +20,12 @@ def command() -> None:
 
 
 @command.command("run")
-@click.option("--shape", type=click.Choice(["cylinder", "rounded-rect", "octagon", "wall"]), default=None,
-              help="The twin's object: a Ø160 mm cylinder, a 160 mm square prism with 40 mm "
-                   "corners, or an octagonal prism (70 mm sides, 30 mm corners), or an open wall "
-                   "with a 20 mm step and a concave corner (required without --robot).")
+@click.option("--shape", default=None, metavar="SHAPE",
+              help="The twin's object: cylinder (Ø160 mm), rounded-rect (a 160 mm square prism "
+                   "with 40 mm corners), octagon (70 mm sides, 30 mm corners); or an open scene: "
+                   "wall (a 20 mm step and a 90° concave corner), corner:deg=N (a wall into a "
+                   "concave corner opening N°, 60-120, and out along a second wall), step:mm=H (a "
+                   "wall with a step of H mm, 4-40). Required without --robot.")
 @click.option("--artifact", type=click.Path(dir_okay=False), required=True,
               help="Calibration artifact (CAL.h5) of the twin's sensor, with a target; one from "
                    "a (Y, Z) table (written by `fit` by default) places the contacts from the Y and Z "
@@ -68,6 +70,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour import contour_to_file, summarize
     from whiskercal.follow import load_follow_config
+    from whiskercal.twin.outlines import outline
     from whiskercal.twin.sensor_file import resolve_sensor
 
     refuse_input_as_output(out, [artifact] + ([config_path] if config_path else []), "the run")
@@ -81,6 +84,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
                             duration_s, out, as_json, shape=shape, mu_static=mu_static,
                             mu_kinetic=mu_kinetic, seed=seed, **robot)
     refuse_robot_options(shape, robot)
+    outline(shape)  # an unknown shape or a parameter out of range: one line, before any work
     sensor = resolve_sensor(sensor_name) if sensor_name else None
     with progress_bar(app, "s", description=f"contour {shape}", as_json=as_json) as bar:
         def shown(t_s: float) -> None:
