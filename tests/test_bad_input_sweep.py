@@ -116,7 +116,7 @@ CASES = [
     ("regress nosuch", 2, "no such directory"),
     ("regress adir", 2, "no dataset directories"),
     ("bench --out cal.h5 --quick --only model-speed", 2, "is a file"),
-    ("contour run --shape teapot --artifact cal.h5 --out c.h5", 2, "Invalid value for '--shape'"),
+    ("contour run --shape teapot --artifact cal.h5 --out c.h5", 2, "unknown shape 'teapot'"),
     ("contour run --shape cylinder --artifact nosuch.h5 --out c.h5", 4, "no such file"),
     ("contour run --shape cylinder --artifact raw.h5 --out c.h5", 4, "not a whiskercal.calibration"),
     ("contour run --shape cylinder --artifact cal.h5 --out cal.h5", 2, "never overwritten"),
