@@ -22,7 +22,7 @@ from scipy.special import expit
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, MAX_SHIFT_ORDER, PoseMap, fit_pose_map
-from whiskercal.mechfit.forward import Suspension, pose_of, rod_equilibria
+from whiskercal.mechfit.forward import Suspension, rod_poses
 
 STUB_FRACTION_START = 0.04
 ROT_COMPLIANCE_STARTS = (0.01, 0.1, 1.0)
@@ -76,13 +76,11 @@ class _Objective:
 
     def solve(self, theta: np.ndarray):
         suspension = self.suspension(theta)
-        equilibria = rod_equilibria(suspension, self.centers, self.radius, self.warm)
-        in_contact = [e.in_contact for e in equilibria]
-        if all(in_contact):
-            self.warm = [None if fresh else e for e, fresh in zip(equilibria, self.fresh)]
-        poses = np.array([pose_of(e) for e in equilibria])
+        solved = rod_poses(suspension, self.centers, self.radius, self.warm)
+        if solved.in_contact.all():
+            self.warm = solved.warm_starts(self.fresh)
         self.evaluations += 1
-        return suspension, poses, np.array(in_contact)
+        return suspension, solved.poses, solved.in_contact
 
     def evaluate(self, theta: np.ndarray):
         """One solve: (suspension, poses, pose map, residual µT, residual in standard errors)."""
