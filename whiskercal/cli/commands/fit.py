@@ -145,6 +145,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     refuse_input_as_output(out_path, [raw], "the calibration artifact")
     started = time.perf_counter()
     grid = read_raw_grid(raw)
+    read_s = time.perf_counter() - started
     options = FitOptions(
         degree=parse_degree(degree), coordinates=coordinates, samples=samples, tracer=tracer,
         interpolant=interpolant, trace_length_mm=trace_length_mm,
@@ -154,13 +155,16 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
         field_table=field_table)
     say = (lambda message: click.echo(f"  {message} ...", err=True)) if app.interactive else None
     result = fit(grid, options, say)
+    writing = time.perf_counter()
     data = result.artifact_data()
     result.write(out_path)
-    _report(data, time.perf_counter() - started, out_path, as_json)
+    timings = {"read": read_s, **result.timings_s, "write": time.perf_counter() - writing}
+    _report(data, time.perf_counter() - started, out_path, as_json, timings)
 
 
-def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
+def _report(data, elapsed_s: float, out_path: str, as_json: bool, timings_s: dict) -> None:
     summary = _summary(data, elapsed_s)
+    summary["timings_s"] = timings_s  # wall time per stage: read, the fit's stages, write
     if as_json:
         echo_json(summary)
         return
