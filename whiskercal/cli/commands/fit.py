@@ -108,8 +108,8 @@ def _summary(data, elapsed_s: float) -> dict:
               help="Also fit the suspension and the magnet's field to the Y and Z axes and store "
               "a (Y, Z) -> tip table: the runtime then places tips pushed with friction or by "
               "slanted surfaces (docs/calibration.md). Withheld, with a warning, where its own "
-              "error estimate says it cannot be trusted. Adds 30-60 s to a fit of the default "
-              "grid, minutes on long builds; --no-field-table leaves it out.")
+              "error estimate says it cannot be trusted. Most of a default fit's time (timings_s "
+              "in --json, docs/fit-time.md); --no-field-table leaves it out.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit summary as JSON.")
 @pass_app
 def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, samples: int,
