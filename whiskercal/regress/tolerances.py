@@ -105,12 +105,46 @@ SHAFT_SHARE = ToleranceClass(
     "threshold decisions on continuous estimates; equal in every measured perturbation, a sample "
     "on a threshold may flip: 5e-3 is two samples of the shortest trial (about 450 in contact).")
 
+MODEL_TIP = ToleranceClass(
+    "model_tip", 5e-3, 0.0,
+    "The default fit's tip curve and its truth errors (mm): the mechanics' and the (Y, Z) joint "
+    "fit's least squares stop where their tolerances say, a place that moves with the "
+    "arithmetic; measured, OpenBLAS's Prescott kernels instead of those detected moved the "
+    "mechanics' lookups by under 2e-7 mm and the joint fit's (twin-long-110mm) by up to "
+    "8.5e-4 mm. 5 µm is six times that, the accuracy a faster fit must keep, and far below "
+    "the 0.02 mm and more the tip models are from the truth.")
+MODEL_Z = ToleranceClass(
+    "model_z", 0.2, 1e-9,
+    "The default fit's lookup deflections (µT): ends set by the grid's range and by where the "
+    "fitted model's z stops being one-to-one, which follows the fit; measured, OpenBLAS's "
+    "Prescott kernels moved them by up to 0.028 µT (the joint fit's lookup). 0.2 µT is seven "
+    "times that and a fifth of one reading's count.")
+TABLE_AXIS = ToleranceClass(
+    "table_axis", 20.0, 0.0,
+    "The (Y, Z) table's axes (µT): Y spans the grid's range, Z what the joint fit's tip loads "
+    "reach, which follows where the joint fit (14 parameters, the stage offset among them) "
+    "stopped; measured, OpenBLAS's Prescott kernels moved the Z axis by up to 3.8 µT. 20 µT is "
+    "under two counts of the table's Z spacing against axes spanning thousands of µT.")
+TABLE_TIP = ToleranceClass(
+    "table_tip", 0.1, 0.0,
+    "The (Y, Z) table's tips (mm) on a subgrid of its cells: the joint fit's tip loads resampled "
+    "on the regular (Y, Z) grid of its axes, so a cell moves with the fit's stopping point and "
+    "with its Z axis; measured, OpenBLAS's Prescott kernels moved cells by up to 0.031 mm. "
+    "0.1 mm is three times that and under half the 0.25 mm tip goal, so a change of model or "
+    "basin that moves the table by the goal is not hidden.")
+
 CLASSES = {c.name: c for c in (EXACT, MEASURED, LEAST_SQUARES, R_SQUARED, CONDITION, TRACE,
                                ESTIMATE, SCORE, LOOKUP_RANGE, SHAFT_ERROR, SHAFT_TRAVEL,
-                               SHAFT_SHARE)}
+                               SHAFT_SHARE, MODEL_TIP, MODEL_Z, TABLE_AXIS, TABLE_TIP)}
 
 # Quantity name patterns (fnmatch) -> class; the first match wins, so specific names go first.
 RULES: tuple[tuple[str, ToleranceClass], ...] = (
+    ("default.fit.lookup_vs_truth_points", EXACT),
+    ("default.fit.lookup_vs_truth_*_mm", MODEL_TIP),
+    ("default.lookup.z_uT*", MODEL_Z),
+    ("default.lookup.tip_*", MODEL_TIP),
+    ("default.table.*_uT*", TABLE_AXIS),
+    ("default.table.tip_*", TABLE_TIP),
     ("fit.r2", R_SQUARED),
     ("fit.rmse_uT", LEAST_SQUARES),
     ("fit.cv_rmse_uT", LEAST_SQUARES),
