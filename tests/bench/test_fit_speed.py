@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from whiskercal.bench.fit_speed import METHODS, _supports
+from whiskercal.bench.fit_speed import METHODS, PARETO, _supports
 from whiskercal.cli import cli
 
 DATA = Path(__file__).resolve().parents[2] / "data"
@@ -23,6 +23,20 @@ def test_the_supports_give_the_default_time_as_a_multiple_of_the_level_sets():
     found = _supports(rows)["a"]
     assert found["default_time_ratio_to_level_set"] == 4.0
     assert (found["default_rmse_mm"], found["level_set_rmse_mm"]) == (0.03, 0.4)
+
+
+def test_the_chart_has_a_panel_per_dataset_and_the_front_of_each(tmp_path):
+    from whiskercal.bench.runner import _charts
+
+    rows = [dict(_row(d, m, t, e), tip_model=m, default=m == "auto")
+            for d in ("a", "b") for m, t, e in (("level-set", 2.0, 0.4), ("mechanics", 3.0, 0.05),
+                                                ("auto", 8.0, 0.03))]
+    result = {"rows": rows, "pareto": dict(PARETO)}
+    assert _charts("fit-speed", result, tmp_path) == ["fit-speed.png"]
+    assert (tmp_path / "fit-speed.png").read_bytes().startswith(b"\x89PNG")
+    # no row is both faster and closer than another: all three are on the front
+    assert len(result["front"]["pareto"]) == 6
+    assert rows[2]["time_ratio_to_fastest"] == 4.0
 
 
 @pytest.mark.slow
