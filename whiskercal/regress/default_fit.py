@@ -31,7 +31,8 @@ def default_fit_quantities(raw_grid: Path, workdir: Path, fit_args: list[str]) -
     """Fit ``raw_grid`` as `whiskercal fit RAW [fit_args]` does (the defaults, with the golden
     file's degree and samples) and name what it guarantees: ``default.fit.*`` (the decisions and
     the truth errors), ``default.lookup.*`` (the tip curve) and ``default.table.*`` (a subgrid
-    of the (Y, Z) table's cells, NaN where the table has no tip)."""
+    of the (Y, Z) table's cells, NaN where the table has no tip, and the share of all its cells
+    that hold one)."""
     from whiskercal.artifacts.calibration import read_calibration
 
     artifact = workdir / f"{raw_grid.parent.name}-default-calibration.h5"
@@ -50,7 +51,8 @@ def default_quantities(data) -> dict[str, Any]:
 
 
 def _table_quantities(table: dict | None) -> dict[str, Any]:
-    """The (Y, Z) table's axes and tips on every ``TABLE_STRIDE``-th row and column."""
+    """The (Y, Z) table's axes and tips on every ``TABLE_STRIDE``-th row and column, and the
+    share of its cells holding a tip."""
     if table is None:
         return {}
     rows = range(0, len(table["y_uT"]), TABLE_STRIDE)
@@ -61,6 +63,7 @@ def _table_quantities(table: dict | None) -> dict[str, Any]:
     for j in cols:
         found[f"table.axial_uT[{j:03d}]"] = float(table["axial_uT"][j])
     tips = np.asarray(table["tip_mm"], float)
+    found["table.answered_share"] = float(np.mean(np.all(np.isfinite(tips), axis=-1)))
     for i in rows:
         for j in cols:
             found[f"table.tip_x_mm[{i:03d},{j:03d}]"] = float(tips[i, j, 0])
