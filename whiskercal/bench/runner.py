@@ -122,6 +122,9 @@ COMPARISONS = {c.name: c for c in (
                _module_run("whiskercal.bench.stability")),
     Comparison("shaft-localizer", "contact anywhere on the shaft: batch Gauss-Newton vs particles",
                _module_run("whiskercal.bench.shaft_localizer")),
+    Comparison("fit-speed", "whiskercal fit's wall time against its tip error on the recorded "
+               "datasets, for each tip model (level set, mechanics, the default)",
+               _module_run("whiskercal.bench.fit_speed")),
     Comparison("contour-target", "contour error against the deflection target; the follower's "
                "cost per sample", _module_run("whiskercal.bench.contour_target")),
     Comparison("robot-loop", "contour run --robot through the twin's rosbridge server at 300 and "

@@ -21,6 +21,7 @@ import numpy as np
 
 from whiskercal.artifacts.raw_grid import baseline_y_at
 from whiskercal.errors import UsageError
+from whiskercal.fit.timings import StageTimes
 from whiskercal.mechfit.branch_surface import followed_tip_error_mm, load_branches
 from whiskercal.mechfit.fit import MechanicsFit
 from whiskercal.mechfit.joint_lookup import JointLookup, joint_z_lookup
@@ -170,17 +171,18 @@ def table_contacts(raw) -> TableContacts:
                          float(raw.rod_radius_mm))
 
 
-def fit_field_table(raw, length_mm: float, start=None,
-                    samples: int = DEFAULT_SAMPLES) -> FieldTableFit:
+def fit_field_table(raw, length_mm: float, start=None, samples: int = DEFAULT_SAMPLES,
+                    times: StageTimes | None = None) -> FieldTableFit:
     """The (Y, Z) table of a raw grid (:func:`field_table_from_contacts`)."""
     used = contact_mask(raw.z_uT, raw.z_sem_uT)
     if used.sum() < MIN_CONTACTS:
         return _withheld(f"it needs at least {MIN_CONTACTS} contacts, the grid has {used.sum()}")
-    return field_table_from_contacts(table_contacts(raw), length_mm, start, samples)
+    return field_table_from_contacts(table_contacts(raw), length_mm, start, samples, times)
 
 
 def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=None,
-                              samples: int = DEFAULT_SAMPLES) -> FieldTableFit:
+                              samples: int = DEFAULT_SAMPLES,
+                              times: StageTimes | None = None) -> FieldTableFit:
     """Fit the mechanics and the magnet map to the contacts, and tabulate the tips.
 
     The tip sweep's contacts are fitted too, solved along the rod's approach: they show the map
@@ -189,21 +191,26 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     here when not given). Contacts the mechanics cannot be fitted to (a rigid root, rod
     positions the model refuses) get no table and one warning, as an untrusted table does.
     The joint fit's own z lookup (``samples`` knots) comes along, with its estimate.
+    ``times`` (optional) gets the wall time of the joint fit, the table with its lookup and
+    estimate, and the load branches.
     """
     started = time.perf_counter()
-    c = contacts
+    c, times = contacts, times or StageTimes()
     try:
-        fit = fit_mechanics_magnet(c.rod_center_mm, c.fields_uT, c.rod_radius_mm, length_mm,
-                                   c.noise_uT, start=start, sweep=c.sweep)
+        with times.stage("joint_fit", "mechanics with the magnet's map on Y and Z, and the "
+                                      "(Y, Z) -> tip table"):
+            fit = fit_mechanics_magnet(c.rod_center_mm, c.fields_uT, c.rod_radius_mm,
+                                       length_mm, c.noise_uT, start=start, sweep=c.sweep)
     except UsageError as error:  # as the z lookup's mechanics (fit.tip_model) reports it
         return _withheld(f"the (Y, Z) model cannot be fitted ({str(error).rstrip('.')})")
     on_grid = c.fields_uT[~c.sweep, 0]
     y_range = (float(on_grid.min()), float(on_grid.max()))
-    load_fields, load_tips = table_load_points(fit, y_range)
-    table = tabulate(load_fields, load_tips, y_range)
-    lookup = _joint_lookup(fit, c, length_mm, y_range, samples)
-    error = estimated_tip_error_mm(load_fields, load_tips, table, c.sample_noise_uT,
-                                   None if lookup is None else lookup.lookup)
+    with times.stage("table"):
+        load_fields, load_tips = table_load_points(fit, y_range)
+        table = tabulate(load_fields, load_tips, y_range)
+        lookup = _joint_lookup(fit, c, length_mm, y_range, samples)
+        error = estimated_tip_error_mm(load_fields, load_tips, table, c.sample_noise_uT,
+                                       None if lookup is None else lookup.lookup)
     estimate = error["estimate_mm"]
     metrics = _fit_metrics(fit, c, table)
     if lookup is not None:
@@ -213,7 +220,8 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
                                    error.get("z_lookup_mm", float("nan")))
     branches = None
     if not write and np.max(residual_ratio) <= MAX_RESIDUAL_RATIO:  # withheld: readings fold
-        branches, verdict = followed_branches(fit, y_range, c.sample_noise_uT, verdict)
+        with times.stage("load_branches"):
+            branches, verdict = followed_branches(fit, y_range, c.sample_noise_uT, verdict)
         metrics["load_branches"] = branches.pop("metrics")
     warnings = (_identification_warnings(metrics["ratio_profile"])
                 + offset_warnings(metrics["stage_offset_mm"]) + verdict)

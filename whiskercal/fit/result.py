@@ -57,6 +57,8 @@ class FitResult:
     shaft_surface: ShaftSurfaceFit | None = None
     load_branches: dict[str, Any] | None = None
     """The loads the runtime follows where the table is withheld (``fit.field_table``)."""
+    timings_s: dict[str, float] = field(default_factory=dict)
+    """Wall time (s) per stage of the fit (``fit.timings.StageTimes``); not in the artifact."""
 
     def artifact_data(self):
         """The calibration artifact's content (a :class:`~whiskercal.artifacts.calibration.CalibrationData`)."""

@@ -14,6 +14,7 @@ from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
 from whiskercal.fit.options import FitOptions
 from whiskercal.fit.result import FitResult
 from whiskercal.fit.shaft_surface import shaft_surface_for
+from whiskercal.fit.timings import StageTimes
 from whiskercal.fit.tip_model import (adopt_joint_lookup, choose_tip_model,
                                       refuse_unless_resolved)
 from whiskercal.fit.trace_length import resolve_trace_length
@@ -40,7 +41,8 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
         The raw grid (``artifacts.raw_grid.read_raw_grid``).
     options : FitOptions
     progress : callable(str), optional
-        Told the name of each stage of the calibration as it starts.
+        Told the name of each stage of the calibration as it starts; the stages' wall times
+        come back in ``FitResult.timings_s``.
 
     Raises
     ------
@@ -50,21 +52,24 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
         the tip without ``allow_extrapolation``...).
     """
     refuse_z_against_truth(raw)
+    times = StageTimes(progress)
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
     model_options = options.calibration_options(length_mm)
-    calibration, untraceable = calibrate_grid(raw, model_options, progress)
-    if progress is not None:
-        progress("mechanics-informed tip model and the error estimate")
-    calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model, length_mm,
-                                              options.samples, untraceable)
-    table = _field_table(raw, length_mm, options, progress, tip_model.mechanics)
+    with times.stage("level_set"):
+        calibration, untraceable = calibrate_grid(raw, model_options, progress)
+    with times.stage("mechanics", "mechanics-informed tip model and the error estimate"):
+        calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model,
+                                                  length_mm, options.samples, untraceable)
+    table = _field_table(raw, length_mm, options, times, tip_model.mechanics)
     if table is not None:
         calibration, tip_model = adopt_joint_lookup(calibration, tip_model, table.z_lookup,
                                                     options.tip_model)
     tip_model = refuse_unless_resolved(tip_model)
     grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
-    truth = compare_with_twin_truth(grid, calibration)
-    shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
+    with times.stage("truth"):
+        truth = compare_with_twin_truth(grid, calibration)
+    with times.stage("shaft_surface"):
+        shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
     threshold = contact_threshold(options.threshold_uT, tip_model.mechanics,
                                   float(np.median(raw.z_std_uT)))
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
@@ -79,21 +84,22 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
                      raw.rod_radius_mm, inputs={"raw_grid": raw.sha256},
                      config=_provenance(model_options, raw.path),
                      field_table=None if table is None else table.table, shaft_surface=shaft,
-                     load_branches=None if table is None else table.branches)
+                     load_branches=None if table is None else table.branches,
+                     timings_s=times.seconds)
 
 
-def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, progress, mechanics):
+def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, times: StageTimes,
+                 mechanics):
     """The (Y, Z) -> tip table (``fit.field_table``; on unless ``--no-field-table``), else None;
     its joint fit starts from the z lookup's ``mechanics`` calibration when there is one, and
-    its own z lookup may become the tip model (``fit.tip_model.adopt_joint_lookup``)."""
+    its own z lookup may become the tip model (``fit.tip_model.adopt_joint_lookup``). Its
+    stages are timed in ``times``."""
     if not options.field_table:
         return None
     from whiskercal.fit.field_table import fit_field_table
 
-    if progress is not None:
-        progress("mechanics with the magnet's map on Y and Z, and the (Y, Z) -> tip table")
     return fit_field_table(raw, length_mm, None if mechanics is None else mechanics.fit,
-                           options.samples)
+                           options.samples, times)
 
 
 def _shaft_metrics(shaft) -> dict:

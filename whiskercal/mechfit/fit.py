@@ -22,7 +22,7 @@ from scipy.special import expit
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, MAX_SHIFT_ORDER, PoseMap, fit_pose_map
-from whiskercal.mechfit.forward import Suspension, pose_of, rod_equilibria
+from whiskercal.mechfit.forward import Suspension, rod_poses
 
 STUB_FRACTION_START = 0.04
 ROT_COMPLIANCE_STARTS = (0.01, 0.1, 1.0)
@@ -32,6 +32,9 @@ TRANS_SHARE_START = 0.01
 MAX_STUB_FRACTION = 0.2
 # evaluations of each start's scouting fit with the linear pose map
 SCOUT_EVALUATIONS = 40
+# how many fits ``fit_mechanics`` keeps for repeated calls with the same arguments
+RECENT_FITS = 4
+_RECENT_FITS: dict = {}
 # compliances within e^±40 of 1 (EI/L·k_θ and EI/L³·k_t): far past any build, short of overflow
 LOG_LIMIT = 40.0
 
@@ -76,13 +79,11 @@ class _Objective:
 
     def solve(self, theta: np.ndarray):
         suspension = self.suspension(theta)
-        equilibria = rod_equilibria(suspension, self.centers, self.radius, self.warm)
-        in_contact = [e.in_contact for e in equilibria]
-        if all(in_contact):
-            self.warm = [None if fresh else e for e, fresh in zip(equilibria, self.fresh)]
-        poses = np.array([pose_of(e) for e in equilibria])
+        solved = rod_poses(suspension, self.centers, self.radius, self.warm)
+        if solved.in_contact.all():
+            self.warm = solved.warm_starts(self.fresh)
         self.evaluations += 1
-        return suspension, poses, np.array(in_contact)
+        return suspension, solved.poses, solved.in_contact
 
     def evaluate(self, theta: np.ndarray):
         """One solve: (suspension, poses, pose map, residual µT, residual in standard errors)."""
@@ -121,13 +122,31 @@ def fit_mechanics(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_m
     sweep : ndarray (n,) of bool, optional
         The tip sweep's points (the rod at the tip, ``collect.sweep``): each is solved along the
         rod's approach from the free whisker, as the rig reaches it, at every evaluation.
+
+    The fit is deterministic: the last :data:`RECENT_FITS` are kept, and a call with the same
+    arguments returns the same ``MechanicsFit`` (``fit_time_s`` that of the fit itself). A
+    calibration asks twice: the z lookup's mechanics and the (Y, Z) joint fit's first start.
     """
-    started = time.perf_counter()
     fields = np.atleast_2d(np.asarray(fields_uT, float).T).T
     noise = np.broadcast_to(np.asarray(noise_uT, float), (fields.shape[1],))
     centers = np.asarray(rod_center_mm, float)
     if len(centers) != len(fields):
         raise UsageError("rod centres and fields must have one row per grid point.")
+    fresh = np.zeros(len(centers), bool) if sweep is None else np.asarray(sweep, bool)
+    key = (centers.tobytes(), fields.tobytes(), fields.shape, noise.tobytes(), fresh.tobytes(),
+           float(rod_radius_mm), float(trace_length_mm), int(degree), tuple(starts))
+    if key not in _RECENT_FITS:
+        if len(_RECENT_FITS) >= RECENT_FITS:
+            _RECENT_FITS.pop(next(iter(_RECENT_FITS)))
+        _RECENT_FITS[key] = _fit(centers, fields, noise, float(rod_radius_mm),
+                                 float(trace_length_mm), degree, starts, fresh)
+    return _RECENT_FITS[key]
+
+
+def _fit(centers, fields, noise, rod_radius_mm, trace_length_mm, degree, starts, sweep
+         ) -> MechanicsFit:
+    """``fit_mechanics`` on checked arrays."""
+    started = time.perf_counter()
     tried = []
     for rot in starts:  # a rigid (linear) pose map first: it leaves the mechanics less to hide
         objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields,

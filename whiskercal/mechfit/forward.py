@@ -15,7 +15,8 @@ import numpy as np
 
 from whiskercal.errors import UsageError
 from whiskercal.twin.physics import elastica as el
-from whiskercal.twin.physics import mechanics
+from whiskercal.twin.physics import mechanics, rod_batch
+from whiskercal.twin.physics.contacts import base_params
 from whiskercal.twin.physics.whisker import NITINOL_AUSTENITE_N_PER_MM2, Equilibrium, WhiskerParams
 
 # Any EI gives the same poses for the same compliances; this one (a 0.25 mm nitinol wire) only
@@ -104,6 +105,59 @@ def rod_equilibria(suspension: Suspension, rod_center_mm: np.ndarray, rod_radius
         out.append(equilibrium)
         last = equilibrium if equilibrium.in_contact else None
     return out
+
+
+@dataclass(frozen=True)
+class RodStates:
+    """The rod contacts of a grid solved at once (``rod_poses``): root poses (n, 3) as
+    ``pose_of`` gives them, which points are in contact (n,), and each point's solution (its
+    contact-kind code (n,), ``rod_batch.NO_START`` where free, and unknowns (n, 4), NaN-padded)
+    for warm-starting the next solve."""
+
+    poses: np.ndarray
+    in_contact: np.ndarray
+    codes: np.ndarray
+    states: np.ndarray
+
+    def warm_starts(self, fresh: np.ndarray) -> RodStates:
+        """These states with the ``fresh`` points' warm starts dropped (solved from rest)."""
+        codes = np.where(fresh, rod_batch.NO_START, self.codes)
+        return RodStates(self.poses, self.in_contact, codes, self.states)
+
+
+def rod_poses(suspension: Suspension, rod_center_mm: np.ndarray, rod_radius_mm: float,
+              previous: RodStates | None = None) -> RodStates:
+    """The root poses under the touch rod at each centre (n, 2) mm: ``rod_equilibria``'s
+    solutions, solved in one compiled loop (``twin.physics.rod_batch``) where a warm start
+    serves and by ``mechanics.solve_rod`` where the rod comes in from first touch."""
+    whisker = suspension.whisker()
+    centers = np.ascontiguousarray(rod_center_mm, dtype=float)
+    n = len(centers)
+    codes = np.full(n, rod_batch.NO_START, np.int64) if previous is None else previous.codes.copy()
+    states = np.full((n, 4), np.nan) if previous is None else previous.states.copy()
+    poses, status = np.zeros((n, 3)), np.zeros(n, np.int64)
+    base, k = base_params(whisker), 0
+    while k < n:
+        k = rod_batch.run_rods(base, centers, float(rod_radius_mm), 1, whisker.length_mm,
+                               whisker.root_offset_mm, k, previous is None, codes, states,
+                               poses, status)
+        if k < n:
+            _solve_from_rest(whisker, centers[k], rod_radius_mm, k, codes, states, poses, status)
+            k += 1
+    return RodStates(poses, status == rod_batch.SOLVED, codes, states)
+
+
+def _solve_from_rest(whisker, center, rod_radius_mm, k, codes, states, poses, status) -> None:
+    """Point ``k`` solved by ``mechanics.solve_rod`` from first touch, stored as
+    ``rod_batch.run_rods`` stores its own."""
+    equilibrium = mechanics.solve_rod(whisker, center, rod_radius_mm)
+    poses[k] = pose_of(equilibrium)
+    states[k] = np.nan
+    if equilibrium.in_contact:
+        code, z = equilibrium.solution[0], equilibrium.solution[1]
+        codes[k], states[k, :len(z)], status[k] = code, z, rod_batch.SOLVED
+    else:
+        codes[k], status[k] = rod_batch.NO_START, rod_batch.FREE
 
 
 def tip_load(suspension: Suspension, force: np.ndarray, moment_guess: float

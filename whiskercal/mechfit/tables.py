@@ -104,19 +104,20 @@ class _TipCurve:
 
     def lookup(self, low: float, high: float, samples: int, kind: str) -> TipLookup:
         knots = np.linspace(low, high, samples)
-        return TipLookup(knots, np.array([self.tip_at(knot) for knot in knots]), kind)
+        return TipLookup(knots, self.tips_at(knots), kind)
 
-    def tip_at(self, z_uT: float) -> np.ndarray:
-        """The tip (mm) where the curve's z is ``z_uT``, by bisection in the slope (z falls
-        with the slope's magnitude)."""
-        k = int(np.clip(np.searchsorted(-self.z_samples, -z_uT), 1, len(self.z_samples) - 1))
-        lo, hi = self.slope[k - 1], self.slope[k]
+    def tips_at(self, z_uT: np.ndarray) -> np.ndarray:
+        """The tips (n, 2) mm where the curve's z is each of ``z_uT`` (n,), by bisection in the
+        slope (z falls with the slope's magnitude), every z's bracket halved at once: the
+        spline is evaluated point by point either way, so each tip is the one a bisection of
+        that z alone finds."""
+        z_uT = np.asarray(z_uT, float)
+        k = np.clip(np.searchsorted(-self.z_samples, -z_uT), 1, len(self.z_samples) - 1)
+        lo, hi = self.slope[k - 1].copy(), self.slope[k].copy()
         for _ in range(60):
             mid = 0.5 * (lo + hi)
-            if self.z_of_slope(mid) > z_uT:
-                lo = mid
-            else:
-                hi = mid
+            above = self.z_of_slope(mid) > z_uT
+            lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
         return self.tip_of_slope(0.5 * (lo + hi))
 
     def distances_mm(self, lookup: TipLookup) -> np.ndarray:

@@ -52,7 +52,9 @@ def recompute(dataset: Dataset, pipeline: dict[str, Any], workdir: Path,
     dataset
         The recorded dataset (its files already checked).
     pipeline
-        ``fit_args`` for `whiskercal fit` and the report's ``margin_weight_mm``.
+        ``fit_args`` for `whiskercal fit`, the report's ``margin_weight_mm``, and
+        ``default_fit_args`` for the default fit checked beside it (``regress.default_fit``;
+        skipped when absent).
     workdir
         A scratch directory for the artifacts.
     say
@@ -74,6 +76,12 @@ def recompute(dataset: Dataset, pipeline: dict[str, Any], workdir: Path,
     if dataset.shaft_study is not None:
         say(f"{dataset.name}: shaft study report")
         quantities.update(shaft_quantities(dataset, artifact))
+    if pipeline.get("default_fit_args") is not None:
+        from whiskercal.regress.default_fit import default_fit_quantities
+
+        say(f"{dataset.name}: the default fit")
+        quantities.update(default_fit_quantities(dataset.raw_grid, workdir,
+                                                 list(pipeline["default_fit_args"])))
     return quantities, data.sensor_id
 
 

@@ -75,7 +75,7 @@ def regress(data_dir: str | Path, update: bool = False,
 def _regress_one(dataset: Dataset, inputs: dict[str, str], golden, workdir: Path, update: bool,
                  say) -> DatasetResult:
     started = time.perf_counter()
-    pipeline = golden.pipeline if golden is not None else dict(DEFAULT_PIPELINE)
+    pipeline = _pipeline(golden, update)
     quantities, sensor_id = recompute(dataset, pipeline, workdir, say)
     old_values = golden.quantities if golden is not None else {}
     old_classes = golden.classes if golden is not None else {}
@@ -88,3 +88,15 @@ def _regress_one(dataset: Dataset, inputs: dict[str, str], golden, workdir: Path
         result.updated, result.created = True, golden is None
     result.elapsed_s = time.perf_counter() - started
     return result
+
+
+def _pipeline(golden, update: bool) -> dict:
+    """What a dataset is recomputed with: its golden file's pipeline; on ``update`` with the
+    steps it lacks taken from ``DEFAULT_PIPELINE`` (an older file gains the default fit's
+    check) and the current description of why."""
+    if golden is None:
+        return dict(DEFAULT_PIPELINE)
+    if not update:
+        return golden.pipeline
+    kept = {key: value for key, value in golden.pipeline.items() if key != "why"}
+    return {**DEFAULT_PIPELINE, **kept}

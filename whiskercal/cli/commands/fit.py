@@ -108,8 +108,8 @@ def _summary(data, elapsed_s: float) -> dict:
               help="Also fit the suspension and the magnet's field to the Y and Z axes and store "
               "a (Y, Z) -> tip table: the runtime then places tips pushed with friction or by "
               "slanted surfaces (docs/calibration.md). Withheld, with a warning, where its own "
-              "error estimate says it cannot be trusted. Adds 30-60 s to a fit of the default "
-              "grid, minutes on long builds; --no-field-table leaves it out.")
+              "error estimate says it cannot be trusted. Most of a default fit's time (timings_s "
+              "in --json, docs/fit-time.md); --no-field-table leaves it out.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit summary as JSON.")
 @force_option
 @pass_app
@@ -147,6 +147,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     refuse_existing([out_path], force, "the calibration artifact")
     started = time.perf_counter()
     grid = read_raw_grid(raw)
+    read_s = time.perf_counter() - started
     options = FitOptions(
         degree=parse_degree(degree), coordinates=coordinates, samples=samples, tracer=tracer,
         interpolant=interpolant, trace_length_mm=trace_length_mm,
@@ -156,13 +157,16 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
         field_table=field_table)
     say = (lambda message: click.echo(f"  {message} ...", err=True)) if app.interactive else None
     result = fit(grid, options, say)
+    writing = time.perf_counter()
     data = result.artifact_data()
     result.write(out_path)
-    _report(data, time.perf_counter() - started, out_path, as_json)
+    timings = {"read": read_s, **result.timings_s, "write": time.perf_counter() - writing}
+    _report(data, time.perf_counter() - started, out_path, as_json, timings)
 
 
-def _report(data, elapsed_s: float, out_path: str, as_json: bool) -> None:
+def _report(data, elapsed_s: float, out_path: str, as_json: bool, timings_s: dict) -> None:
     summary = _summary(data, elapsed_s)
+    summary["timings_s"] = timings_s  # wall time per stage: read, the fit's stages, write
     if as_json:
         echo_json(summary)
         return
