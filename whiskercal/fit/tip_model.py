@@ -38,7 +38,8 @@ from whiskercal.model.calibrate import Calibration, contact_mask
 from whiskercal.model.errors import ModelError
 from whiskercal.model.lookup import LookupReport
 
-# The tip error (RMS, mm) above which a calibration is reported as not meeting its goal.
+# The tip-error goal (RMS, mm): a tip model's estimate, or the (Y, Z) table's, above it is warned
+# as not meeting it.
 WARN_TIP_ERROR_MM = 0.25
 # the tip model's name when the (Y, Z) joint fit's z lookup ships (``adopt_joint_lookup``)
 JOINT_TIP_MODEL = "mechanics-yz"
