@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from whiskercal.bench import sensor_family
-from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, SAMPLE_NOISE_UT, perfect_fit,
-                                           realistic_contacts, realistic_errors)
+from whiskercal.bench.tip_accuracy import FAMILY
+from whiskercal.testing.fields import (NOISE_UT, SAMPLE_NOISE_UT, noise_floor, perfect_fit,
+                                       realistic_contacts, realistic_errors)
 from whiskercal.fit.field_table import trust_verdict
 from whiskercal.mechfit.table_error import estimated_tip_error_mm
 from whiskercal.mechfit.tables import field_tip_table, table_load_points, tabulate
@@ -52,7 +53,7 @@ def test_the_thin_wires_noisy_table_is_written_warned_and_beats_y_alone():
     assert truth["y_and_z_sample_noise"]["rmse_mm"] < truth["y_only"]["rmse_mm"] / 3
     # one reading misses the goal as a perfect calibration's table does (0.73 against 0.72 mm):
     # the noise's miss, not the fit's
-    floor = sensor_family._noise_floor(sensor, table, table.z_lookup.lookup,
+    floor = noise_floor(sensor, table, table.z_lookup.lookup,
                                        realistic_contacts(sensor), y_range)
     assert floor["one_sample"]["rmse_mm"] > 0.3
     assert truth["y_and_z_sample_noise"]["rmse_mm"] <= 1.1 * floor["one_sample"]["rmse_mm"]

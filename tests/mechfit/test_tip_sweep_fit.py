@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from whiskercal.bench import sensor_family
-from whiskercal.bench.tip_accuracy import (FAMILY, ROD_RADIUS_MM, simulate_fields, simulate_sweep,
-                                           true_suspension, truth_tip_curve)
-from whiskercal.bench.twin_grid import tip_error_mm
+from whiskercal.bench.tip_accuracy import FAMILY
+from whiskercal.testing.fields import (ROD_RADIUS_MM, simulate_fields, simulate_sweep,
+                                       true_suspension, truth_tip_curve)
+from whiskercal.testing.twin_grid import tip_error_mm
 from whiskercal.mechfit.fit import _Objective
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
 from whiskercal.mechfit.identify import _Problem, calibrate_mechanics
