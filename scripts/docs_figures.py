@@ -1,0 +1,149 @@
+"""Figures of the documentation: JSON snapshots under docs/figures/ rendered as tables.
+
+Every measured number a product page shows comes from a JSON that ``whiskercal bench`` or
+``whiskercal regress`` writes. ``make bench`` refreshes the snapshots (``snapshot``); ``make docs``
+renders them where a page holds a marker ``<!-- figure: NAME -->`` (``render``). A snapshot
+names the command that wrote it, and its table says so under it.
+
+    python scripts/docs_figures.py snapshot out/bench     # after whiskercal bench --out out/bench
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FIGURES = ROOT / "docs" / "figures"
+DATA = ROOT / "data"
+
+
+def _number(value, digits: int = 3) -> str:
+    if value is None or isinstance(value, str):
+        return "–" if value is None else value
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if not math.isfinite(float(value)):
+        return "–"
+    return f"{float(value):.{digits}g}"
+
+
+def _seconds(value) -> str:
+    """A time per call in the unit that keeps it readable."""
+    if value is None or not math.isfinite(float(value)):
+        return "–"
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("µs", 1e-6)):
+        if value >= scale:
+            return f"{value / scale:.3g} {unit}"
+    return f"{value / 1e-9:.3g} ns"
+
+
+# NAME -> the bench comparison it snapshots and the columns its table shows
+# (key in each row, header, format: "s" a time, else significant digits)
+BENCH_TABLES = {
+    "tip-extraction": [("method", "method", 0), ("label", "setting", 0),
+                       ("time_per_call_s", "time per call", "s"),
+                       ("error_vs_reference_mm", "RMS error vs converged trace (mm)", 2),
+                       ("error_vs_truth_mm", "RMS error vs twin truth (mm)", 3)],
+    "surface-degree": [("degree", "degree", 0), ("cv_rmse_uT", "CV RMS (µT)", 3),
+                       ("truth_rmse_uT", "RMS vs noise-free z (µT)", 3),
+                       ("tip_rmse_vs_truth_mm", "tip RMS vs truth (mm)", 3),
+                       ("time_per_call_s", "time per evaluation", "s"),
+                       ("default", "default", 0)],
+    "collection": [("series", "settle", 0), ("samples_per_point", "samples per point", 0),
+                   ("stage_time_s", "stage time (s)", 4),
+                   ("surface_vs_truth_rmse_uT", "surface RMS vs truth (µT)", 3),
+                   ("tip_rmse_vs_truth_mm", "tip RMS vs truth (mm)", 3), ("default", "default", 0)],
+}
+# the recorded datasets' golden results (written by make record-data, checked by make regress)
+GOLDEN_ROWS = [("fit.tip_model", "tip model shipped by the regression's fit", 0),
+               ("fit.rmse_uT", "surface fit residual, RMS (µT)", 3),
+               ("fit.cv_rmse_uT", "surface fit residual, cross-validated RMS (µT)", 3),
+               ("fit.points_used", "grid points fitted", 0),
+               ("fit.lookup_vs_truth_rmse_mm", "level-set lookup vs the twin's true tips, RMS (mm)", 3),
+               ("fit.lookup_vs_truth_max_mm", "level-set lookup vs the twin's true tips, largest (mm)", 3)]
+
+
+def _cell(row: dict, key: str, style) -> str:
+    value = row.get(key)
+    if style == "s":
+        return _seconds(value)
+    if style == 0:
+        return _number(value) if isinstance(value, (bool, float)) or value is None else str(value)
+    return _number(value, style)
+
+
+def markdown_table(rows: list[dict], columns) -> str:
+    """A markdown table of ``rows`` with ``columns`` (key, header, format)."""
+    lines = ["| " + " | ".join(header for _, header, _ in columns) + " |",
+             "|" + " --- |" * len(columns)]
+    lines += ["| " + " | ".join(_cell(row, key, style) for key, _, style in columns) + " |"
+              for row in rows]
+    return "\n".join(lines)
+
+
+def _snapshot(name: str) -> dict:
+    path = FIGURES / f"{name}.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such figure snapshot (make bench writes it)")
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _bench_figure(name: str) -> str:
+    snap = _snapshot(name)
+    machine = snap["result"].get("machine", {})
+    where = ", ".join(f"{k} {machine[k]}" for k in ("python", "numpy", "cpu_count") if k in machine)
+    return (markdown_table(snap["result"]["rows"], BENCH_TABLES[name])
+            + f"\n\n*From `docs/figures/{name}.json`, written by `{snap['written_by']}`"
+            + (f" ({where})" if where else "") + ". Times compare only within one run.*\n")
+
+
+def _golden_figure() -> str:
+    goldens = {p.parent.name: json.loads(p.read_text(encoding="utf-8"))
+               for p in sorted(DATA.glob("*/golden.json"))}
+    columns = [("quantity", "quantity", 0)] + [(n, n, 0) for n in goldens]
+    rows = []
+    for key, words, digits in GOLDEN_ROWS:
+        row = {"quantity": words}
+        for name, golden in goldens.items():
+            value = golden["quantities"].get(key, {}).get("value")
+            row[name] = value if isinstance(value, str) else _number(value, digits or 6)
+        rows.append(row)
+    return (markdown_table(rows, columns) + "\n\n*From `data/*/golden.json`, written by "
+            "`make record-data` and checked by `make regress` (`whiskercal regress data`).*\n")
+
+
+def render(name: str) -> str:
+    """The markdown a figure marker stands for."""
+    if name == "recorded-datasets":
+        return _golden_figure()
+    if name in BENCH_TABLES:
+        return _bench_figure(name)
+    raise KeyError(f"unknown figure {name!r}; known: recorded-datasets, {', '.join(BENCH_TABLES)}")
+
+
+def snapshot(bench_dir: Path) -> list[Path]:
+    """Copy each tabled comparison's JSON from a bench directory into docs/figures/."""
+    written = []
+    for name in BENCH_TABLES:
+        source = bench_dir / f"{name}.json"
+        if not source.is_file():
+            continue
+        result = json.loads(source.read_text(encoding="utf-8"))
+        command = "whiskercal bench" + (" --quick" if result.get("quick") else "")
+        payload = {"written_by": command, "comparison": name,
+                   "snapshot_by": "make bench (scripts/docs_figures.py snapshot)",
+                   "result": result}
+        target = FIGURES / f"{name}.json"
+        target.write_text(json.dumps(payload, indent=1, allow_nan=True) + "\n", encoding="utf-8")
+        written.append(target)
+    return written
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] != "snapshot":
+        sys.exit("usage: python scripts/docs_figures.py snapshot BENCH_DIR")
+    for path in snapshot(Path(sys.argv[2])):
+        print(f"wrote {path.relative_to(ROOT)}")
