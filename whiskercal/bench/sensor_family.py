@@ -7,7 +7,7 @@ the default plan's bands scaled, the overload guard, averaged-reading noise), wi
 the tip sweep (``testing.fields.simulate_sweep``: collect's ``[sweep]`` positions from the same
 trace length), the level set, the tip-model choice of ``fit.tip_model`` and the (Y, Z) table
 (fitted as ``fit`` fits it, its joint fit's z lookup adopted where ``fit`` adopts it) run on it,
-and the shipped lookup is measured against the twin's truth: on the frictionless tip curve over
+and the shipped lookup is compared with the twin's truth: on the frictionless tip curve over
 the grid's z range, and on realistic contacts (planes tilted 0-40°, μ 0-0.4), the table as the
 runtime reads it. A build is a *silent failure* when its true RMS exceeds 0.25 mm and the fit neither
 warned nor refused. Beside each shipped table or loads, the same read through a perfect
@@ -207,7 +207,7 @@ def _floor_mm(row: dict) -> float:
 def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0,
         variants: tuple[str, ...] = VARIANTS) -> dict:
     """Every build of the family (the default only when ``quick``), calibrated from its grid
-    alone and with the tip sweep (``variants``), and measured against the twin's truth."""
+    alone and with the tip sweep (``variants``), and compared with the twin's truth."""
     say = progress or (lambda _row: None)
     builds = FAMILY[:QUICK_BUILDS] if quick else FAMILY
     rows = []

@@ -2,7 +2,7 @@
 
 For each build of a family (length 45-120 mm, diameter 0.15-0.40 mm, k_θ·L/EI about 1 to 80)
 a rod grid is simulated through the twin's physics (``whiskercal.testing.fields``). Every
-candidate is fitted to that grid only and then measured against the twin's truth:
+candidate is fitted to that grid only and then compared with the twin's truth:
 
 - ``level-set``: ``model.calibrate`` as ``whiskercal fit`` runs it today;
 - ``mechanics-y``: ``mechfit`` fitted to Y, its z -> tip lookup (20 samples, cubic);
