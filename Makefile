@@ -49,6 +49,7 @@ demo: $(INSTALLED)
 # The bench's JSON also refreshes the documentation's figure snapshots (docs/figures/*.json).
 bench: $(INSTALLED)
 	$(PY) -m whiskercal bench --out out/bench
+	$(PY) -m whiskercal twin validate --json > out/bench/twin-validate.json
 	$(PY) scripts/docs_figures.py snapshot out/bench
 
 # The site (mkdocs-material) into build/site; --strict: a broken link or a missing page fails it.

@@ -56,14 +56,35 @@ BENCH_TABLES = {
                    ("stage_time_s", "stage time (s)", 4),
                    ("surface_vs_truth_rmse_uT", "surface RMS vs truth (µT)", 3),
                    ("tip_rmse_vs_truth_mm", "tip RMS vs truth (mm)", 3), ("default", "default", 0)],
+    "twin-validate": [("name", "check", 0), ("value", "result", 2), ("limit", "limit", 2),
+                      ("ok", "passed", 0), ("detail", "detail", 0)],
 }
+# the command that writes each snapshot's source JSON (``make bench`` runs them into out/bench),
+# and where in it the table's rows are
+SOURCES = {"twin-validate": ("whiskercal twin validate --json", "checks")}
 # the recorded datasets' golden results (written by make record-data, checked by make regress)
 GOLDEN_ROWS = [("fit.tip_model", "tip model shipped by the regression's fit", 0),
                ("fit.rmse_uT", "surface fit residual, RMS (µT)", 3),
                ("fit.cv_rmse_uT", "surface fit residual, cross-validated RMS (µT)", 3),
                ("fit.points_used", "grid points fitted", 0),
                ("fit.lookup_vs_truth_rmse_mm", "level-set lookup vs the twin's true tips, RMS (mm)", 3),
-               ("fit.lookup_vs_truth_max_mm", "level-set lookup vs the twin's true tips, largest (mm)", 3)]
+               ("fit.lookup_vs_truth_max_mm", "level-set lookup vs the twin's true tips, largest (mm)", 3),
+               ("study.target.depth_mm", "study: the chosen depth (mm)", 3),
+               ("study.target.z_uT", "study: the chosen target (µT)", 5),
+               ("study.failing_depths_mm", "study: failing depths (mm)", 3),
+               ("study.passing_mean_filtered_mm", "study: mean filtered error of passing trials (mm)", 2)]
+# one study trial's row in the recorded study's table: golden key suffix, header, digits
+STUDY_COLUMNS = [("depth", "depth (mm)", 0), ("contact_fraction", "contact", 2),
+                 ("median_z_uT", "median z (µT)", 5), ("filtered_mean_mm", "filtered mean (mm)", 2),
+                 ("filtered_std_mm", "filtered std (mm)", 2),
+                 ("true_filtered_mean_mm", "vs true tip (mm)", 2), ("n_slips", "slips", 0),
+                 ("failing", "failing", 0)]
+
+
+def _golden_value(value, digits: int) -> str:
+    if isinstance(value, list):
+        return ", ".join(_number(v, digits) for v in value) or "none"
+    return value if isinstance(value, str) else _number(value, digits)
 
 
 def _cell(row: dict, key: str, style) -> str:
@@ -79,8 +100,8 @@ def markdown_table(rows: list[dict], columns) -> str:
     """A markdown table of ``rows`` with ``columns`` (key, header, format)."""
     lines = ["| " + " | ".join(header for _, header, _ in columns) + " |",
              "|" + " --- |" * len(columns)]
-    lines += ["| " + " | ".join(_cell(row, key, style) for key, _, style in columns) + " |"
-              for row in rows]
+    lines += ["| " + " | ".join(_cell(row, key, style).replace("|", "\\|")
+                                for key, _, style in columns) + " |" for row in rows]
     return "\n".join(lines)
 
 
@@ -95,9 +116,11 @@ def _bench_figure(name: str) -> str:
     snap = _snapshot(name)
     machine = snap["result"].get("machine", {})
     where = ", ".join(f"{k} {machine[k]}" for k in ("python", "numpy", "cpu_count") if k in machine)
-    return (markdown_table(snap["result"]["rows"], BENCH_TABLES[name])
+    rows_key = SOURCES.get(name, ("", "rows"))[1]
+    return (markdown_table(snap["result"][rows_key], BENCH_TABLES[name])
             + f"\n\n*From `docs/figures/{name}.json`, written by `{snap['written_by']}`"
-            + (f" ({where})" if where else "") + ". Times compare only within one run.*\n")
+            + (f" ({where})" if where else "") + "."
+            + (" Times compare only within one run." if name not in SOURCES else "") + "*\n")
 
 
 def _golden_figure() -> str:
@@ -109,19 +132,39 @@ def _golden_figure() -> str:
         row = {"quantity": words}
         for name, golden in goldens.items():
             value = golden["quantities"].get(key, {}).get("value")
-            row[name] = value if isinstance(value, str) else _number(value, digits or 6)
+            row[name] = _golden_value(value, digits or 6)
         rows.append(row)
     return (markdown_table(rows, columns) + "\n\n*From `data/*/golden.json`, written by "
             "`make record-data` and checked by `make regress` (`whiskercal regress data`).*\n")
+
+
+def _study_figure(dataset: str) -> str:
+    path = DATA / dataset / "golden.json"
+    if not path.is_file():
+        raise KeyError(f"unknown figure study-{dataset}: no {path}")
+    golden = json.loads(path.read_text(encoding="utf-8"))
+    quantities, fit_args = golden["quantities"], " ".join(golden["pipeline"]["fit_args"])
+    depths = sorted({key.split("[")[1].split("mm]")[0] for key in quantities
+                     if key.startswith("study.trial[")}, key=float)
+    rows = [{"depth": depth, **{key: quantities.get(f"study.trial[{depth}mm].{key}", {}).get("value")
+                                for key, _, _ in STUDY_COLUMNS[1:]}} for depth in depths]
+    target = quantities["study.target.z_uT"]["value"]
+    return (markdown_table(rows, STUDY_COLUMNS) + f"\n\nTarget chosen: {target:.0f} µT at "
+            f"{quantities['study.target.depth_mm']['value']:g} mm, through `whiskercal fit {fit_args}`. "
+            f"*From `data/{dataset}/golden.json`, written by `make record-data` and checked by "
+            "`make regress`.*\n")
 
 
 def render(name: str) -> str:
     """The markdown a figure marker stands for."""
     if name == "recorded-datasets":
         return _golden_figure()
+    if name.startswith("study-"):
+        return _study_figure(name[len("study-"):])
     if name in BENCH_TABLES:
         return _bench_figure(name)
-    raise KeyError(f"unknown figure {name!r}; known: recorded-datasets, {', '.join(BENCH_TABLES)}")
+    raise KeyError(f"unknown figure {name!r}; known: recorded-datasets, study-DATASET, "
+                   f"{', '.join(BENCH_TABLES)}")
 
 
 def snapshot(bench_dir: Path) -> list[Path]:
@@ -132,7 +175,8 @@ def snapshot(bench_dir: Path) -> list[Path]:
         if not source.is_file():
             continue
         result = json.loads(source.read_text(encoding="utf-8"))
-        command = "whiskercal bench" + (" --quick" if result.get("quick") else "")
+        command = SOURCES.get(name, ("whiskercal bench" + (" --quick" if result.get("quick")
+                                                          else ""),))[0]
         payload = {"written_by": command, "comparison": name,
                    "snapshot_by": "make bench (scripts/docs_figures.py snapshot)",
                    "result": result}
