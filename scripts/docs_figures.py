@@ -56,6 +56,14 @@ BENCH_TABLES = {
                    ("stage_time_s", "stage time (s)", 4),
                    ("surface_vs_truth_rmse_uT", "surface RMS vs truth (µT)", 3),
                    ("tip_rmse_vs_truth_mm", "tip RMS vs truth (mm)", 3), ("default", "default", 0)],
+    "sensor-family": [("build", "build", 0), ("variant", "data", 0), ("tip_model", "tip model", 0),
+                      ("estimated_tip_error_mm", "estimate (mm)", 2),
+                      ("tip_curve.rmse_mm", "true RMS (mm)", 2),
+                      ("tip_curve.max_mm", "true max (mm)", 2),
+                      ("field_table.written", "(Y, Z) table", 0),
+                      ("field_table.held_estimated_tip_error_mm", "table estimate, held (mm)", 2),
+                      ("field_table.shipped_realistic.rmse_mm", "with friction, true RMS (mm)", 2),
+                      ("warned", "warned", 0), ("silent_failure", "silent failure", 0)],
     "twin-validate": [("name", "check", 0), ("value", "result", 2), ("limit", "limit", 2),
                       ("ok", "passed", 0), ("detail", "detail", 0)],
 }
@@ -67,12 +75,13 @@ GOLDEN_ROWS = [("fit.tip_model", "tip model shipped by the regression's fit", 0)
                ("fit.rmse_uT", "surface fit residual, RMS (µT)", 3),
                ("fit.cv_rmse_uT", "surface fit residual, cross-validated RMS (µT)", 3),
                ("fit.points_used", "grid points fitted", 0),
-               ("fit.lookup_vs_truth_rmse_mm", "level-set lookup vs the twin's true tips, RMS (mm)", 3),
-               ("fit.lookup_vs_truth_max_mm", "level-set lookup vs the twin's true tips, largest (mm)", 3),
+               ("fit.lookup_vs_truth_rmse_mm", "lookup vs the twin's true tips, RMS (mm)", 3),
+               ("fit.lookup_vs_truth_max_mm", "lookup vs the twin's true tips, largest (mm)", 3),
                ("study.target.depth_mm", "study: the chosen depth (mm)", 3),
                ("study.target.z_uT", "study: the chosen target (µT)", 5),
                ("study.failing_depths_mm", "study: failing depths (mm)", 3),
-               ("study.passing_mean_filtered_mm", "study: mean filtered error of passing trials (mm)", 2)]
+               ("study.passing_mean_filtered_mm", "study: passing trials' mean filtered error (mm)",
+                2)]
 # one study trial's row in the recorded study's table: golden key suffix, header, digits
 STUDY_COLUMNS = [("depth", "depth (mm)", 0), ("contact_fraction", "contact", 2),
                  ("median_z_uT", "median z (µT)", 5), ("filtered_mean_mm", "filtered mean (mm)", 2),
@@ -87,8 +96,16 @@ def _golden_value(value, digits: int) -> str:
     return value if isinstance(value, str) else _number(value, digits)
 
 
+def _get(row: dict, key: str):
+    """``row[key]``, where a dotted key reaches into nested dicts (None where absent)."""
+    value = row
+    for part in key.split("."):
+        value = value.get(part) if isinstance(value, dict) else None
+    return value
+
+
 def _cell(row: dict, key: str, style) -> str:
-    value = row.get(key)
+    value = _get(row, key)
     if style == "s":
         return _seconds(value)
     if style == 0:
@@ -146,11 +163,15 @@ def _study_figure(dataset: str) -> str:
     quantities, fit_args = golden["quantities"], " ".join(golden["pipeline"]["fit_args"])
     depths = sorted({key.split("[")[1].split("mm]")[0] for key in quantities
                      if key.startswith("study.trial[")}, key=float)
-    rows = [{"depth": depth, **{key: quantities.get(f"study.trial[{depth}mm].{key}", {}).get("value")
-                                for key, _, _ in STUDY_COLUMNS[1:]}} for depth in depths]
+    def trial(depth: str, key: str):
+        return quantities.get(f"study.trial[{depth}mm].{key}", {}).get("value")
+
+    rows = [{"depth": depth, **{key: trial(depth, key) for key, _, _ in STUDY_COLUMNS[1:]}}
+            for depth in depths]
     target = quantities["study.target.z_uT"]["value"]
+    depth = quantities["study.target.depth_mm"]["value"]
     return (markdown_table(rows, STUDY_COLUMNS) + f"\n\nTarget chosen: {target:.0f} µT at "
-            f"{quantities['study.target.depth_mm']['value']:g} mm, through `whiskercal fit {fit_args}`. "
+            f"{depth:g} mm, through `whiskercal fit {fit_args}`. "
             f"*From `data/{dataset}/golden.json`, written by `make record-data` and checked by "
             "`make regress`.*\n")
 

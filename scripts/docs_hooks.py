@@ -23,7 +23,7 @@ MARKER = re.compile(r"<!--\s*(figure|api):\s*([\w.\-]+)\s*-->")
 
 
 def _doc(obj) -> str:
-    return inspect.cleandoc(obj.__doc__ or "").replace("\n\n", "\n\n")
+    return inspect.cleandoc(obj.__doc__ or "")
 
 
 def _signature(name: str, obj) -> str:
