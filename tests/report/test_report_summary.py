@@ -29,8 +29,9 @@ def test_the_summary_leads_with_what_shipped_then_the_evidence(twin_files, fitte
         "tip model", "(Y, Z) table", "collision threshold", "Warnings fit gave", "Evidence",
         "surface fit residual, RMS (µT)")]
     assert order == sorted(order)
-    assert f"({m['tip_model']}); estimated tip error {m['estimated_tip_error_mm']:.3f} mm RMS" \
-        in summary
+    assert f"{m['tip_model']}: {outcome.TIP_MODEL_WORDS[m['tip_model']]}; estimated tip error " \
+        f"{m['estimated_tip_error_mm']:.3f} mm RMS" in summary
+    assert f"{m['r2']:.6f}" in summary
     assert "not fitted (fit --no-field-table)" in summary  # the fixture's fit
     assert f"{fitted.collision['threshold_uT']:.0f} µT from the static reading" in summary
     assert "whiskercal.runtime.load(...).tracker()" in summary

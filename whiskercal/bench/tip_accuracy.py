@@ -4,7 +4,7 @@ For each build of a family (length 45-120 mm, diameter 0.15-0.40 mm, k_θ·L/EI 
 a rod grid is simulated through the twin's physics (``whiskercal.testing.fields``). Every
 candidate is fitted to that grid only and then compared with the twin's truth:
 
-- ``level-set``: ``model.calibrate`` as ``whiskercal fit`` runs it today;
+- ``level-set``: ``model.calibrate`` as ``whiskercal fit --tip-model level-set`` runs it;
 - ``mechanics-y``: ``mechfit`` fitted to Y, its z -> tip lookup (20 samples, cubic);
 - ``mechanics-yz``: ``mechfit`` fitted to Y and Z together (polynomial pose map); its z -> tip
   lookup, and its (Y, Z) -> tip table for realistic contacts;

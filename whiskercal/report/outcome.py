@@ -53,7 +53,7 @@ def tip_model_line(data: CalibrationData) -> str:
     name = data.metrics.get("tip_model", "level-set")
     words = TIP_MODEL_WORDS.get(name, name)
     estimate = data.metrics.get("estimated_tip_error_mm", math.nan)
-    return f"{words} ({name}); estimated tip error {_mm(estimate)}"
+    return f"{name}: {words}; estimated tip error {_mm(estimate)}"
 
 
 def table_line(data: CalibrationData) -> str:
@@ -106,5 +106,7 @@ def evidence(data: CalibrationData) -> dict[str, object]:
     rows = {}
     for key, name, unit in EVIDENCE:
         if key in data.metrics:
-            rows[f"{name} ({unit})" if unit else name] = data.metrics[key]
+            value = data.metrics[key]
+            # R² sits near 1 on any usable fit: six decimals show what a few digits round away
+            rows[f"{name} ({unit})" if unit else name] = f"{value:.6f}" if key == "r2" else value
     return rows
