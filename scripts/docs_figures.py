@@ -43,10 +43,12 @@ def _seconds(value) -> str:
 # NAME -> the bench comparison it snapshots and the columns its table shows
 # (key in each row, header, format: "s" a time, else significant digits)
 BENCH_TABLES = {
-    "tip-extraction": [("method", "method", 0), ("label", "setting", 0),
+    "tip-extraction": [("method", "method", 0), ("kind", "interpolant", 0),
+                       ("setting", "setting", 0), ("setting_unit", "unit", 0),
                        ("time_per_call_s", "time per call", "s"),
                        ("error_vs_reference_mm", "RMS error vs converged trace (mm)", 2),
-                       ("error_vs_truth_mm", "RMS error vs twin truth (mm)", 3)],
+                       ("error_vs_truth_mm", "RMS error vs twin truth (mm)", 3),
+                       ("default", "default", 0)],
     "surface-degree": [("degree", "degree", 0), ("cv_rmse_uT", "CV RMS (µT)", 3),
                        ("truth_rmse_uT", "RMS vs noise-free z (µT)", 3),
                        ("tip_rmse_vs_truth_mm", "tip RMS vs truth (mm)", 3),
