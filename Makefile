@@ -11,7 +11,7 @@ OUT ?= out/demo
 LOCK ?= requirements.lock
 LATEST_VENV ?= .venv-latest
 
-.PHONY: setup test test-all test-latest lock demo bench firmware firmware-deps clean
+.PHONY: setup test test-all test-latest lock demo bench docs firmware firmware-deps clean
 
 setup: $(INSTALLED)
 
@@ -54,8 +54,15 @@ lock:
 demo: $(INSTALLED)
 	OUT=$(OUT) PY=$(PY) bash scripts/demo.sh
 
+# The bench's JSON also refreshes the documentation's figure snapshots (docs/figures/*.json).
 bench: $(INSTALLED)
 	$(PY) -m whiskercal bench --out out/bench
+	$(PY) -m whiskercal twin validate --json > out/bench/twin-validate.json
+	$(PY) scripts/docs_figures.py snapshot out/bench
+
+# The site (mkdocs-material) into build/site; --strict: a broken link or a missing page fails it.
+docs: $(INSTALLED)
+	$(PY) -m mkdocs build --strict --quiet
 
 clean:
 	rm -rf out build .pytest_cache

@@ -8,8 +8,8 @@ def default_sensor_joint_fit():
     """The default twin sensor's grid simulated with seed 0 and the (Y, Z) joint fit to it, once
     per test process: the magnet-map, table-trust and study tests read the same fit (half a
     minute each)."""
-    from whiskercal.bench.tip_accuracy import NOISE_UT, ROD_RADIUS_MM, simulate_fields
     from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
+    from whiskercal.testing.fields import NOISE_UT, ROD_RADIUS_MM, simulate_fields
     from whiskercal.twin.params import DEFAULT_SENSOR
 
     grid = simulate_fields(DEFAULT_SENSOR, seed=0)

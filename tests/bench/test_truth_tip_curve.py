@@ -9,7 +9,7 @@ both branches was charged 34 mm RMS for answering the first (docs/calibration.md
 import numpy as np
 
 from whiskercal.bench import sensor_family
-from whiskercal.bench.tip_accuracy import truth_tip_curve
+from whiskercal.testing.fields import truth_tip_curve
 from whiskercal.twin import truth
 
 STIFF_WIRE = next(s for s in sensor_family.FAMILY if s.sensor_id == "stiff-wire-60x0.40")

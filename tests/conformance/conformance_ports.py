@@ -19,16 +19,14 @@ import itertools
 import os
 import serial as pyserial
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "firmware"))
-from avr_emulation import emulation_or_skip  # noqa: E402
-from firmware_build import host_program  # noqa: E402
+from avr_emulation import emulation_or_skip
+from firmware_build import host_program
 
 SPEED = 10.0  # firmware simulators: device seconds per real second
 BACKENDS = ("firmware", "twin")

@@ -1,17 +1,14 @@
 """A small grid collected through whisker_nano.hex on simavr gives what the Python sensor board
 gives with the same seed: the same points, z within the sensor noise, no frame lost."""
 
-import sys
 import uuid
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from avr_emulation import emulation_or_skip
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "collect"))  # the collect tests' helpers
-from fast_collect import FAST_MOTION  # noqa: E402
+from fast_collect import FAST_MOTION
 from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.collect.config import load_config
 from whiskercal.collect.plan import build_plan

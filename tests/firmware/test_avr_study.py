@@ -1,7 +1,6 @@
 """Two depths of the flat-plane study through both compiled images on simavr agree with the
 Python boards of a world with the same seed."""
 
-import sys
 import uuid
 from pathlib import Path
 
@@ -10,8 +9,7 @@ import pytest
 
 from avr_emulation import emulation_or_skip
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "study"))  # the study tests' helpers
-from short_study import short_study  # noqa: E402
+from short_study import short_study
 from whiskercal.artifacts.plane_study import PHASE_SLIDE, read_study
 from whiskercal.study.config import load_config
 from whiskercal.study.run import run_study

@@ -2,10 +2,8 @@
 as the twin's stage: ``sim://NAME/stage?firmware=grbl[&homing=xy]``. Skipped where the variable is
 unset (grbl is not part of whiskercal)."""
 
-import sys
 import time
 import uuid
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +16,7 @@ from whiskercal.errors import WhiskercalError
 from whiskercal.protocol.codes import StageAlarm
 from whiskercal.rig.stage import StageAlarmError, StageClient
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "collect"))  # the collect tests' helpers
-from fast_collect import FAST_MOTION  # noqa: E402
+from fast_collect import FAST_MOTION
 
 pytestmark = pytest.mark.grbl
 STEP_MM = 1 / 80

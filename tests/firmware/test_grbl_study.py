@@ -2,10 +2,8 @@
 judged against the twin's ground truth. Marked ``grbl``: skipped unless WHISKERCAL_GRBL_SRC names
 a checkout of gnea/grbl v1.1h."""
 
-import sys
 import time
 import uuid
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,8 +11,7 @@ import pytest
 from grbl_emulation import grbl_or_skip
 from whiskercal.artifacts.plane_study import PHASE_SLIDE, read_study
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "study"))  # the study tests' helpers
-from short_study import short_study  # noqa: E402
+from short_study import short_study
 
 pytestmark = [pytest.mark.grbl, pytest.mark.slow]
 STEP_MM = 1 / 80  # the twin's belt: 80 steps/mm

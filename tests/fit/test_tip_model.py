@@ -37,9 +37,8 @@ def test_the_default_fit_of_the_default_grid_is_within_the_goals(raw):
     # fit's defaults (auto, the (Y, Z) table) against the twin's truth, with bounds that hold
     # wherever the iterative fits land (the regression runs the level set: data/README.md)
     result = fit(raw, FitOptions())
-    # the (Y, Z) joint fit leaves 1.8x the noise on Y here (the stage's position error, a
-    # significant misfit), so its own z lookup is not estimated and the Y fit's ships
-    # (docs/calibration.md)
+    # the (Y, Z) joint fit leaves a significant misfit on Y here (the stage's position error),
+    # so its own z lookup is not estimated and the Y fit's ships (docs/calibration.md)
     assert result.metrics["tip_model"] == "mechanics"
     assert math.isnan(result.metrics["field_table"]["z_lookup"]["estimated_tip_error_mm"])
     assert result.field_table is not None
@@ -59,8 +58,8 @@ def test_the_default_fit_of_the_default_grid_is_within_the_goals(raw):
 
 @pytest.mark.slow
 def test_the_60mm_grids_default_z_lookup_meets_the_family_goal_above_its_estimate():
-    # this grid's mechanics fit once landed in two places with the CPU (0.42 mm RMS, silently
-    # over the goal, on one; docs/calibration.md): it must land in the good one everywhere
+    # this grid's mechanics fit has two minima, one silently over the goal; it must land in the
+    # good one on every CPU
     result = fit(read_raw_grid(DATA / "twin-short-60mm" / "raw_grid.h5"),
                  FitOptions(field_table=False))
     assert result.metrics["tip_model"] == "mechanics"

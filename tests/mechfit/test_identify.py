@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from whiskercal.bench import sensor_family
-from whiskercal.bench.tip_accuracy import FAMILY, ROD_RADIUS_MM, simulate_fields, truth_tip_curve
-from whiskercal.bench.twin_grid import tip_error_mm
+from whiskercal.bench.tip_accuracy import FAMILY
+from whiskercal.testing.fields import ROD_RADIUS_MM, simulate_fields, truth_tip_curve
+from whiskercal.testing.twin_grid import tip_error_mm
 from whiskercal.mechfit.identify import (PLAUSIBLE_DELTA_CHI2, ProfilePoint, calibrate_mechanics,
                                          profile_estimate, tip_change_mm)
 from whiskercal.model.lookup import TipLookup

@@ -10,8 +10,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, ROD_RADIUS_MM, lookup_errors,
-                                           simulate_fields, simulate_sweep, truth_tip_curve)
+from whiskercal.bench.tip_accuracy import FAMILY
+from whiskercal.testing.fields import (NOISE_UT, ROD_RADIUS_MM, lookup_errors, simulate_fields,
+                                       simulate_sweep, truth_tip_curve)
 from whiskercal.mechfit.joint_lookup import joint_z_lookup
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.tables import interpolation_error_mm

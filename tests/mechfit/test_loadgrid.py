@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from whiskercal.bench.tip_accuracy import true_suspension
+from whiskercal.testing.fields import true_suspension
 from whiskercal.mechfit.loadgrid import load_grid, past_axis_loads
 from whiskercal.twin.params import DEFAULT_SENSOR
 from whiskercal.twin.physics import mechanics

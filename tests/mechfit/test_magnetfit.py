@@ -11,9 +11,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
-                                           realistic_contacts, realistic_errors, simulate_fields,
-                                           simulate_sweep, stiffness_ratio)
+from whiskercal.testing.fields import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
+                                       realistic_contacts, realistic_errors, simulate_fields,
+                                       simulate_sweep, stiffness_ratio)
 from whiskercal.mechfit.magnetfit import fit_mechanics_magnet
 from whiskercal.mechfit.tables import field_tip_table, z_lookup
 from whiskercal.twin.params import DEFAULT_SENSOR

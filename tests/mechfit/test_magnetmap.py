@@ -7,9 +7,9 @@ the degree-3 polynomial fitted to the same grid is off by orders of magnitude mo
 
 import numpy as np
 
-from whiskercal.bench.tip_accuracy import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
-                                           pose_fields_of_poses, realistic_pose_contacts,
-                                           simulate_fields, true_suspension)
+from whiskercal.testing.fields import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
+                                       pose_fields_of_poses, realistic_pose_contacts,
+                                       simulate_fields, true_suspension)
 from whiskercal.mechfit.fieldmap import fit_pose_map
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
 from whiskercal.mechfit.magnetmap import MagnetPoseMap, fit_magnet_map, relative_basis

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from whiskercal.artifacts.raw_grid import read_raw_grid
-from whiskercal.bench.tip_accuracy import (FAMILY, NOISE_UT, ROD_RADIUS_MM,
-                                           pose_fields_of_poses, simulate_fields,
-                                           true_suspension, truth_tip_curve)
-from whiskercal.bench.twin_grid import tip_error_mm
+from whiskercal.bench.tip_accuracy import FAMILY
+from whiskercal.testing.fields import (NOISE_UT, ROD_RADIUS_MM, pose_fields_of_poses,
+                                       simulate_fields, true_suspension, truth_tip_curve)
+from whiskercal.testing.twin_grid import tip_error_mm
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fieldmap import exponents, fit_pose_map
 from whiskercal.mechfit.fit import fit_mechanics

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from whiskercal.fit.field_table import (REFUSE_ESTIMATE_MM, WARN_ESTIMATE_MM, offset_warnings,
-                                       trust_verdict)
+from whiskercal.fit.field_table import REFUSE_ESTIMATE_MM, offset_warnings, trust_verdict
+from whiskercal.fit.tip_model import WARN_TIP_ERROR_MM
 from whiskercal.mechfit.table_error import (HELD_SAMPLES, ambiguity_tip_error_mm,
                                             estimated_tip_error_mm, noise_propagation_mm,
                                             z_lookup_tip_error_mm)
@@ -46,7 +46,7 @@ def test_two_branches_with_the_same_fields_are_estimated_at_their_distance():
 
 
 def test_the_rule_warns_between_the_goal_and_the_refusal_and_refuses_a_poor_residual():
-    between = 0.5 * (WARN_ESTIMATE_MM + REFUSE_ESTIMATE_MM)  # warned, written
+    between = 0.5 * (WARN_TIP_ERROR_MM + REFUSE_ESTIMATE_MM)  # warned, written
     write, warnings = trust_verdict(between, between / 2, (1.0, 1.0))
     assert write and len(warnings) == 1 and "estimated tip error" in warnings[0]
     write, warnings = trust_verdict(0.05, 0.05, (2.5, 1.0))

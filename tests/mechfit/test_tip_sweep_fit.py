@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from whiskercal.bench import sensor_family
-from whiskercal.bench.tip_accuracy import (FAMILY, ROD_RADIUS_MM, simulate_fields, simulate_sweep,
-                                           true_suspension, truth_tip_curve)
-from whiskercal.bench.twin_grid import tip_error_mm
+from whiskercal.bench.tip_accuracy import FAMILY
+from whiskercal.testing.fields import (ROD_RADIUS_MM, simulate_fields, simulate_sweep,
+                                       true_suspension, truth_tip_curve)
+from whiskercal.testing.twin_grid import tip_error_mm
 from whiskercal.mechfit.fit import _Objective
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
 from whiskercal.mechfit.identify import _Problem, calibrate_mechanics
@@ -76,9 +77,8 @@ def test_the_pose_map_grows_in_degree_first_then_in_the_shifts_order():
 
 @pytest.mark.slow
 def test_a_root_that_shifts_across_most_of_the_gap_is_fitted_and_ships_with_the_sweep():
-    # the stiff 60 mm wire (k_theta*L/EI 3.8): its root shifts by up to 1.65 mm of the magnet's
-    # 1.86 mm gap, where a pose map quadratic in the shift left 9x the noise and the level set
-    # (5.2 mm RMS off) shipped instead
+    # the stiff 60 mm wire: its root shifts by most of the magnet's gap, where a pose map
+    # quadratic in the shift leaves many times the noise and the level set would ship instead
     sensor = next(s for s in sensor_family.FAMILY if s.sensor_id == "stiff-wire-60x0.40")
     row = sensor_family.measure(sensor, tip_sweep=True)
     assert row["tip_model"] == "mechanics" and not row["warned"]

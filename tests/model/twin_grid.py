@@ -1,6 +1,6 @@
 """Raw calibration grids generated straight from the twin's physics, for fast, honest model tests.
 
-The grid is ``whiskercal.bench.twin_grid``'s: each rod position of ``whiskercal collect``'s
+The grid is ``whiskercal.testing.twin_grid``'s: each rod position of ``whiskercal collect``'s
 default plan (the paper's 3 mm lattice, 180 points) goes through ``mechanics.solve_rod``
 (warm-started along each column, as the stage visits them), then ``truth.z_of_equilibrium`` plus
 seeded Gaussian noise of the averaged reading. No serial protocol, no stage: what is tested here
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from whiskercal.bench.twin_grid import ROD_RADIUS_MM, noisy_z, simulate_grid
+from whiskercal.testing.twin_grid import ROD_RADIUS_MM, noisy_z, simulate_grid
 from whiskercal.twin.params import DEFAULT_SENSOR, SensorParams
 
 from rawfile import write_raw_grid

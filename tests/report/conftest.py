@@ -8,7 +8,7 @@ import pytest
 from click.testing import CliRunner
 
 from whiskercal.artifacts.raw_grid import Baseline, PointRecord, RawGridWriter, RawHeader
-from whiskercal.bench.twin_grid import noisy_z, simulate_grid
+from whiskercal.testing.twin_grid import noisy_z, simulate_grid
 from whiskercal.cli import cli
 
 STATIC_Y_UT = 1160.0

@@ -1,13 +1,10 @@
 """The shaft localizer's reported uncertainty on a surface it does not know exactly: an estimate
 it issues lies within three of its standard deviations of the truth (seeded, synthetic)."""
 
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (shaft_synthetic)
-from shaft_synthetic import AngleSurface, contact_path  # noqa: E402
+from shaft_synthetic import AngleSurface, contact_path
 
 from whiskercal.model.shaft import ShaftLocalizer, ShaftParams
 

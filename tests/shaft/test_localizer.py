@@ -1,13 +1,11 @@
 """The shaft localizer on synthetic surfaces where the contact point is known exactly."""
 
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (shaft_synthetic)
-from shaft_synthetic import AngleSurface, contact_path as _path  # noqa: E402
+from shaft_synthetic import AngleSurface, contact_path as _path
 
 from whiskercal.model.shaft import REASON_SIGNAL, REASON_TRAVEL, ShaftLocalizer, ShaftParams
 

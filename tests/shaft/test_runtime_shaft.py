@@ -1,15 +1,12 @@
 """The runtime shaft tracker: contact onset and release, the contact's kind, on a known surface."""
 
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (shaft_synthetic)
-from shaft_synthetic import AngleSurface, contact_path as _path  # noqa: E402
+from shaft_synthetic import AngleSurface, contact_path as _path
 
-from whiskercal.model.shaft import ShaftParams  # noqa: E402
-from whiskercal.runtime_shaft import KIND_SHAFT, KIND_TIP, KIND_UNKNOWN, ShaftTracker  # noqa: E402
+from whiskercal.model.shaft import ShaftParams
+from whiskercal.runtime_shaft import KIND_SHAFT, KIND_TIP, KIND_UNKNOWN, ShaftTracker
 
 TRACE_MM = 78.0
 

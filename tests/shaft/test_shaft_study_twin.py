@@ -18,10 +18,6 @@ slide_mm = 8.0
 
 
 def _calibration(tmp_path):
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).parents[1] / "study"))
     from twin_calibration import write_twin_calibration
 
     return write_twin_calibration(tmp_path / "CAL.h5")

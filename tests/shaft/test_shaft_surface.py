@@ -1,7 +1,6 @@
 """The shaft localizer's own surface: radial patches blended smoothly, stored in the artifact,
 and the localizer on it where the contact point is known exactly."""
 
-import sys
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -9,8 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (shaft_synthetic)
-from shaft_synthetic import AngleSurface, contact_path  # noqa: E402
+from shaft_synthetic import AngleSurface, contact_path
 
 from whiskercal.artifacts import shaft_surface as group
 from whiskercal.artifacts.calibration import SCHEMA_VERSION, read_calibration, surface_of

@@ -1,13 +1,10 @@
 """A static contact from Y and Z together: exact on synthetic axes whose ratio names the point."""
 
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (shaft_synthetic)
-from shaft_synthetic import AngleSurface  # noqa: E402
+from shaft_synthetic import AngleSurface
 
 from whiskercal.shaftstudy.static_yz import StaticLocalizer
 

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from whiskercal.bench import stability
 from whiskercal.bench.stability_scenes import plane_slip_probe, stiffness_ratio_probe
-from whiskercal.bench.twin_grid import calibrate_grid, noisy_z, simulate_grid
+from whiskercal.testing.twin_grid import calibrate_grid, noisy_z, simulate_grid
 from whiskercal.cli import cli
 
 

@@ -1,13 +1,10 @@
 """Shared fixtures of the study tests: one twin calibration and one short twin study per session."""
 
-import sys
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))  # the helpers next to the tests (study_fakes, twin_calibration)
-
-from short_study import short_study  # noqa: E402
+from short_study import short_study
 
 # A short study that keeps what the assertions need: the nine default depths and one at 50 mm
 # (past the default sensor's slip into tangential contact near 45.4 mm, with push-in enough

@@ -95,7 +95,7 @@ def test_second_sensor_has_its_own_invertible_curve():
 
 def test_default_tip_curve_lies_within_1_2_mm_of_the_authors_model_on_its_raw_footing():
     # The model's input is the raw Y reading, its undeflected point at raw +447 µT: the twin's z
-    # from rest is compared at raw - 447 µT (docs/twin.md: 0.70 mm RMS, 1.16 mm max).
+    # from rest is compared at raw - 447 µT (docs/twin.md).
     z_uT = AUTHORS_RAW_Y_UT - AUTHORS_REST_RAW_Y_UT
     distance = np.linalg.norm(true_tip(DEFAULT_SENSOR, z_uT) - AUTHORS_TIP_MM, axis=1)
     assert distance.max() < 1.2

@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.bench.timing import machine_info
-from whiskercal.bench.twin_grid import calibrate_grid, simulate_grid, tip_error_mm, truth_points
+from whiskercal.testing.twin_grid import calibrate_grid, simulate_grid, tip_error_mm, truth_points
 from whiskercal.collect.config import load_config
 from whiskercal.collect.estimate import plan_summary
 from whiskercal.collect.plan import build_plan

@@ -1,6 +1,6 @@
 """Realistic contacts read as a stream: each plane pressed in from first touch, sample by sample.
 
-``tip_accuracy.realistic_contacts`` gives each plane contact (tilt 0-40°, μ 0-0.4, both sliding
+``testing.fields.realistic_contacts`` gives each plane contact (tilt 0-40°, μ 0-0.4, both sliding
 senses, six depths) as one reading. A runtime sees the whole press: the plane pushed in along its
 normal while sliding, the twin solved every ``DEPTH_STEP`` of the whisker's length, the readings
 between solved depths interpolated, ``SAMPLES_PER_STEP`` one-sample-noise readings a step (a
@@ -16,8 +16,8 @@ from typing import Callable
 
 import numpy as np
 
-from whiskercal.bench import tip_accuracy as accuracy
-from whiskercal.bench.twin_grid import tip_error_mm
+from whiskercal.testing import fields as twin_data
+from whiskercal.testing.twin_grid import tip_error_mm
 from whiskercal.mechfit.table_error import HELD_SAMPLES
 
 DEPTH_STEP = 0.005  # of the whisker's length, between solved depths
@@ -35,15 +35,15 @@ class Press:
 
 
 def presses(sensor) -> list[Press]:
-    """Every plane of ``tip_accuracy``'s realistic contacts, pressed in from first touch."""
+    """Every plane of ``testing.fields``' realistic contacts, pressed in from first touch."""
     out = []
-    depths = np.arange(DEPTH_STEP, max(accuracy.DEPTH_FRACTIONS) + 1e-9, DEPTH_STEP)
-    measured = np.array([min(abs(d - f) for f in accuracy.DEPTH_FRACTIONS) < 1e-9
+    depths = np.arange(DEPTH_STEP, max(twin_data.DEPTH_FRACTIONS) + 1e-9, DEPTH_STEP)
+    measured = np.array([min(abs(d - f) for f in twin_data.DEPTH_FRACTIONS) < 1e-9
                          for d in depths])
-    for tilt, mu, sign in accuracy.plane_conditions():
+    for tilt, mu, sign in twin_data.plane_conditions():
         states = _pressed_states(sensor, depths, tilt, mu, sign)
         if len(states) >= 2:
-            out.append(Press(accuracy.pose_fields(sensor, states),
+            out.append(Press(twin_data.pose_fields(sensor, states),
                              np.array([s.tip_mm for s in states]), measured[:len(states)]))
     return out
 
@@ -52,7 +52,7 @@ def _pressed_states(sensor, depths, tilt, mu, sign) -> list:
     """The tip contacts of one plane at each depth, up to the first that is not one."""
     states = []
     for fraction in depths:
-        state = accuracy.plane_tip_contact(sensor, tilt, mu, sign, fraction)
+        state = twin_data.plane_tip_contact(sensor, tilt, mu, sign, fraction)
         if state is None:
             break
         states.append(state)
@@ -62,7 +62,7 @@ def _pressed_states(sensor, depths, tilt, mu, sign) -> list:
 def stream(press: Press, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """The press's noisy readings (n, 2) µT, and for each the index of its solved depth where it
     is one of the held samples at a measured depth, else -1."""
-    noise = np.array(accuracy.SAMPLE_NOISE_UT)
+    noise = np.array(twin_data.SAMPLE_NOISE_UT)
     points = np.vstack([np.zeros(2), press.fields_uT])
     readings, marks = [], []
     for k in range(len(press.fields_uT)):

@@ -2,12 +2,12 @@
 and whether every build that misses the goal is warned.
 
 For each build (length 45-120 mm, diameter 0.15-0.40 mm, k_θ·L/EI about 1 to 80) a rod grid is
-simulated through the twin's physics from its trace length only (``tip_accuracy.simulate_fields``:
+simulated through the twin's physics from its trace length only (``testing.fields.simulate_fields``:
 the default plan's bands scaled, the overload guard, averaged-reading noise), with and without
-the tip sweep (``tip_accuracy.simulate_sweep``: collect's ``[sweep]`` positions from the same
+the tip sweep (``testing.fields.simulate_sweep``: collect's ``[sweep]`` positions from the same
 trace length), the level set, the tip-model choice of ``fit.tip_model`` and the (Y, Z) table
 (fitted as ``fit`` fits it, its joint fit's z lookup adopted where ``fit`` adopts it) run on it,
-and the shipped lookup is measured against the twin's truth: on the frictionless tip curve over
+and the shipped lookup is compared with the twin's truth: on the frictionless tip curve over
 the grid's z range, and on realistic contacts (planes tilted 0-40°, μ 0-0.4), the table as the
 runtime reads it. A build is a *silent failure* when its true RMS exceeds 0.25 mm and the fit neither
 warned nor refused. Beside each shipped table or loads, the same read through a perfect
@@ -25,15 +25,15 @@ import numpy as np
 
 from whiskercal.bench import pressed_contacts as pressed
 from whiskercal.bench import tip_accuracy as accuracy
+from whiskercal.testing import fields as twin_data
 from whiskercal.bench.timing import machine_info
-from whiskercal.bench.twin_grid import raw_like
+from whiskercal.testing.twin_grid import raw_like
 from whiskercal.errors import WhiskercalError
 from whiskercal.fit.field_table import FieldTableFit, TableContacts, field_table_from_contacts
 from whiskercal.fit.tip_model import (WARN_TIP_ERROR_MM, adopt_joint_lookup, choose_tip_model,
                                       refuse_unless_resolved)
 from whiskercal.fit.run import calibrate_grid
 from whiskercal.mechfit.branch_surface import load_branches
-from whiskercal.mechfit.tables import field_tip_table
 from whiskercal.model.load_branches import LoadBranches
 from whiskercal.model.calibrate import CalibrationOptions
 from whiskercal.twin.params import DEFAULT_SENSOR
@@ -58,8 +58,8 @@ def calibrate_build(sensor, seed: int = 0, tip_sweep: bool = True):
     """A build's simulated grid (and tip sweep) calibrated as ``fit`` does:
     (grid, sweep or None, calibration, choice, seconds); the choice may be a refusal the joint
     fit can still stand in for (``fit.tip_model.refuse_unless_resolved``)."""
-    grid = accuracy.simulate_fields(sensor, seed)
-    sweep = accuracy.simulate_sweep(sensor, seed) if tip_sweep else None
+    grid = twin_data.simulate_fields(sensor, seed)
+    sweep = twin_data.simulate_sweep(sensor, seed) if tip_sweep else None
     centers, z = grid.rod_center_mm, grid.fields_uT[:, 0]
     mask = np.zeros(len(z), bool)
     if sweep is not None:
@@ -69,7 +69,7 @@ def calibrate_build(sensor, seed: int = 0, tip_sweep: bool = True):
     started = time.perf_counter()
     length = sensor.whisker.reach_mm
     options = CalibrationOptions(trace_length_mm=length, allow_extrapolation=True)
-    raw = raw_like(centers, z, accuracy.NOISE_UT[0], accuracy.ROD_RADIUS_MM, mask)
+    raw = raw_like(centers, z, twin_data.NOISE_UT[0], twin_data.ROD_RADIUS_MM, mask)
     level_set, untraceable = calibrate_grid(raw, options, None)
     calibration, choice = choose_tip_model(raw, level_set, "auto", length, 20, untraceable)
     return grid, sweep, calibration, choice, time.perf_counter() - started
@@ -82,8 +82,8 @@ def field_table(sensor, grid, sweep, choice) -> FieldTableFit:
     centers = np.vstack([p.rod_center_mm for p in parts])
     contacts = TableContacts(centers, np.vstack([p.fields_uT for p in parts]),
                              np.arange(len(centers)) >= len(grid.rod_center_mm),
-                             np.array(accuracy.NOISE_UT), np.array(accuracy.SAMPLE_NOISE_UT),
-                             accuracy.ROD_RADIUS_MM)
+                             np.array(twin_data.NOISE_UT), np.array(twin_data.SAMPLE_NOISE_UT),
+                             twin_data.ROD_RADIUS_MM)
     start = None if choice.mechanics is None else choice.mechanics.fit
     return field_table_from_contacts(contacts, sensor.whisker.reach_mm, start)
 
@@ -102,25 +102,16 @@ def _table_row(sensor, table: FieldTableFit, y_only: dict, contacts: dict, looku
            "residual_rms_uT": metrics.get("residual_rms_uT"),
            "stage_offset_mm": metrics.get("stage_offset_mm"), "fit_s": metrics.get("fit_s")}
     if table.tips is not None:
-        measured = accuracy.realistic_errors({"lookup": lookup, "table": table.tips}, contacts,
+        measured = twin_data.realistic_errors({"lookup": lookup, "table": table.tips}, contacts,
                                              z_range)
         row["realistic"] = measured["y_and_z_sample_noise"]
         row["realistic_held"] = measured["y_and_z_held"]
         if row["written"]:
-            row["noise_floor"] = _noise_floor(sensor, table, lookup, contacts, z_range)
+            row["noise_floor"] = twin_data.noise_floor(sensor, table, lookup, contacts, z_range)
     shipped = row["realistic"] if row["written"] else y_only
     return {**row, "shipped_realistic": shipped,
             "shipped_realistic_held": row["realistic_held"] if row["written"] else y_only,
             "silent_failure": shipped["rmse_mm"] > WARN_TIP_ERROR_MM and not table.warnings}
-
-
-def _noise_floor(sensor, table: FieldTableFit, lookup, contacts: dict, z_range) -> dict:
-    """The realistic errors of the table a perfect calibration makes from the same loads
-    (``tip_accuracy.perfect_fit``): what the readings' noise costs, whatever the fit."""
-    y_range = (float(table.tips.y_uT[0]), float(table.tips.y_uT[-1]))
-    perfect = field_tip_table(accuracy.perfect_fit(sensor, table.mechanics), y_range)
-    measured = accuracy.realistic_errors({"lookup": lookup, "table": perfect}, contacts, z_range)
-    return {"one_sample": measured["y_and_z_sample_noise"], "held": measured["y_and_z_held"]}
 
 
 def _followed_row(sensor, table: FieldTableFit, lookup, z_range) -> dict:
@@ -131,12 +122,12 @@ def _followed_row(sensor, table: FieldTableFit, lookup, z_range) -> dict:
     followed = _pressed_follower_errors(LoadBranches.from_arrays(table.branches), planes, z_range)
     per_sample_s = (time.perf_counter() - started) / max(followed["readings"], 1)
     # the loads a perfect calibration would write, followed the same way: the noise's share
-    perfect = load_branches(accuracy.perfect_fit(sensor, table.mechanics), z_range,
-                            np.array(accuracy.SAMPLE_NOISE_UT))
+    perfect = load_branches(twin_data.perfect_fit(sensor, table.mechanics), z_range,
+                            np.array(twin_data.SAMPLE_NOISE_UT))
     floor = _pressed_follower_errors(perfect, planes, z_range)
     return {"pressed": followed, "per_sample_s": per_sample_s,
             "pressed_y_only": pressed.pressed_errors(
-                lambda r: accuracy._lookup_tips(lookup, r[:, 0]), planes, z_range),
+                lambda r: twin_data.lookup_tips(lookup, r[:, 0]), planes, z_range),
             "estimate": table.metrics["field_table"]["load_branches"],
             "noise_floor": {"one_sample": floor["one_sample"], "held": floor["held"]}}
 
@@ -158,7 +149,7 @@ def measure(sensor, seed: int = 0, tip_sweep: bool = True, with_table: bool = Fa
     variant = VARIANTS[int(tip_sweep)]
     row = {"build": sensor.sensor_id, "variant": variant, "length_mm": sensor.whisker.length_mm,
            "diameter_mm": sensor.whisker.diameter_mm,
-           "stiffness_ratio": accuracy.stiffness_ratio(sensor.whisker)}
+           "stiffness_ratio": twin_data.stiffness_ratio(sensor.whisker)}
     try:
         grid, sweep, calibration, choice, fit_s = calibrate_build(sensor, seed, tip_sweep)
         table = field_table(sensor, grid, sweep, choice) if with_table else None
@@ -169,10 +160,10 @@ def measure(sensor, seed: int = 0, tip_sweep: bool = True, with_table: bool = Fa
         return {**row, "refused": f"{type(error).__name__}: {error}", "warned": True,
                 "silent_failure": False}
     z_range = (float(grid.fields_uT[:, 0].min()), float(grid.fields_uT[:, 0].max()))
-    z_true, tips_true = accuracy.truth_tip_curve(sensor)
-    curve = accuracy.lookup_errors(calibration.lookup, z_true, tips_true, z_range)
-    contacts = accuracy.realistic_contacts(sensor)
-    realistic = accuracy.realistic_errors({"lookup": calibration.lookup}, contacts, z_range)
+    z_true, tips_true = twin_data.truth_tip_curve(sensor)
+    curve = twin_data.lookup_errors(calibration.lookup, z_true, tips_true, z_range)
+    contacts = twin_data.realistic_contacts(sensor)
+    realistic = twin_data.realistic_errors({"lookup": calibration.lookup}, contacts, z_range)
     estimate = choice.estimated_tip_error_mm
     warned = bool(choice.warnings)
     mechanics = choice.metrics.get("mechanics", {})
@@ -216,7 +207,7 @@ def _floor_mm(row: dict) -> float:
 def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0,
         variants: tuple[str, ...] = VARIANTS) -> dict:
     """Every build of the family (the default only when ``quick``), calibrated from its grid
-    alone and with the tip sweep (``variants``), and measured against the twin's truth."""
+    alone and with the tip sweep (``variants``), and compared with the twin's truth."""
     say = progress or (lambda _row: None)
     builds = FAMILY[:QUICK_BUILDS] if quick else FAMILY
     rows = []
@@ -232,9 +223,9 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
         "benchmark": "sensor-family", "quick": quick, "machine": machine_info(),
         "units": {"time": "s", "error": "mm"},
         "setup": {"builds": [s.sensor_id for s in builds], "variants": list(variants),
-                  "tip_sweep": accuracy.tip_sweep_config().to_dict(),
-                  "noise_uT": accuracy.NOISE_UT[0],
-                  "stage_offset_mm": list(accuracy.STAGE_OFFSET_MM),
+                  "tip_sweep": twin_data.tip_sweep_config().to_dict(),
+                  "noise_uT": twin_data.NOISE_UT[0],
+                  "stage_offset_mm": list(twin_data.STAGE_OFFSET_MM),
                   "goal_rmse_mm": WARN_TIP_ERROR_MM,
                   "goal_max_mm": 0.5, "seed": seed},
         "rows": rows,

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from whiskercal.bench.twin_grid import (AVERAGED_NOISE_UT, calibrate_grid, noisy_z, raw_like,
+from whiskercal.testing.twin_grid import (AVERAGED_NOISE_UT, calibrate_grid, noisy_z, raw_like,
                                         simulate_grid)
 from whiskercal.fit.shaft_surface import fit_shaft_surface
 from whiskercal.mechfit.identify import calibrate_mechanics

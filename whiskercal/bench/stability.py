@@ -33,7 +33,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.bench.timing import machine_info
-from whiskercal.bench.twin_grid import (SimulatedGrid, calibrate_grid, noisy_z, simulate_grid,
+from whiskercal.testing.twin_grid import (SimulatedGrid, calibrate_grid, noisy_z, simulate_grid,
                                         tip_error_mm, truth_curve, truth_points)
 from whiskercal.errors import WhiskercalError
 from whiskercal.model.calibrate import CalibrationOptions, build_problem

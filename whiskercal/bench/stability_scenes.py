@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from whiskercal.bench.twin_grid import (AVERAGED_NOISE_UT, calibrate_grid, noisy_z, raw_like,
+from whiskercal.testing.twin_grid import (AVERAGED_NOISE_UT, calibrate_grid, noisy_z, raw_like,
                                         simulate_grid, tip_error_mm)
 from whiskercal.errors import WhiskercalError
 from whiskercal.fit.tip_model import choose_tip_model

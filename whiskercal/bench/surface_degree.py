@@ -19,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.bench.timing import machine_info, per_call_s
-from whiskercal.bench.twin_grid import calibrate_grid, noisy_z, simulate_grid, tip_error_mm, truth_points
+from whiskercal.testing.twin_grid import calibrate_grid, noisy_z, simulate_grid, tip_error_mm, truth_points
 from whiskercal.fit.options import FitOptions
 from whiskercal.model.errors import ModelError
 from whiskercal.model.surface import MAX_DEGREE, choose_degree, fit_fixed, kfold_rmse

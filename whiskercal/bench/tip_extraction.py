@@ -22,7 +22,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.bench.timing import machine_info, per_call_s
-from whiskercal.bench.twin_grid import (calibrate_grid, noisy_z, simulate_grid, tip_error_mm,
+from whiskercal.testing.twin_grid import (calibrate_grid, noisy_z, simulate_grid, tip_error_mm,
                                         truth_points)
 from whiskercal.model.lookup import KINDS, TipLookup
 from whiskercal.model.trace import trace_fast, trace_many, trace_paper

@@ -1,9 +1,8 @@
 """The collision threshold ``fit`` stores for the runtime, chosen for the build when not given.
 
-The paper's 300 µT is, on its sensor, the Y deflection of a tip pushed about two millimetres
-(frictionless, on the default twin's truth: 2.1 mm). On a build whose magnet turns less for the
-same push (a long or thin wire, a stiff root) 300 µT is a contact many millimetres deep: on a
-120 mm x 0.15 mm wire the tip has moved 12.5 mm before the runtime sees a contact at all. So
+The paper's 300 µT is, on its sensor, the Y deflection of a tip pushed about two millimetres.
+On a build whose magnet turns less for the same push (a long or thin wire, a stiff root) 300 µT
+is a contact many millimetres deep, and every shallower one reads as no contact at all. So
 where the fitted model's frictionless tip curve reads under 300 µT at ``TIP_MOTION_MM`` of tip
 motion, the threshold is the z it reads there, never below ``NOISE_FLOOR_SIGMAS`` of one
 sample's Y noise (a reading at rest must not pass it). Every other build keeps 300 µT.
@@ -22,8 +21,8 @@ from whiskercal.model.collision import CollisionParams
 
 PAPER_THRESHOLD_UT = CollisionParams.threshold_uT
 # a build reading under 300 µT at this much frictionless tip motion (mm) gets a lower threshold:
-# the paper's sensor reads 300 µT at 2.1 mm (the default twin's truth; the 60 mm build at 2.6),
-# so both keep it with a margin the fitted curve's error cannot cross
+# the paper's sensor reads 300 µT a little short of it, so it keeps 300 µT with a margin the
+# fitted curve's error cannot cross
 TIP_MOTION_MM = 3.0
 # one sample's Y noise passes 20 standard deviations essentially never (the real sensor's
 # 5.6 µT at rest: 112 µT), and leaves room for slow drift from the static reading

@@ -41,8 +41,8 @@ class FitOptions:
         Radius about the root where the trace enters the data, mm; None: a third of the trace
         length, at least the grid's nearest point.
     max_extension_mm : float or None
-        Longest straight extrapolation of a tip past the grid that is trusted, mm; None: 9.5 mm
-        (measured on the default sensor, docs/model.md) scaled by trace length / 78 mm.
+        Longest straight extrapolation of a tip past the grid that is trusted, mm; None:
+        ``model.calibrate.MAX_EXTENSION_MM`` scaled by trace length / 78 mm.
     allow_extrapolation : bool
         Keep a calibration whose tips lie farther past the grid, with that z range marked.
     rod_correction : bool

@@ -1,14 +1,14 @@
 """The shaft localizer's own measurement surface: z over contact points, from the root to the tip.
 
 The tip model's surface (``model.calibrate``) is a degree-5 polynomial over the part of the grid
-the level set is traced in: its ripple (14-18 µT RMS on the default grid) bounds a shaft contact
-at 0.5-0.6 mm at some radii, and it is extrapolated wherever the grid does not reach (the default
-grid spans 22.8-71.6 mm of the 78 mm trace; 20 % of the trace, 15.6 mm, lies outside). The shaft
+the level set is traced in: its ripple bounds a shaft contact's error at some radii, and it is
+extrapolated wherever the grid does not reach (the default grid leaves the trace's first fifth
+and its last millimetres uncovered). The shaft
 localizer needs z at every point a contact can slide over, so it gets a surface of its own, in
 three radial patches (:class:`~whiskercal.model.patched_surface.PatchedSurface`):
 
 - the middle: a degree-8 polynomial over every contact of the grid (rod-corrected, near-root
-  points included), 1.4 µT RMS on the default grid;
+  points included), at the noise on the default grid;
 - toward the root and toward the tip, where the grid is sparse or absent: polynomials fitted to
   the grid's contacts there plus the mechanics-informed model (``mechfit``, fitted to every
   contact by ``fit``'s tip model) solved for rod contacts on columns reaching from 15 % of the

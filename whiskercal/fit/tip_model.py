@@ -1,9 +1,9 @@
 """Which tip model a calibration ships, and how wrong it may be: the level set or the mechanics.
 
-The level set f = z is the whisker's shape under a shaft contact, not the locus of its tip (about
-0.4 mm off on the default build, docs/calibration.md). The mechanics-informed fit
-(``mechfit.identify``) models the suspension and solves it for tip contact; where the grid pins
-the suspension down it is an order of magnitude closer, and its profile says how firmly. So:
+The level set f = z is the whisker's shape under a shaft contact, not the locus of its tip
+(docs/calibration.md). The mechanics-informed fit (``mechfit.identify``) models the suspension
+and solves it for tip contact; where the grid pins the suspension down it is far closer, and its
+profile says how firmly. So:
 
 - ``level-set``: the paper's method ships; the mechanics is fitted for the estimate;
 - ``mechanics``: always the mechanics' lookup (refused when it cannot be fitted);
@@ -12,9 +12,8 @@ the suspension down it is an order of magnitude closer, and its profile says how
   where its estimate is lower still (``adopt_joint_lookup``, once ``fit.field_table`` has made
   it).
 
-A frictionless tip model is not the contact a robot makes (on the twin's cylinder contour the
-level set at its study target erred 0.17 mm, the mechanics at its own target 0.91 mm); the
-(Y, Z) table ``fit`` writes by default (``fit.field_table``) is what places tips pushed with
+A frictionless tip model is not the contact a robot makes (a contour followed with friction
+reads either z lookup off by the friction's tilt of the force); the (Y, Z) table ``fit`` writes by default (``fit.field_table``) is what places tips pushed with
 friction, and the z lookup chosen here is the fallback where the table has no tip or the robot
 streams Y only (docs/calibration.md).
 
@@ -38,7 +37,8 @@ from whiskercal.model.calibrate import Calibration, contact_mask
 from whiskercal.model.errors import ModelError
 from whiskercal.model.lookup import LookupReport
 
-# The tip error (RMS, mm) above which a calibration is reported as not meeting its goal.
+# The tip-error goal (RMS, mm): a tip model's estimate, or the (Y, Z) table's, above it is warned
+# as not meeting it.
 WARN_TIP_ERROR_MM = 0.25
 # the tip model's name when the (Y, Z) joint fit's z lookup ships (``adopt_joint_lookup``)
 JOINT_TIP_MODEL = "mechanics-yz"

@@ -59,10 +59,10 @@ def near_fitted_poses(poses: np.ndarray, fitted: np.ndarray) -> np.ndarray:
     Signed, unlike the table's envelope (``tables.POSE_ENVELOPE`` times the largest pose either
     way): a grid pushes the wire one way, so every contact turns and shifts the root one way,
     while a push past the axis bends the wire the other way, where the map was never fitted.
-    With the table's envelope the 4x stiffer root's follower, fed the twin's end-on plane
-    dragged toward +y with friction 0.4 (112° from the normal), drifted to loads up to 10°
-    away and read the deepest tips 3.9 and 5.0 mm off on two of three simulated grids
-    (docs/calibration.md, "Where one reading folds"); such readings now get no tip."""
+    With the table's symmetric envelope a stiff root's follower, fed an end-on plane dragged
+    the other way with friction, drifts to loads bent the other way and reads the deepest tips
+    millimetres off (docs/calibration.md, "Where one reading folds"); such readings get no
+    tip."""
     low, high = fitted.min(axis=0), fitted.max(axis=0)
     margin = POSE_MARGIN * (high - low)
     return np.all((poses >= low - margin) & (poses <= high + margin), axis=1)

@@ -5,7 +5,7 @@ alone. The map is fitted, not modelled: monomials of the scaled pose up to total
 ``degree``, with the shift (which stays within a few tenths of a millimetre on most builds) up to
 second order by default, and no constant, because every axis is measured from its reading at
 rest (pose 0). Where most of the compliance is in the root the shift reaches a large share of
-the magnet's gap (1.65 of 1.86 mm on the stiff 60 mm wire) and the field is no longer
+the magnet's gap and the field is no longer
 quadratic in it; ``mechfit.identify`` then raises the shift's order when the misfit asks.
 
 A grid's poses form a two-parameter family (the rod's position) inside the three-dimensional
@@ -28,10 +28,9 @@ from whiskercal.errors import UsageError
 
 DEFAULT_DEGREE = 3
 MAX_SHIFT_ORDER = 2
-# Tikhonov damping relative to the design's largest singular value. On the 60 mm recorded grid,
-# 16 of 18 starts then reach one minimum (0.08 mm from the twin's true tips; without it 18 starts
-# stopped in 18 places, 0.08 to 5.7 mm off); at 1e-6 the default grid's fit is biased (χ²/dof
-# 1.02 -> 1.09, true tip error 0.010 -> 0.066 mm).
+# Tikhonov damping relative to the design's largest singular value: enough that the starts of a
+# recorded grid's fit reach one minimum instead of stopping each in its own place, little enough
+# that the default grid's fit is not biased (a tenfold larger ridge is).
 RIDGE_RELATIVE = 3e-7
 
 

@@ -61,10 +61,8 @@ RICHER_MAP_SIGMAS = 2.0
 # Not beyond 4 (degree 5 was not needed on the family; docs/calibration.md).
 MAX_MAP_DEGREE = 4
 # At degree 4 the shift's order may rise from 2 to 4 (the whole polynomial): on a build whose
-# root carries most of the compliance (the stiff 60 mm wire, k_θ·L/EI 3.8) the root shifts by
-# up to 1.65 mm of the magnet's 1.86 mm gap, and a degree-4 map quadratic in the shift leaves
-# 14 µT RMS on its grid and sweep at the true poses (1.6 µT at order 4), 9× the noise after the
-# fit.
+# root carries most of the compliance the root shifts by most of the magnet's gap, and a map
+# quadratic in the shift misses its grid and sweep by many times the noise at the true poses.
 MAX_MAP_SHIFT_ORDER = 4
 
 
@@ -210,9 +208,9 @@ def _richer_map(problem: _Problem, fit: MechanicsFit, chi2: float, theta: np.nda
     a higher order in the shift), while the fit leaves more than the noise and the richer map
     explains enough more to pay for its terms (Akaike: Δχ² > 2 per term).
 
-    A degree-3 map misses the twin's field by up to about 1 µT over a grid and a tip sweep
-    (which takes the pose off the shaft contacts' path); that is a quarter of the noise's
-    variance, enough to bias the suspension, and degree 4 removes it (docs/calibration.md).
+    A degree-3 map misses the twin's field over a grid and a tip sweep (which takes the pose
+    off the shaft contacts' path) by a fair share of the noise's variance, enough to bias the
+    suspension, and degree 4 removes it (docs/calibration.md).
     (problem, fit, χ², theta), changed or not.
     """
     # only a tip sweep takes the pose off the shaft contacts' path, where the map falls short;
@@ -237,9 +235,8 @@ def _revive_collapsed_shift(problem: _Problem, fit: MechanicsFit, chi2: float,
     result when it fits better. (fit, χ², theta), changed or not.
 
     As the compliance nears zero the shift, and the gradient of its log, vanish, and the
-    optimizer cannot come back from there even when a lower minimum lies at a finite shift: on
-    the default sensor's simulated grid (seed 0) it stopped at χ² 171.9 with no shift, 0.088 mm
-    RMS from the true tips, where 164.9 lies at the true shift's scale, 0.028 mm from them.
+    optimizer cannot come back from there even when a lower minimum lies at a finite shift (the
+    default sensor's simulated grid shows one: ``tests/mechfit``).
     """
     start_log_share = math.log(TRANS_SHARE_START)
     if theta[1] - theta[0] > start_log_share - math.log(100.0):

@@ -189,12 +189,11 @@ def offset_at_bound(offset_mm) -> bool:
 def stage_offset_axes(sweep) -> tuple[int, ...]:
     """The stage axes (x 0, y 1) whose constant offset the joint fit finds with the rest. The
     rods sit off their recorded places by the drive's backlash (taken up the same way at every
-    point, ``collect.plan``) and the error in the whisker origin's stage position; left out,
-    0.01 mm moved the stiff root's fit (k_θ·L/EI 62.6) to 45-48, and its follower through
-    collect and fit read 0.50 mm RMS against 0.34 with it, 0.30 polished (docs/calibration.md).
-    Across the wire (y) always; along it (x) only with a tip sweep, whose contacts push along x
-    too: shaft contacts alone barely see it (the recorded grids put it at -0.05 to -0.15 mm for
-    -0.01, and the 110 mm grid's lookup 5x further off)."""
+    point, ``collect.plan``) and the error in the whisker origin's stage position; near the root
+    a hundredth of a millimetre reads tens of µT, enough to move a stiff root's fit to another
+    basin when left out (docs/calibration.md). Across the wire (y) always; along it (x) only with
+    a tip sweep, whose contacts push along x too: shaft contacts alone barely see it, and a free
+    x fitted to them lands far from the truth."""
     return (0, 1) if _swept(sweep) else (1,)
 
 

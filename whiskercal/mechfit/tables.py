@@ -69,8 +69,7 @@ def z_lookup(fit: MechanicsFit, z_range_uT: tuple[float, float], samples: int = 
 def interpolation_error_mm(fit: MechanicsFit, lookup: TipLookup) -> float:
     """The RMS distance (mm) between a z lookup and the tip curve of the model it was made from,
     over the lookup's range: its knots' interpolation error, which an estimate from the model's
-    parameters alone does not see (the soft 45 mm build's joint lookup: 0.013 mm from the
-    twin's truth, all of it near the fold, under a parameter estimate of 0.0004 mm)."""
+    parameters alone does not see (near a fold it can be the larger part of a lookup's error)."""
     try:
         distances = _TipCurve(fit, tip_family(fit.suspension)).distances_mm(lookup)
     except UsageError:
@@ -133,9 +132,8 @@ class _TipCurve:
 
 def _followed_low(curve: _TipCurve, low: float, high: float, samples: int, kind: str) -> float:
     """The lowest z (µT) down to which evenly spaced knots follow the curve within the
-    tolerance: near a fold the tip runs ever faster in z and the knots cut across the bend (a
-    100 mm x 0.30 mm wire on a root half as stiff against turning: 2.7 mm off up to its fold,
-    0.049 mm ending 620 µT short of it)."""
+    tolerance: near a fold the tip runs ever faster in z and the knots cut across the bend,
+    so a lookup that ends a little short of the fold errs far less than one that reaches it."""
     followed, lost = high, low
     for _ in range(FOLLOW_BISECTIONS):
         mid = 0.5 * (followed + lost)

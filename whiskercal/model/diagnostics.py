@@ -20,9 +20,8 @@ from whiskercal.model.surface import MAX_DEGREE, Surface
 UNDERFIT_FACTOR = 5.0
 # ... and only when that error moves level sets by more than this (mm). Below it, a closer fit
 # cannot move the tips by more than about a tenth of a millimetre, far inside the level-set
-# method's own error against the true tip (0.44 mm RMS on the twin): on the recorded default grid
-# degree 5 is 18x the noise but shifts level sets by 0.065 mm, and degree 8 improves the tips by
-# only 0.03 mm (docs/bench.md), so the paper's degree 5 is no under-fit that matters.
+# method's own error against the true tip (``bench --only surface-degree`` shows both), so a
+# residual above the noise that moves no tip is no under-fit that matters.
 UNDERFIT_SHIFT_MM = 0.1
 
 

@@ -39,8 +39,8 @@ class FieldTipTable:
 
         At the edge of the tip loads, where some corners have none, the others' bilinear
         weights are renormalized: a reading there lies within a cell of tabulated loads, and
-        their tips are closer than the frictionless z lookup the runtime would fall back to
-        (the soft 45 mm build's deepest plane contacts: 0.09-0.15 mm against 20-40 mm).
+        their tips are far closer than the frictionless z lookup the runtime would fall back
+        to (a soft build's deepest plane contacts lie beyond the lookup's curve altogether).
         """
         fy, fz = (y_uT - self._y0) / self._dy, (z_uT - self._z0) / self._dz
         # compared before any int(): NaN and ±inf fail the comparison and get no tip

@@ -13,8 +13,8 @@ from whiskercal.model.calibrate import contact_mask, correct_for_rod
 from whiskercal.model.surface import fit_fixed
 
 SHAFT_DEGREE = 8
-"""Degree of a surface over every contact of the grid (1.4 µT RMS on the default grid, against
-3.1 at degree 7 and 17.8 at degree 5; docs/shaft.md)."""
+"""Degree of a surface over every contact of the grid: the lowest whose residual on the default
+grid reaches the noise of an averaged reading (docs/shaft.md)."""
 
 
 def degree_for(points: int, wanted: int) -> int:

@@ -3,9 +3,9 @@
 The polynomial's two variables are either the whisker-frame coordinates (x, y) in mm
 ("cartesian", the paper's model) or polar coordinates about the frame's origin, (r mm, θ rad)
 ("polar", the default). Deflection is mostly a function of the contact's direction from the
-root, so in polar coordinates z is far smoother: on the recorded 180-point grid at degree 5 it
-leaves 14.1 µT RMSE against 55.0 µT in Cartesian coordinates, and the lookup traced from it lies
-closer to the twin's true tips (0.44 against 0.67 mm RMSE; docs/model.md).
+root, so in polar coordinates z is far smoother: at the same degree it leaves a smaller
+residual than in Cartesian coordinates, and the lookup traced from it lies closer to the twin's
+true tips (``whiskercal regress`` and ``bench --only surface-degree`` measure both).
 
 Either pair is mapped to u, v in [-1, 1] from the data's bounding box, so no raw powers of
 millimetres enter the least squares. The basis is the total-degree Legendre set P_i(u) P_j(v),

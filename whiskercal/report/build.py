@@ -1,8 +1,9 @@
 """Assemble the calibration report: one self-contained HTML file per calibration artifact.
 
-Sections: summary, grid and fit residuals (with the raw grid), level sets and traced tips, the
-lookup and its error (against the twin's truth when the raw grid has one), the flat-plane study
-(with a study file), the speed-accuracy charts (with a bench directory), provenance.
+Sections: the summary (what shipped, in words and units, then the evidence), grid and fit
+residuals (with the raw grid), level sets and traced tips, the lookup and its error (against the
+twin's truth when the raw grid has one), the flat-plane study (with a study file), the
+speed-accuracy charts (with a bench directory), provenance.
 """
 
 from __future__ import annotations
@@ -22,24 +23,23 @@ from whiskercal.artifacts.h5io import now_iso, sha256_file
 from whiskercal.atomic import inside, refuse_input_as_output
 from whiskercal.errors import ArtifactError, UsageError
 from whiskercal.paths import ensure_dir
-from whiskercal.report import figures
-from whiskercal.report.html import Section, figure, key_values, paragraph, render, table
+from whiskercal.report import figures, outcome
+from whiskercal.report.html import Section, esc, figure, key_values, paragraph, render, table
 
 if TYPE_CHECKING:
     from whiskercal.fit.truth import TruthComparison
 
-SUMMARY_METRICS = ("rmse_uT", "r2", "cv_rmse_uT", "condition_number", "lookup_holdout_rmse_mm",
-                   "lookup_vs_truth_rmse_mm", "lookup_vs_truth_max_mm", "points_used", "points_total")
-
 
 def _summary(data: CalibrationData) -> Section:
-    pairs = {"sensor": data.sensor_id, "surface": f"degree {data.degree}, {data.coordinates}",
-             "lookup": f"{len(data.lookup_z_uT)} samples, {data.lookup_kind}, z "
-                       f"{data.lookup_z_uT[0]:.0f} .. {data.lookup_z_uT[-1]:.0f} µT",
-             "tracer": data.tracer, "trace length (mm)": data.trace_length_mm,
-             "target z (µT)": "not chosen yet" if data.target_z_uT is None else data.target_z_uT}
-    pairs.update({name: data.metrics[name] for name in SUMMARY_METRICS if name in data.metrics})
-    return Section("Summary", key_values(pairs))
+    """What shipped first (tip model, table, threshold, warnings), then the evidence."""
+    body = key_values(outcome.shipped(data)) + "<h3>Warnings fit gave</h3><ul>"
+    body += "".join(f"<li>{esc(w)}</li>" for w in outcome.warnings_lines(data)) + "</ul>"
+    surface = {"surface": f"degree {data.degree}, {data.coordinates}",
+               "lookup": f"{len(data.lookup_z_uT)} samples, {data.lookup_kind}, z "
+                         f"{data.lookup_z_uT[0]:.0f} .. {data.lookup_z_uT[-1]:.0f} µT",
+               "level-set tracer": data.tracer, "trace length (mm)": data.trace_length_mm}
+    body += "<h3>Evidence</h3>" + key_values({**surface, **outcome.evidence(data)})
+    return Section("Summary", body)
 
 
 def _fit_options(data: CalibrationData):

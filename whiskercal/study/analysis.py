@@ -4,7 +4,7 @@ Pure numpy: arrays in, arrays out. The inputs of one trial are the slide's sampl
 the tip estimates before and after the filter, the plane's line in the whisker frame per sample),
 the push-in's depth and z, and, on the twin, the true tip and equilibrium kind per sample. The
 error of an estimate is its distance to the plane's line, as in the paper; on the twin it is also
-measured against the true tip.
+compared with the true tip.
 
 Slips and tangential contact are detected from the data alone, never from the twin's truth
 (whiskercal.study.detect): slips are jumps of z; tangential contact shows as a kink of z(depth)

@@ -7,8 +7,8 @@
 - :func:`detect_kink`: while the plane is pushed in, a tip contact bends the whisker along a
   smooth curve z(depth) whose slope changes by a few percent per mm. When the shaft meets the
   plane before the tip does (tangential contact), the contact moves toward the root, the lever
-  arm shortens and the slope jumps (measured on the twin: about -170 µT/mm near 40 mm in tip
-  contact, -380 µT/mm once tangential); when the contact snaps to another equilibrium, z stalls
+  arm shortens and the slope jumps (on the twin it about doubles once tangential); when the
+  contact snaps to another equilibrium, z stalls
   or falls back. Either way the slope leaves its trend.
 - :func:`contact_onset_mm`: where the plane first touched the tip during the contact search. The
   step where |z| first exceeds the collision threshold lies threshold/slope past it (about 1 mm
@@ -154,8 +154,8 @@ def _wander(slopes: np.ndarray) -> float:
 
     A window's own standard error sees only the noise within it. The tip also sticks and slips
     on the plane as it is pushed in, and z wanders about its smooth course by tens of µT over a
-    few mm (measured on the twin's long-110mm push-ins: 10 µT RMS with 5.6 µT of noise); on a
-    build that reads 50 µT per mm of depth that moves a window's slope by 30 % and more. The
+    few mm, more than the noise alone; on a build that reads little per mm of depth that moves
+    a window's slope by a large share. The
     scatter of the differences between consecutive slopes measures it from the push-in itself.
     """
     return robust_sigma(np.diff(slopes)) / np.sqrt(2.0) if slopes.size >= 3 else 0.0

@@ -69,7 +69,7 @@ def check_world(world, geometry) -> None:
     ------
     UsageError
         When the world has no plane fixture, or its rig geometry or plane tilt differ from the
-        configuration's (the errors would be measured against the wrong line).
+        configuration's (the errors would be compared with the wrong line).
     """
     from whiskercal.errors import UsageError
 

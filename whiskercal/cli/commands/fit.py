@@ -123,7 +123,7 @@ def command(app: App, raw: str, out_path: str, degree: str, coordinates: str, sa
     Fits the surface z = f(x, y), traces the level set f = z from the root for the whisker's
     arc length at SAMPLES deflections (or solves the fitted mechanics for a tip contact), and
     stores the lookup z -> tip with the collision and filter settings the runtime uses. On a
-    twin dataset the lookup is also measured against the twin's true tips.
+    twin dataset the lookup is also compared with the twin's true tips.
 
     Every fit estimates its own RMS tip error without the truth (estimated_tip_error_mm, from
     how firmly the grid pins the suspension model down) and warns when it exceeds 0.25 mm or

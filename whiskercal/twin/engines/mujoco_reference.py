@@ -1,4 +1,4 @@
-"""Exact large-deflection references that the MuJoCo engine is measured against.
+"""Exact large-deflection references that the MuJoCo engine is compared with.
 
 A cantilever of length L and bending stiffness EI, clamped at an angle φ, carries a dead load P
 perpendicular to the undeformed axis at its tip (Bisshopp & Drucker, 1945). With α = P·L²/EI and

@@ -1,0 +1,216 @@
+"""Figures of the documentation: JSON snapshots under docs/figures/ rendered as tables.
+
+Every measured number a product page shows comes from a JSON that ``whiskercal bench`` or
+``whiskercal regress`` writes. ``make bench`` refreshes the snapshots (``snapshot``); ``make docs``
+renders them where a page holds a marker ``<!-- figure: NAME -->`` (``render``). A snapshot
+names the command that wrote it, and its table says so under it.
+
+    python scripts/docs_figures.py snapshot out/bench     # after whiskercal bench --out out/bench
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FIGURES = ROOT / "docs" / "figures"
+DATA = ROOT / "data"
+
+
+def _number(value, digits: int = 3) -> str:
+    if value is None or isinstance(value, str):
+        return "–" if value is None else value
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if not math.isfinite(float(value)):
+        return "–"
+    return f"{float(value):.{digits}g}"
+
+
+def _seconds(value) -> str:
+    """A time per call in the unit that keeps it readable."""
+    if value is None or not math.isfinite(float(value)):
+        return "–"
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("µs", 1e-6)):
+        if value >= scale:
+            return f"{value / scale:.3g} {unit}"
+    return f"{value / 1e-9:.3g} ns"
+
+
+# NAME -> the bench comparison it snapshots and the columns its table shows
+# (key in each row, header, format: "s" a time, else significant digits)
+BENCH_TABLES = {
+    "tip-extraction": [("method", "method", 0), ("kind", "interpolant", 0),
+                       ("setting", "setting", 0), ("setting_unit", "unit", 0),
+                       ("time_per_call_s", "time per call", "s"),
+                       ("error_vs_reference_mm", "RMS error vs converged trace (mm)", 2),
+                       ("error_vs_truth_mm", "RMS error vs twin truth (mm)", 3),
+                       ("default", "default", 0)],
+    "surface-degree": [("degree", "degree", 0), ("cv_rmse_uT", "CV RMS (µT)", 3),
+                       ("truth_rmse_uT", "RMS vs noise-free z (µT)", 3),
+                       ("tip_rmse_vs_truth_mm", "tip RMS vs truth (mm)", 3),
+                       ("time_per_call_s", "time per evaluation", "s"),
+                       ("default", "default", 0)],
+    "collection": [("series", "settle", 0), ("samples_per_point", "samples per point", 0),
+                   ("stage_time_s", "stage time (s)", 4),
+                   ("surface_vs_truth_rmse_uT", "surface RMS vs truth (µT)", 3),
+                   ("tip_rmse_vs_truth_mm", "tip RMS vs truth (mm)", 3), ("default", "default", 0)],
+    "sensor-family": [("build", "build", 0), ("variant", "data", 0), ("tip_model", "tip model", 0),
+                      ("estimated_tip_error_mm", "estimate (mm)", 2),
+                      ("tip_curve.rmse_mm", "true RMS (mm)", 2),
+                      ("tip_curve.max_mm", "true max (mm)", 2),
+                      ("field_table.written", "(Y, Z) table", 0),
+                      ("field_table.held_estimated_tip_error_mm", "table estimate, held (mm)", 2),
+                      ("field_table.shipped_realistic.rmse_mm", "with friction, true RMS (mm)", 2),
+                      ("warned", "warned", 0), ("silent_failure", "silent failure", 0)],
+    "twin-validate": [("name", "check", 0), ("value", "result", 2), ("limit", "limit", 2),
+                      ("ok", "passed", 0), ("detail", "detail", 0)],
+}
+# the command that writes each snapshot's source JSON (``make bench`` runs them into out/bench),
+# and where in it the table's rows are
+SOURCES = {"twin-validate": ("whiskercal twin validate --json", "checks")}
+# the recorded datasets' golden results (written by make record-data, checked by make regress)
+GOLDEN_ROWS = [("fit.tip_model", "tip model shipped by the regression's fit", 0),
+               ("fit.rmse_uT", "surface fit residual, RMS (µT)", 3),
+               ("fit.cv_rmse_uT", "surface fit residual, cross-validated RMS (µT)", 3),
+               ("fit.points_used", "grid points fitted", 0),
+               ("fit.lookup_vs_truth_rmse_mm", "lookup vs the twin's true tips, RMS (mm)", 3),
+               ("fit.lookup_vs_truth_max_mm", "lookup vs the twin's true tips, largest (mm)", 3),
+               ("study.target.depth_mm", "study: the chosen depth (mm)", 3),
+               ("study.target.z_uT", "study: the chosen target (µT)", 5),
+               ("study.failing_depths_mm", "study: failing depths (mm)", 3),
+               ("study.passing_mean_filtered_mm", "study: passing trials' mean filtered error (mm)",
+                2)]
+# one study trial's row in the recorded study's table: golden key suffix, header, digits
+STUDY_COLUMNS = [("depth", "depth (mm)", 0), ("contact_fraction", "contact", 2),
+                 ("median_z_uT", "median z (µT)", 5), ("filtered_mean_mm", "filtered mean (mm)", 2),
+                 ("filtered_std_mm", "filtered std (mm)", 2),
+                 ("true_filtered_mean_mm", "vs true tip (mm)", 2), ("n_slips", "slips", 0),
+                 ("failing", "failing", 0)]
+
+
+def _golden_value(value, digits: int) -> str:
+    if isinstance(value, list):
+        return ", ".join(_number(v, digits) for v in value) or "none"
+    return value if isinstance(value, str) else _number(value, digits)
+
+
+def _get(row: dict, key: str):
+    """``row[key]``, where a dotted key reaches into nested dicts (None where absent)."""
+    value = row
+    for part in key.split("."):
+        value = value.get(part) if isinstance(value, dict) else None
+    return value
+
+
+def _cell(row: dict, key: str, style) -> str:
+    value = _get(row, key)
+    if style == "s":
+        return _seconds(value)
+    if style == 0:
+        return _number(value) if isinstance(value, (bool, float)) or value is None else str(value)
+    return _number(value, style)
+
+
+def markdown_table(rows: list[dict], columns) -> str:
+    """A markdown table of ``rows`` with ``columns`` (key, header, format)."""
+    lines = ["| " + " | ".join(header for _, header, _ in columns) + " |",
+             "|" + " --- |" * len(columns)]
+    lines += ["| " + " | ".join(_cell(row, key, style).replace("|", "\\|")
+                                for key, _, style in columns) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _snapshot(name: str) -> dict:
+    path = FIGURES / f"{name}.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such figure snapshot (make bench writes it)")
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _bench_figure(name: str) -> str:
+    snap = _snapshot(name)
+    machine = snap["result"].get("machine", {})
+    where = ", ".join(f"{k} {machine[k]}" for k in ("python", "numpy", "cpu_count") if k in machine)
+    rows_key = SOURCES.get(name, ("", "rows"))[1]
+    return (markdown_table(snap["result"][rows_key], BENCH_TABLES[name])
+            + f"\n\n*From `docs/figures/{name}.json`, written by `{snap['written_by']}`"
+            + (f" ({where})" if where else "") + "."
+            + (" Times compare only within one run." if name not in SOURCES else "") + "*\n")
+
+
+def _golden_figure() -> str:
+    goldens = {p.parent.name: json.loads(p.read_text(encoding="utf-8"))
+               for p in sorted(DATA.glob("*/golden.json"))}
+    columns = [("quantity", "quantity", 0)] + [(n, n, 0) for n in goldens]
+    rows = []
+    for key, words, digits in GOLDEN_ROWS:
+        row = {"quantity": words}
+        for name, golden in goldens.items():
+            value = golden["quantities"].get(key, {}).get("value")
+            row[name] = _golden_value(value, digits or 6)
+        rows.append(row)
+    return (markdown_table(rows, columns) + "\n\n*From `data/*/golden.json`, written by "
+            "`make record-data` and checked by `make regress` (`whiskercal regress data`).*\n")
+
+
+def _study_figure(dataset: str) -> str:
+    path = DATA / dataset / "golden.json"
+    if not path.is_file():
+        raise KeyError(f"unknown figure study-{dataset}: no {path}")
+    golden = json.loads(path.read_text(encoding="utf-8"))
+    quantities, fit_args = golden["quantities"], " ".join(golden["pipeline"]["fit_args"])
+    depths = sorted({key.split("[")[1].split("mm]")[0] for key in quantities
+                     if key.startswith("study.trial[")}, key=float)
+    def trial(depth: str, key: str):
+        return quantities.get(f"study.trial[{depth}mm].{key}", {}).get("value")
+
+    rows = [{"depth": depth, **{key: trial(depth, key) for key, _, _ in STUDY_COLUMNS[1:]}}
+            for depth in depths]
+    target = quantities["study.target.z_uT"]["value"]
+    depth = quantities["study.target.depth_mm"]["value"]
+    return (markdown_table(rows, STUDY_COLUMNS) + f"\n\nTarget chosen: {target:.0f} µT at "
+            f"{depth:g} mm, through `whiskercal fit {fit_args}`. "
+            f"*From `data/{dataset}/golden.json`, written by `make record-data` and checked by "
+            "`make regress`.*\n")
+
+
+def render(name: str) -> str:
+    """The markdown a figure marker stands for."""
+    if name == "recorded-datasets":
+        return _golden_figure()
+    if name.startswith("study-"):
+        return _study_figure(name[len("study-"):])
+    if name in BENCH_TABLES:
+        return _bench_figure(name)
+    raise KeyError(f"unknown figure {name!r}; known: recorded-datasets, study-DATASET, "
+                   f"{', '.join(BENCH_TABLES)}")
+
+
+def snapshot(bench_dir: Path) -> list[Path]:
+    """Copy each tabled comparison's JSON from a bench directory into docs/figures/."""
+    written = []
+    for name in BENCH_TABLES:
+        source = bench_dir / f"{name}.json"
+        if not source.is_file():
+            continue
+        result = json.loads(source.read_text(encoding="utf-8"))
+        command = SOURCES.get(name, ("whiskercal bench" + (" --quick" if result.get("quick")
+                                                          else ""),))[0]
+        payload = {"written_by": command, "comparison": name,
+                   "snapshot_by": "make bench (scripts/docs_figures.py snapshot)",
+                   "result": result}
+        target = FIGURES / f"{name}.json"
+        target.write_text(json.dumps(payload, indent=1, allow_nan=True) + "\n", encoding="utf-8")
+        written.append(target)
+    return written
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] != "snapshot":
+        sys.exit("usage: python scripts/docs_figures.py snapshot BENCH_DIR")
+    for path in snapshot(Path(sys.argv[2])):
+        print(f"wrote {path.relative_to(ROOT)}")

@@ -1,6 +1,0 @@
-"""Share the raw-record makers of tests/model (tests/ is not a package)."""
-
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).parents[1] / "model"))
