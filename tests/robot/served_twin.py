@@ -1,6 +1,5 @@
 """The twin's mobile base served on a loopback rosbridge WebSocket for the robot tests."""
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,6 @@ CALIBRATION = Path(__file__).resolve().parents[1] / "fixtures" / "calibration-1.
 def following_calibration() -> Path:
     """The recorded default grid fitted, with its study's target (the follow tests'; about a
     minute, once per process)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "follow"))
     from tests_follow_artifact import calibration_path
 
     return calibration_path()
