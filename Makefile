@@ -62,7 +62,7 @@ bench: $(INSTALLED)
 
 # The site (mkdocs-material) into build/site; --strict: a broken link or a missing page fails it.
 docs: $(INSTALLED)
-	$(PY) -m mkdocs build --strict --quiet
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict --quiet
 
 clean:
 	rm -rf out build .pytest_cache
