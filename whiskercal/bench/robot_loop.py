@@ -3,7 +3,7 @@ twin's rosbridge server (``sim serve --robot``, its own process: WebSocket, JSON
 follower, and the twin answering in wall time) round each object at the sensor's 300 Hz and
 the paper's 30 Hz, beside the in-process run on the same seed at the same rate.
 
-Each robot run is measured against the served outline (the twin's object where ``sim serve``
+Each robot run is compared with the served outline (the twin's object where ``sim serve``
 says it stands), in the world frame with no alignment, by ``contour.summary``; the in-process
 run likewise. Rows also give the loop's latency (a sample's arrival to its twist sent), the
 transit (its stamp to its arrival), the samples the loop took against the stream's, and what
