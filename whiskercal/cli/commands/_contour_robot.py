@@ -93,7 +93,7 @@ def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_
             click.echo(f"stopped: the robot was sent a zero twist; the partial run is in {out}",
                        err=True)
             sys.exit(130)
-    _print(summarize_robot_run(record), as_json)
+    print_summary(summarize_robot_run(record), as_json)
 
 
 def _follow_config(config_path, speed_mm_s):
@@ -140,7 +140,8 @@ def _frames(text: str | None) -> tuple[str, str] | None:
     return parts[0], parts[1]
 
 
-def _print(summary: dict, as_json: bool) -> None:
+def print_summary(summary: dict, as_json: bool) -> None:
+    """A run's summary: JSON, or one key and value a line."""
     if as_json:
         echo_json(summary)
         return

@@ -8,7 +8,8 @@ from types import SimpleNamespace
 import click
 
 from whiskercal.cli.app import App, echo_json, force_option, pass_app
-from whiskercal.cli.commands._contour_robot import refuse_robot_options, robot_options, run_on_robot
+from whiskercal.cli.commands._contour_robot import (print_summary, refuse_robot_options, robot_options,
+                                                   run_on_robot)
 from whiskercal.errors import UsageError
 
 
@@ -98,7 +99,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     summary = summarize(record)
     if record_path is not None:
         summary["record"] = record.config["record"]["bag"]
-    _print(summary, as_json)
+    print_summary(summary, as_json)
     if record_path is not None and not as_json:
         rest = record.config["record"]["rest_field_uT"]
         click.echo(f"recorded {record_path} (replay it with --rest-uT {rest[1]:.3f} "
@@ -123,15 +124,7 @@ def report_command(run_path, out_dir, as_json, force) -> None:
     for output in report_paths(out_dir):
         refuse_input_as_output(output, [run_path])
     refuse_existing(report_paths(out_dir), force)
-    _print(write_report(read_contour_run(run_path), out_dir), as_json)
-
-
-def _print(summary: dict, as_json: bool) -> None:
-    if as_json:
-        echo_json(summary)
-        return
-    for key, value in summary.items():
-        click.echo(f"{key:22s} {value:.4g}" if isinstance(value, float) else f"{key:22s} {value}")
+    print_summary(write_report(read_contour_run(run_path), out_dir), as_json)
 
 
 @command.command("evaluate")
