@@ -255,14 +255,14 @@ def test_the_fit_summary_names_the_stage_offset_the_yz_model_found(capsys):
                                   "field_table_held_estimated_tip_error_mm": 0.007,
                                   "field_table": {"stage_offset_mm": [-0.0096, 0.0102],
                                                   "tip_sweep_points": 21}})
-    _report(data, 1.0, "cal.h5", as_json=True)
+    _report(data, 1.0, "cal.h5", as_json=True, timings_s={})
     assert json.loads(capsys.readouterr().out)["stage_offset_mm"] == [-0.0096, 0.0102]
-    _report(data, 1.0, "cal.h5", as_json=False)
+    _report(data, 1.0, "cal.h5", as_json=False, timings_s={})
     assert "stage     rods found y +0.0102 mm off their recorded places (x -0.0096 mm" in \
         capsys.readouterr().out
     # from a grid alone x is not fitted: the summary says so rather than print a zero
     data.metrics["field_table"]["tip_sweep_points"] = 0
-    _report(data, 1.0, "cal.h5", as_json=True)
+    _report(data, 1.0, "cal.h5", as_json=True, timings_s={})
     assert json.loads(capsys.readouterr().out)["stage_offset_mm"] == [None, 0.0102]
-    _report(data, 1.0, "cal.h5", as_json=False)
+    _report(data, 1.0, "cal.h5", as_json=False, timings_s={})
     assert "(x not fitted: no tip sweep; backlash, origin)" in capsys.readouterr().out
