@@ -216,7 +216,7 @@ def test_the_word_parser_knows_every_option_of_the_command_and_its_defaults():
     from whiskercal.cli.commands.fit import command
     from whiskercal.fit.args import FLAGS, VALUED
 
-    own = {"raw", "out_path", "as_json"}
+    own = {"raw", "out_path", "as_json", "force"}  # about the command's files, not the fit
     options = [p for p in command.params if p.name not in own]
     assert sorted(o for p in options for o in [*p.opts, *p.secondary_opts]) == \
         sorted([*VALUED, *FLAGS])
