@@ -30,7 +30,6 @@ def raw_file(tmp_path_factory):
                           config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
 
 
-@pytest.mark.slow
 def test_fit_json_summary_and_artifact(raw_file, tmp_path):
     out = tmp_path / "cal.h5"
     result = run("fit", NO_TABLE, str(raw_file), "--out", str(out), "--degree", "auto",
@@ -48,7 +47,6 @@ def test_fit_json_summary_and_artifact(raw_file, tmp_path):
     assert read_calibration(out).field_table is None
 
 
-@pytest.mark.slow
 def test_fit_text_output(raw_file, tmp_path):
     result = run("fit", NO_TABLE, str(raw_file), "--out", str(tmp_path / "cal.h5"))
     assert result.exit_code == 0
@@ -145,7 +143,6 @@ def test_fit_refuses_a_grid_that_stops_short_of_the_tip(tmp_path):
     assert "more than the 9.5 mm" in lines[0] and "--allow-extrapolation" in lines[0]
 
 
-@pytest.mark.slow
 def test_fit_with_allow_extrapolation_marks_the_range_for_inspect_and_runtime(tmp_path):
     from whiskercal import runtime
     from whiskercal.model.errors import ExtrapolationLimitError
@@ -170,7 +167,6 @@ def test_fit_with_allow_extrapolation_marks_the_range_for_inspect_and_runtime(tm
     assert calibration.extrapolated(z) and calibration.tracker().update(z).extrapolated
 
 
-@pytest.mark.slow
 def test_fit_a_raised_extension_limit_accepts_the_short_grid(tmp_path):
     points = paper_grid_mm()
     raw = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
@@ -180,7 +176,6 @@ def test_fit_a_raised_extension_limit_accepts_the_short_grid(tmp_path):
     assert not summary["extrapolated"] and summary["extension_limit_mm"] == 16.0
 
 
-@pytest.mark.slow
 def test_fit_warns_of_an_underfitting_surface_with_the_numbers(raw_file, tmp_path):
     out = tmp_path / "cal.h5"
     result = CliRunner().invoke(cli, ["fit", NO_TABLE, str(raw_file), "--out", str(out),
@@ -201,7 +196,6 @@ def _surface_warnings(warnings):
     return [w for w in warnings if not w.startswith("the tip error cannot be estimated")]
 
 
-@pytest.mark.slow
 def test_fit_reports_a_trace_length_option_that_overrides_the_recorded_one(raw_file, tmp_path):
     summary = json.loads(run("fit", NO_TABLE, str(raw_file), "--out", str(tmp_path / "cal.h5"),
                              "--trace-length-mm", "68", "--json").output)

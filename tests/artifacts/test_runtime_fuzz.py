@@ -43,7 +43,6 @@ def _quiet(call):
         return None
 
 
-@pytest.mark.slow
 @FUZZ
 @given(_ANY_Z, _POLICIES)
 def test_tip_gives_tips_or_a_package_error(z, policy):
@@ -65,7 +64,6 @@ def test_extrapolated_gives_flags_or_a_package_error(z):
         assert flags.shape == np.shape(z) and flags.dtype == bool
 
 
-@pytest.mark.slow
 @FUZZ
 @given(_POLICIES, st.lists(_ANY_Z, max_size=20))
 def test_tracker_updates_give_states_or_a_package_error(policy, samples):

@@ -102,7 +102,6 @@ def test_unknown_comparison_is_a_usage_error(tmp_path):
     assert result.exit_code == 2
 
 
-@pytest.mark.slow
 def test_tracker_speed_is_in_the_bench_json(tmp_path):
     result = CliRunner().invoke(cli, ["bench", "--quick", "--only", "tracker-speed", "--out",
                                       str(tmp_path), "--json"], catch_exceptions=False)

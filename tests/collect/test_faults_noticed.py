@@ -44,7 +44,6 @@ def _plan(tmp_path: Path, extra: str = ""):
     return build_plan(load_config(path))
 
 
-@pytest.mark.slow
 def test_frame_loss_above_the_limit_warns_with_both_counts(tmp_path):
     stage, sensor = _world_urls("drop=0.03&corrupt=0.01&seed=5")
     summary = collect(stage, sensor, tmp_path / "raw.h5", _plan(tmp_path))
@@ -94,7 +93,6 @@ def test_frame_loss_warning_threshold_is_strict_and_the_limit_is_validated(tmp_p
         load_config(path)
 
 
-@pytest.mark.slow
 def test_a_torn_dataset_says_truncated_with_its_journal_and_resumes(tmp_path):
     stage, sensor = _world_urls("seed=4")
     out, plan = tmp_path / "raw.h5", _plan(tmp_path)
@@ -119,7 +117,6 @@ def test_a_torn_dataset_says_truncated_with_its_journal_and_resumes(tmp_path):
     assert resumed.complete and grid.complete and sorted(grid.plan_index) == list(range(len(plan)))
 
 
-@pytest.mark.slow
 def test_a_torn_dataset_without_journal_says_so(tmp_path):
     stage, sensor = _world_urls("seed=4")
     out = tmp_path / "raw.h5"

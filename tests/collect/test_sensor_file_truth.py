@@ -78,7 +78,6 @@ trace_length_mm = 48.0
 """
 
 
-@pytest.mark.slow
 def test_a_config_giving_only_the_trace_length_collects_a_grid_for_that_build(tmp_path):
     raw = read_raw_grid(_collect_on_twin(tmp_path, SHORT_BUILD, ONLY_THE_TRACE_LENGTH, seed=4)[0])
     reach = np.hypot(*raw.rod_center_mm.T)

@@ -90,7 +90,6 @@ def test_full_grid_on_the_twin_with_truth(tmp_path):
     assert np.abs(grid.truth["z_uT"]).max() < grid.config["safety"]["overload_z_uT"]
 
 
-@pytest.mark.slow
 def test_stock_grbl_twin_collects_with_commanded_positions(tmp_path):
     stage, sensor = urls("stock=1&homing=xy")
     config = load_config(fast_config(tmp_path, SMALL))
@@ -108,7 +107,6 @@ def test_stock_grbl_twin_collects_with_commanded_positions(tmp_path):
     assert_matches_truth(grid)
 
 
-@pytest.mark.slow
 def test_corrupt_bytes_and_dropped_frames_are_counted(tmp_path):
     stage, sensor = urls("corrupt=0.01&drop=0.01&seed=3")
     plan = build_plan(load_config(fast_config(tmp_path, SMALL)))
@@ -125,7 +123,6 @@ def test_corrupt_bytes_and_dropped_frames_are_counted(tmp_path):
     assert_matches_truth(grid)  # lost frames cost samples, never wrong values
 
 
-@pytest.mark.slow
 def test_missed_steps_stop_the_run_with_the_encoder_message(tmp_path):
     stage, sensor = urls(f"fault=missed_steps@{MID_GRID_S}:1.0")
     out = tmp_path / "raw.h5"
@@ -138,7 +135,6 @@ def test_missed_steps_stop_the_run_with_the_encoder_message(tmp_path):
     assert 0 < len(read_raw_grid(out)) < 180
 
 
-@pytest.mark.slow
 def test_unplugged_sensor_saves_the_points_and_exits_non_zero(tmp_path):
     stage, sensor = urls("", f"fault=disconnect@{MID_GRID_S}")
     out = tmp_path / "raw.h5"
@@ -275,7 +271,6 @@ def test_collect_over_sim_serve_ptys_like_real_ports(tmp_path):
     assert np.all(grid.z_uT < 0)  # every point pushes the whisker to -y
 
 
-@pytest.mark.slow
 def test_a_truncated_file_without_its_journal_says_so_on_resume(tmp_path):
     out = tmp_path / "raw.h5"
     collect(*urls("seed=6"), out, build_plan(load_config(fast_config(tmp_path, SMALL))))

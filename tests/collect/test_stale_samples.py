@@ -16,7 +16,6 @@ import uuid
 
 import h5py
 import numpy as np
-import pytest
 
 from whiskercal.collect.config import load_config
 from whiskercal.artifacts.raw_grid import read_raw_grid
@@ -102,7 +101,6 @@ class StallingStage(StageClient):
             self.driver.stall(STALL_S)
 
 
-@pytest.mark.slow
 def test_a_stalled_host_averages_only_samples_taken_at_rest(tmp_path):
     config_path = tmp_path / "collect.toml"
     config_path.write_text(CONFIG)

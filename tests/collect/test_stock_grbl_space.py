@@ -65,7 +65,6 @@ def _assert_same_places(stock_out, firmware_out, plan) -> None:
     np.testing.assert_allclose(grid.rod_center_mm, grid.truth["rod_center_mm"], atol=0.02 + STEP_MM)
 
 
-@pytest.mark.slow
 def test_stock_grbl_reaches_the_firmwares_positions_in_its_negative_machine_space(tmp_path,
                                                                                  firmware_run):
     name = _name()
@@ -80,7 +79,6 @@ def test_stock_grbl_reaches_the_firmwares_positions_in_its_negative_machine_spac
     _assert_same_places(out, firmware_run, plan)
 
 
-@pytest.mark.slow
 def test_stock_grbl_reporting_wpos_reaches_the_same_positions(tmp_path, firmware_run):
     name = _name()
     url = f"sim://{name}/stage?seed=11&stock=1&homing=xy"
@@ -97,7 +95,6 @@ def test_stock_grbl_reporting_wpos_reaches_the_same_positions(tmp_path, firmware
     _assert_same_places(out, firmware_run, plan)
 
 
-@pytest.mark.slow
 def test_a_soft_limit_alarm_mid_run_is_recovered_and_the_run_resumes(tmp_path):
     name = _name()
     plan = _plan(tmp_path)

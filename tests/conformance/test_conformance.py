@@ -44,7 +44,6 @@ def _cases(board, checks):
                                  marks=pytest.mark.hardware) for check in checks]
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("port,check", _cases("stage", stage_script.STAGE_CHECKS), indirect=["port"])
 def test_stage(port, check):
     check(port)

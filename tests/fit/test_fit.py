@@ -92,7 +92,6 @@ def test_write_round_trips_through_the_artifact_reader(recorded, tmp_path):
     assert data.config["options"]["trace_length_mm"] == result.calibration_options.trace_length_mm
 
 
-@pytest.mark.slow
 def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
     result = fit(rigid_raw, _options(samples=8, threshold_uT=250.0))
     assert result.truth is None and compare_with_twin_truth(rigid_raw, result.calibration) is None
@@ -105,7 +104,6 @@ def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
     assert [w.split(":")[0] for w in result.warnings] == ["the tip error cannot be estimated"]
 
 
-@pytest.mark.slow
 def test_the_default_fit_withholds_a_table_it_cannot_fit_and_still_calibrates(rigid_raw):
     # a rigid root gives the (Y, Z) model nothing to fit either: no table, one warning, and the
     # z lookup ships as it would with --no-field-table
@@ -131,7 +129,6 @@ def test_a_grid_with_too_few_contacts_for_the_table_gets_none(tmp_path):
                               "the z lookup"]
 
 
-@pytest.mark.slow
 def test_options_reach_the_model(rigid_raw):
     result = fit(rigid_raw, _options(degree=3, coordinates="cartesian", interpolant="linear",
                                        trace_length_mm=68.0, rod_correction=False))
@@ -144,7 +141,6 @@ def test_options_reach_the_model(rigid_raw):
                                   "70 mm of the raw grid's rig config")
 
 
-@pytest.mark.slow
 def test_a_grid_short_of_the_tip_is_refused_or_marked(rigid_raw):
     # the grid reaches 65 mm: a 78 mm trace extrapolates about 14 mm past it
     with pytest.raises(ExtrapolationLimitError, match="--allow-extrapolation"):

@@ -54,7 +54,6 @@ def test_an_artifact_without_a_target_is_refused_with_one_line(tmp_path):
     assert not (tmp_path / "run.h5").exists()
 
 
-@pytest.mark.slow
 def test_a_short_wall_run_reports_an_open_outline(tmp_path):
     _, summary = _run_and_report(tmp_path, "wall", 10)
     assert summary["shape"] == "wall" and summary["time_to_go_round_s"] is None

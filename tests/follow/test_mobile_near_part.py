@@ -4,7 +4,6 @@ contact, bit for bit, as against the whole outline."""
 import math
 
 import numpy as np
-import pytest
 
 from whiskercal.contour.run import start_pose
 from whiskercal.twin.mobile import MobileSensor
@@ -27,7 +26,6 @@ def _pressed_and_slid(robot, heading_rad):
     return np.array(zs), kinds
 
 
-@pytest.mark.slow
 def test_the_near_edges_give_the_same_contact_as_the_whole_outline():
     shape = outline("octagon")
     pose = start_pose(shape, 20.0, 5.0, np.random.default_rng(4), DEFAULT_SENSOR.whisker.reach_mm)

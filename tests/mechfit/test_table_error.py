@@ -63,7 +63,6 @@ def test_the_held_estimate_decides_and_one_readings_is_warned():
     assert not write and f"0.60 mm RMS for a contact held {HELD_SAMPLES} samples" in warnings[0]
 
 
-@pytest.mark.slow
 def test_a_held_contact_shrinks_a_slopes_noise_but_not_two_branches():
     fields, tips = _smooth_loads(mm_per_uT=0.1)  # steep: one reading's noise costs about 1 mm
     y_range = (-2000.0, 0.0)

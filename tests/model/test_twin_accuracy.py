@@ -51,7 +51,6 @@ def test_lookup_against_the_twins_true_tips(grid):
     assert calibration.fit.r2 > 0.999
 
 
-@pytest.mark.slow
 def test_rod_correction_and_fitting_the_traced_region_both_pay(grid):
     best = truth_rmse_mm(fit(grid))
     assert best < truth_rmse_mm(fit(grid, correct_rod_radius=False))

@@ -158,7 +158,6 @@ def test_any_bytes_in_any_chunking_decode_alike_and_never_raise(data, cuts):
                 min_size=10, max_size=10),
        st.lists(st.booleans(), min_size=10, max_size=10),
        st.lists(st.integers(0, 10_000), max_size=8))
-@pytest.mark.slow
 def test_frames_survive_stray_bytes_between_them(frames, noise, between, cuts):
     """Stray bytes without a sync byte cost no frame, and each run is one corruption event."""
     data = b"".join((noise[i] if between[i] else b"") + frame for i, frame in enumerate(frames))

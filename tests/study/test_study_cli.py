@@ -28,7 +28,6 @@ def _invoke(*args):
     return CliRunner().invoke(cli, list(args), catch_exceptions=False)
 
 
-@pytest.mark.slow
 def test_run_then_resume_after_an_unplugged_sensor(tmp_path):
     config = tmp_path / "small.toml"
     config.write_text(SMALL)
@@ -96,7 +95,6 @@ def test_a_twin_without_the_plane_is_refused(tmp_path):
     assert not (tmp_path / "s.h5").exists()
 
 
-@pytest.mark.slow
 def test_overload_on_the_twin_backs_off_and_keeps_the_finished_trials(tmp_path):
     from whiskercal.twin.world import get_world
 

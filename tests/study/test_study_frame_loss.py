@@ -45,7 +45,6 @@ def test_a_lossy_link_warns_with_dropped_and_corrupt_apart(tmp_path):
     assert trial.attrs["dropped"] > 0 and trial.attrs["corrupt"] > 0
 
 
-@pytest.mark.slow
 def test_a_raised_limit_or_a_clean_link_do_not_warn(tmp_path):
     result, _ = _run(tmp_path, "drop=0.03&corrupt=0.01&seed=6", "[safety]\nmax_frame_loss = 0.5\n")
     assert result.exit_code == 0 and "warning:" not in result.output
