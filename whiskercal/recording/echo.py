@@ -30,7 +30,8 @@ POSE_KEYS = (("pose.pose.position.", "pose.pose.orientation."),
 
 
 def documents(path: str | Path) -> list[dict[str, str]]:
-    """Each message of the log as a flat dict (``"header.stamp.secs"`` -> its text)."""
+    """Each message of the log as a flat dict (``"header.stamp.secs"`` -> its text); a log with
+    none is refused."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
@@ -59,6 +60,8 @@ def documents(path: str | Path) -> list[dict[str, str]]:
             current[".".join(name for _, name in stack)] = value.strip()
     if current:
         found.append(current)
+    if not found:
+        raise UsageError(f"{path}: the log holds no message")
     return found
 
 
@@ -85,8 +88,6 @@ def read_echo(path: str | Path, field_unit: str | None = None) -> Recording:
     """The field messages of an echo log (three axes where it has X, Y and Z, else Y)."""
     path = Path(path)
     docs = documents(path)
-    if not docs:
-        raise UsageError(f"{path}: the log holds no message")
     prefix = next((p for p in FIELD_KEYS if f"{p}y" in docs[0]), None)
     if prefix is None:
         raise UsageError(f"{path}: the messages hold no magnetic field (magnetic_field.x/y/z or "
@@ -111,8 +112,6 @@ def read_echo_poses(path: str | Path) -> Poses:
 
     path = Path(path)
     docs = documents(path)
-    if not docs:
-        raise UsageError(f"{path}: the log holds no message")
     keys = next((k for k in POSE_KEYS if f"{k[0]}x" in docs[0]), None)
     if keys is None:
         raise UsageError(f"{path}: the messages hold no pose (pose.position, pose.pose.position or "
