@@ -210,3 +210,14 @@ def test_static_reading_is_the_fake_offset(tmp_path):
 def test_an_output_in_a_missing_directory_is_one_clear_error(tmp_path):
     with pytest.raises(UsageError, match="no such directory"):
         run(tmp_path / "missing")
+
+
+def test_the_step_count_places_the_rod_where_the_encoder_agrees_else_the_encoder():
+    from whiskercal.collect.loop import STEP_COUNT_AGREES_MM, rod_position_mm
+
+    step = np.array([10.0125, 5.0])
+    within = step + [0.5 * STEP_COUNT_AGREES_MM, -0.5 * STEP_COUNT_AGREES_MM]
+    np.testing.assert_array_equal(rod_position_mm(step, within), step)
+    slipped = step + [0.0, 3.0 * STEP_COUNT_AGREES_MM]  # lost steps the encoder saw
+    np.testing.assert_array_equal(rod_position_mm(step, slipped), slipped)
+    np.testing.assert_array_equal(rod_position_mm(step, [np.nan, np.nan]), step)  # no encoder

@@ -28,6 +28,27 @@ from whiskercal.session.rig_session import POLL_S
 
 __all__ = ["Collector", "Devices", "EncoderMismatchError", "Progress"]
 
+# Two quanta of an AS5600 on a 40 mm belt turn (40/4096 mm): an encoder reading this close to the
+# step count agrees with it, whichever way it rounded.
+STEP_COUNT_AGREES_MM = 0.02
+
+
+def rod_position_mm(step_mm, encoder_mm) -> np.ndarray:
+    """Where the carriage stands (stage mm): the step count where the encoder agrees with it to
+    within the encoder's resolution (``STEP_COUNT_AGREES_MM``), else the encoder.
+
+    The step count resolves a microstep (1/80 mm on the default stage) where a magnetic encoder
+    reads a quantum of about 1/100 mm and its nonlinearity on top; the field's slope near the
+    tip turns that quantum into more than the noise of a point's mean (docs/calibration.md,
+    "Where the rod stands"). The encoder still checks every point (``_check_encoder``): where the
+    two part by more than its resolution, steps were lost and the encoder is the measurement.
+    """
+    step = np.asarray(step_mm, float)
+    encoder = np.asarray(encoder_mm, float)
+    if not np.all(np.isfinite(encoder)) or np.max(np.abs(encoder - step)) <= STEP_COUNT_AGREES_MM:
+        return step.copy()
+    return encoder.copy()
+
 
 class Collector:
     """Runs one collection session over the points of ``plan`` not yet in ``checkpoint``.
@@ -167,9 +188,8 @@ class Collector:
     def _record(self, index: int, status, encoder: np.ndarray, block) -> PointRecord:
         mean, std, n_valid = field_stats(block)
         dropped, corrupt = self.recorder.take_counts()
-        measured = encoder if np.all(np.isfinite(encoder)) else status.mpos_mm
         return PointRecord(plan_index=index, commanded_mm=self.plan.stage_mm[index].copy(),
-                           encoder_mm=encoder, rod_center_mm=self.plan.to_whisker(measured),
+                           encoder_mm=encoder, rod_center_mm=self.plan.to_whisker(rod_position_mm(status.mpos_mm, encoder)),
                            field_mean_uT=mean, field_std_uT=std, n_samples=n_valid,
                            t_start_s=float(block.t_s[0]), t_end_s=float(block.t_s[-1]),
                            dropped=dropped, corrupt=corrupt)
