@@ -12,9 +12,11 @@ from rawfile import write_raw_grid
 from whiskercal.cli import cli
 
 FIXTURE = Path(__file__).parents[1] / "fixtures" / "calibration-1.0.0.h5"
-# These tests are about the rest of the fit; the (Y, Z) table adds 30-60 s to a fit of a
-# sensor's grid (tests/fit/test_tip_model.py tests the default, which writes it).
-NO_TABLE = "--no-field-table"
+# These tests are about the rest of the fit, on a rigid root's analytic grid: the level set,
+# asked for (no suspension to fit, so the default refuses such a grid: tests/fit/test_fit.py),
+# without the (Y, Z) table, which adds 30-60 s to a fit of a sensor's grid
+# (tests/fit/test_tip_model.py tests the default, which writes it).
+LEVEL_SET = ("--no-field-table", "--tip-model", "level-set")
 
 
 def run(*args):
@@ -32,7 +34,7 @@ def raw_file(tmp_path_factory):
 
 def test_fit_json_summary_and_artifact(raw_file, tmp_path):
     out = tmp_path / "cal.h5"
-    result = run("fit", NO_TABLE, str(raw_file), "--out", str(out), "--degree", "auto",
+    result = run("fit", *LEVEL_SET, str(raw_file), "--out", str(out), "--degree", "auto",
                  "--samples", "12", "--json")
     assert result.exit_code == 0, result.output
     summary = json.loads(result.output)
@@ -48,7 +50,7 @@ def test_fit_json_summary_and_artifact(raw_file, tmp_path):
 
 
 def test_fit_text_output(raw_file, tmp_path):
-    result = run("fit", NO_TABLE, str(raw_file), "--out", str(tmp_path / "cal.h5"))
+    result = run("fit", *LEVEL_SET, str(raw_file), "--out", str(tmp_path / "cal.h5"))
     assert result.exit_code == 0
     assert result.output.splitlines()[0] == f"wrote {tmp_path / 'cal.h5'}"
     assert "hold-out RMSE" in result.output
@@ -118,7 +120,7 @@ def test_fit_a_twin_grid_reports_the_lookup_against_truth(tmp_path):
 
     raw = write_twin_raw(tmp_path / "twin.h5", twin_grid(noise_uT=1.0, seed=2))
     out = tmp_path / "cal.h5"
-    summary = json.loads(run("fit", NO_TABLE, str(raw), "--out", str(out), "--degree", "auto",
+    summary = json.loads(run("fit", *LEVEL_SET, str(raw), "--out", str(out), "--degree", "auto",
                              "--json").output)
     assert 0 < summary["lookup_vs_truth_rmse_mm"] <= summary["lookup_vs_truth_max_mm"]
     from whiskercal.artifacts.calibration import read_calibration
@@ -151,7 +153,7 @@ def test_fit_with_allow_extrapolation_marks_the_range_for_inspect_and_runtime(tm
     raw = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 78.0}})
     out = tmp_path / "cal.h5"
-    summary = json.loads(run("fit", NO_TABLE, str(raw), "--out", str(out), "--allow-extrapolation",
+    summary = json.loads(run("fit", *LEVEL_SET, str(raw), "--out", str(out), "--allow-extrapolation",
                              "--json").output)
     assert summary["extrapolated"] and summary["trusted_z_uT"] is None
     assert summary["extension_max_mm"] > summary["extension_limit_mm"] == 9.5
@@ -171,14 +173,14 @@ def test_fit_a_raised_extension_limit_accepts_the_short_grid(tmp_path):
     points = paper_grid_mm()
     raw = write_raw_grid(tmp_path / "raw.h5", points, rigid_z(points), 0.0, "analytic-rigid",
                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 78.0}})
-    summary = json.loads(run("fit", NO_TABLE, str(raw), "--out", str(tmp_path / "cal.h5"),
+    summary = json.loads(run("fit", *LEVEL_SET, str(raw), "--out", str(tmp_path / "cal.h5"),
                              "--max-extension-mm", "16", "--json").output)
     assert not summary["extrapolated"] and summary["extension_limit_mm"] == 16.0
 
 
 def test_fit_warns_of_an_underfitting_surface_with_the_numbers(raw_file, tmp_path):
     out = tmp_path / "cal.h5"
-    result = CliRunner().invoke(cli, ["fit", NO_TABLE, str(raw_file), "--out", str(out),
+    result = CliRunner().invoke(cli, ["fit", *LEVEL_SET, str(raw_file), "--out", str(out),
                                          "--degree", "1"], catch_exceptions=False)
     assert result.exit_code == 0
     assert "warning   the surface under-fits: its CV RMSE" in result.stderr
@@ -186,7 +188,7 @@ def test_fit_warns_of_an_underfitting_surface_with_the_numbers(raw_file, tmp_pat
 
     warnings = _surface_warnings(read_calibration(out).metrics["warnings"])
     assert len(warnings) == 1 and "1.02 µT noise expected at the grid points" in warnings[0]
-    good = json.loads(run("fit", NO_TABLE, str(raw_file), "--out", str(out), "--degree", "5",
+    good = json.loads(run("fit", *LEVEL_SET, str(raw_file), "--out", str(out), "--degree", "5",
                           "--force", "--json").output)
     assert _surface_warnings(good["warnings"]) == [] and good["cv_rmse"] < 2 * good["expected_noise_uT"]
 
@@ -197,7 +199,7 @@ def _surface_warnings(warnings):
 
 
 def test_fit_reports_a_trace_length_option_that_overrides_the_recorded_one(raw_file, tmp_path):
-    summary = json.loads(run("fit", NO_TABLE, str(raw_file), "--out", str(tmp_path / "cal.h5"),
+    summary = json.loads(run("fit", *LEVEL_SET, str(raw_file), "--out", str(tmp_path / "cal.h5"),
                              "--trace-length-mm", "68", "--json").output)
     assert _surface_warnings(summary["warnings"]) == [
         "the trace length 68 mm of --trace-length-mm overrides the 70 mm of the raw grid's rig config"]
@@ -216,7 +218,7 @@ def test_fit_reports_a_rig_config_that_disagrees_with_the_twin_sensor(tmp_path):
                          DEFAULT_SENSOR.sensor_id,
                          config={"rig": {"rod_radius_mm": grid.rod_radius_mm,
                                          "trace_length_mm": 77.0}})
-    summary = json.loads(run("fit", NO_TABLE, str(raw), "--out", str(tmp_path / "cal.h5"),
+    summary = json.loads(run("fit", *LEVEL_SET, str(raw), "--out", str(tmp_path / "cal.h5"),
                              "--json").output)
     expected = (f"the trace length 77 mm of the raw grid's rig config overrides the "
                 f"{DEFAULT_SENSOR.whisker.reach_mm:g} mm of the twin sensor "
@@ -231,7 +233,7 @@ RECORDED_GRID = Path(__file__).parents[2] / "data" / "twin-paper-75mm" / "raw_gr
 def test_fit_in_cartesian_degree_8_on_the_recorded_grid(tmp_path):
     # an entry crossing that fell exactly between the vectorized and the scalar surface's last
     # bits once made the root finder raise: the recorded grid at these options reproduced it
-    result = run("fit", NO_TABLE, str(RECORDED_GRID), "--out", str(tmp_path / "c.h5"),
+    result = run("fit", *LEVEL_SET, str(RECORDED_GRID), "--out", str(tmp_path / "c.h5"),
                  "--coordinates", "cartesian", "--degree", "8", "--json")
     assert result.exit_code == 0
     summary = json.loads(result.output)

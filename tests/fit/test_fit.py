@@ -18,7 +18,7 @@ from whiskercal.artifacts.raw_grid import read_raw_grid
 from whiskercal.errors import UsageError
 from whiskercal.fit import (FitOptions, compare_with_twin_truth, fit, options_from_args,
                             resolve_trace_length)
-from whiskercal.model.errors import ExtrapolationLimitError, FitError
+from whiskercal.model.errors import ExtrapolationLimitError, FitError, ModelError
 
 ROOT = Path(__file__).resolve().parents[2]
 RECORDED = ROOT / "data" / "twin-short-60mm"
@@ -93,21 +93,31 @@ def test_write_round_trips_through_the_artifact_reader(recorded, tmp_path):
 
 
 def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
-    result = fit(rigid_raw, _options(samples=8, threshold_uT=250.0))
+    result = fit(rigid_raw, _options(samples=8, threshold_uT=250.0, tip_model="level-set"))
     assert result.truth is None and compare_with_twin_truth(rigid_raw, result.calibration) is None
     assert not any(name.startswith(("lookup_vs_truth", "contact_error")) for name in result.metrics)
     assert result.artifact_data().truth is None
     assert result.artifact_data().collision["threshold_uT"] == 250.0
     assert len(result.calibration.lookup.z_knots_uT) == 8
-    # a rigid root gives the suspension model nothing to fit: the fit says its error is unknown
+    # a rigid root gives the suspension model nothing to fit: the level set, asked for, ships
+    # and the fit says its error is unknown
     assert result.metrics["tip_model"] == "level-set"
     assert [w.split(":")[0] for w in result.warnings] == ["the tip error cannot be estimated"]
 
 
+def test_the_default_fit_refuses_a_grid_no_model_can_estimate_and_says_what_to_change(rigid_raw):
+    with pytest.raises(ModelError) as refused:
+        fit(rigid_raw, _options(samples=8))
+    message = str(refused.value)
+    assert message.startswith("no tip model's error can be estimated from this grid")
+    assert "[sweep]" in message and "trace_length_mm" in message
+    assert "--tip-model level-set" in message
+
+
 def test_the_default_fit_withholds_a_table_it_cannot_fit_and_still_calibrates(rigid_raw):
     # a rigid root gives the (Y, Z) model nothing to fit either: no table, one warning, and the
-    # z lookup ships as it would with --no-field-table
-    result = fit(rigid_raw, FitOptions(samples=8))
+    # z lookup asked for ships as it would with --no-field-table
+    result = fit(rigid_raw, FitOptions(samples=8, tip_model="level-set"))
     assert result.field_table is None and result.artifact_data().field_table is None
     assert result.metrics["tip_model"] == "level-set"
     assert np.isnan(result.metrics["field_table_estimated_tip_error_mm"])

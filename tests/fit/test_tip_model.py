@@ -90,21 +90,26 @@ def test_an_unknown_tip_model_is_one_line(tmp_path):
 @pytest.mark.slow
 def test_fit_without_options_tries_the_table_and_no_field_table_skips_it(tmp_path):
     # the default's wiring through the command, on a grid that fits in seconds: a rigid root
-    # (no suspension) ships the level set and gets the table withheld, with its warning; the
-    # default writing a table on the recorded grid is tested above
+    # (no suspension) has no model whose error can be estimated, so the default refuses it in
+    # one line; the level set asked for ships and gets the table withheld, with its warning;
+    # the default writing a table on the recorded grid is tested above
     # (tests/regress/test_cli_regress.py: fit.tip_model, fit.field_table_written)
     points = paper_grid_mm()
     z = rigid_z(points) + np.random.default_rng(1).normal(0.0, 1.0, len(points))
     raw = write_raw_grid(tmp_path / "raw.h5", points, z, 0.0, "analytic-rigid",
                          config={"rig": {"rod_radius_mm": 0.0, "trace_length_mm": 70.0}})
+    refused = CliRunner().invoke(cli, ["fit", str(raw), "--out", str(tmp_path / "r.h5")])
+    assert refused.exit_code != 0 and not (tmp_path / "r.h5").exists()
+    assert "no tip model's error can be estimated" in refused.output
+    assert len(refused.output.strip().splitlines()) == 1
     default = CliRunner().invoke(cli, ["fit", str(raw), "--out", str(tmp_path / "a.h5"),
-                                       "--json"])
+                                       "--tip-model", "level-set", "--json"])
     assert default.exit_code == 0, default.output
     summary = json.loads(default.stdout)
     assert summary["tip_model"] == "level-set" and summary["field_table_written"] is False
     assert any(w.startswith("no (Y, Z) table written") for w in summary["warnings"])
     skipped = CliRunner().invoke(cli, ["fit", str(raw), "--out", str(tmp_path / "b.h5"),
-                                       "--no-field-table", "--json"])
+                                       "--tip-model", "level-set", "--no-field-table", "--json"])
     assert skipped.exit_code == 0, skipped.output
     summary = json.loads(skipped.stdout)
     assert "field_table_written" not in summary

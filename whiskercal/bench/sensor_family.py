@@ -12,6 +12,11 @@ the grid's z range, and on realistic contacts (planes tilted 0-40°, μ 0-0.4), 
 runtime reads it. A build is a *silent failure* when its true RMS exceeds 0.25 mm and the fit neither
 warned nor refused. Beside each shipped table or loads, the same read through a perfect
 calibration's (``noise_floor``) tells a miss of the noise's from one of the fit's.
+
+Simulated grids are the fit's alone; a lab's calibration is a session. So the same builds, and
+builds drawn at random over the whole span, are calibrated through ``collect`` on fresh twin
+sessions (``bench.sessions``: the stage's backlash and encoder, the sweep, every seed's noise),
+each build's worst seed and spread reported under ``sessions``.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.bench import pressed_contacts as pressed
+from whiskercal.bench import sessions
 from whiskercal.bench import tip_accuracy as accuracy
 from whiskercal.testing import fields as twin_data
 from whiskercal.bench.timing import machine_info
@@ -47,6 +53,11 @@ FAMILY = accuracy.FAMILY + (
                                   root_rotational_stiffness_n_mm_per_rad=6.0)),
 )
 QUICK_BUILDS = 1
+# the sessions through collect: each build on these seeds, and this many builds drawn at random
+# from DRAW_SEED besides the family's (``bench.sessions``)
+SESSION_SEEDS = (1, 2, 3, 4, 5)
+DRAWN_BUILDS = 30
+DRAW_SEED = 41
 # the issue's goal for tip contacts against planes tilted 0-40° with friction μ 0-0.4 (mm RMS)
 REALISTIC_GOAL_MM = 0.3
 
@@ -205,9 +216,12 @@ def _floor_mm(row: dict) -> float:
 
 
 def run(quick: bool = False, progress: Callable[[dict], None] | None = None, seed: int = 0,
-        variants: tuple[str, ...] = VARIANTS) -> dict:
+        variants: tuple[str, ...] = VARIANTS, session_seeds: tuple[int, ...] = SESSION_SEEDS,
+        drawn: int = DRAWN_BUILDS) -> dict:
     """Every build of the family (the default only when ``quick``), calibrated from its grid
-    alone and with the tip sweep (``variants``), and compared with the twin's truth."""
+    alone and with the tip sweep (``variants``), and compared with the twin's truth; then the
+    family and ``drawn`` builds drawn at random, each on every one of ``session_seeds``, through
+    ``collect`` and ``fit`` (``bench.sessions``; the default sensor on one seed when ``quick``)."""
     say = progress or (lambda _row: None)
     builds = FAMILY[:QUICK_BUILDS] if quick else FAMILY
     rows = []
@@ -216,6 +230,9 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
             swept = VARIANTS.index(variant) == 1
             rows.append(measure(sensor, seed, swept, with_table=not quick))
             say(rows[-1])
+    session_builds = list(builds) + ([] if quick else sessions.draw_builds(drawn, DRAW_SEED))
+    session_rows = sessions.run_sessions(session_builds, session_seeds[:1] if quick
+                                         else session_seeds, progress=say)
     silent = [r["label"] if "label" in r else r["build"] for r in rows if r["silent_failure"]]
     silent += [f"{r['label']}: (Y, Z) table on realistic contacts" for r in rows
                if r.get("field_table", {}).get("silent_failure")]
@@ -229,6 +246,16 @@ def run(quick: bool = False, progress: Callable[[dict], None] | None = None, see
                   "goal_rmse_mm": WARN_TIP_ERROR_MM,
                   "goal_max_mm": 0.5, "seed": seed},
         "rows": rows,
+        "sessions": {"rows": session_rows, "per_build": sessions.per_build(session_rows),
+                     "draw": {"seed": DRAW_SEED, "length_mm": sessions.LENGTH_MM,
+                              "diameter_mm": sessions.DIAMETER_MM,
+                              "stiffness_ratio": sessions.STIFFNESS_RATIO},
+                     "goals_mm": {"rmse": sessions.GOAL_RMSE_MM, "max": sessions.GOAL_MAX_MM,
+                                  "realistic_held": sessions.GOAL_REALISTIC_MM,
+                                  "default_sensor_rmse": sessions.GOAL_DEFAULT_MM},
+                     "honest_factor": sessions.HONEST_FACTOR,
+                     "missing_goal": [f"{r['build']} seed {r['seed']}" for r in session_rows
+                                      if not sessions.meets_goal(r)]},
         "pareto": {"x": "fit_s", "y": "error_vs_truth_mm", "series": ["variant"],
                    "label": "label", "x_label": "fit time (s)",
                    "y_label": "tip RMS error vs twin truth (mm)"},

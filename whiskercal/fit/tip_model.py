@@ -30,8 +30,9 @@ import numpy as np
 
 from whiskercal.errors import UsageError
 from whiskercal.fit.options import TIP_MODELS
-from whiskercal.mechfit.identify import (MAX_CHI2_PER_DOF, MechanicsCalibration,
-                                         calibrate_mechanics, tip_change_mm)
+from whiskercal.mechfit.identify import (IGNORED_DELTA_CHI2, MAX_CHI2_PER_DOF,
+                                         MechanicsCalibration, calibrate_mechanics,
+                                         tip_change_mm)
 from whiskercal.mechfit.joint_lookup import JointLookup
 from whiskercal.model.calibrate import Calibration, contact_mask
 from whiskercal.model.errors import ModelError
@@ -42,6 +43,12 @@ from whiskercal.model.lookup import LookupReport
 WARN_TIP_ERROR_MM = 0.25
 # the tip model's name when the (Y, Z) joint fit's z lookup ships (``adopt_joint_lookup``)
 JOINT_TIP_MODEL = "mechanics-yz"
+# what a calibration that cannot be estimated should change, in the refusal's words
+WHAT_TO_CHANGE = ("Change the plan: the tip sweep on (collect's [sweep] enabled = true), with "
+                  "more angles or offsets nearer the tip ([sweep] angles, offsets_mm), or a reach "
+                  "band closer to the tip ([grid] reach_max_mm); check the build's trace length "
+                  "([rig] trace_length_mm); or ship a model knowingly with --tip-model level-set "
+                  "or --tip-model mechanics")
 # how the warning that the mechanics stands in for an untraceable level set begins
 UNTRACEABLE_WARNING = "the level set cannot be traced"
 
@@ -181,10 +188,18 @@ def _refused(untraceable: ModelError, why_not: str, mechanics) -> TipModelChoice
     return choice
 
 
-def refuse_unless_resolved(choice: TipModelChoice) -> TipModelChoice:
-    """``choice``, unless it is a refusal no joint fit stood in for: then raise it."""
+def refuse_unless_resolved(choice: TipModelChoice, requested: str = "auto") -> TipModelChoice:
+    """``choice``, unless it is a refusal no joint fit stood in for, or (with ``auto``) a model
+    whose tip error no fit could estimate: then raise.
+
+    A model shipped without an estimate may be off by millimetres with nothing to tell, and a
+    lab would find out only at the robot; an explicit ``--tip-model`` ships it knowingly.
+    """
     if choice.refusal is not None:
         raise choice.refusal
+    if requested == "auto" and not math.isfinite(choice.estimated_tip_error_mm):
+        raise ModelError(f"no tip model's error can be estimated from this grid ("
+                         f"{'; '.join(choice.warnings) or 'no estimate'}). {WHAT_TO_CHANGE}")
     return choice
 
 
@@ -237,6 +252,20 @@ def _warnings(choice: TipModelChoice, mechanics, why_not: str) -> list[str]:
                 "range under the fit's own uncertainty (z folds near its end); tips may be off "
                 "by millimetres"]
     low, high = mechanics.plausible_ratios()
-    return [f"the tip error cannot be estimated: the grid does not pin the suspension down "
-            f"(k_theta*L/EI from {low:.3g} to {high:.3g} fits it equally well); tips may be off "
-            "by millimetres"]
+    if high > low:
+        return [f"the tip error cannot be estimated: the grid does not pin the suspension down "
+                f"(k_theta*L/EI from {low:.3g} to {high:.3g} fits it equally well); tips may be "
+                "off by millimetres"]
+    lost = lost_tip_curves(mechanics)
+    return [f"the tip error cannot be estimated: a suspension with k_theta*L/EI {lost} fits the "
+            f"grid nearly as well as the best ({low:.3g}) and its tip curve does not reach the "
+            "grid's z range; tips may be off by millimetres"]
+
+
+def lost_tip_curves(mechanics: MechanicsCalibration) -> str:
+    """The profiled k_θ·L/EI whose tip curve does not cover the grid's z range, within the
+    misfit the estimate weighs (``identify.IGNORED_DELTA_CHI2``), with their Δχ²."""
+    lost = [p for p in mechanics.profile
+            if not math.isfinite(p.tip_change_mm) and p.delta_chi2 <= IGNORED_DELTA_CHI2]
+    return ", ".join(f"{p.stiffness_ratio:.3g} (delta chi2 {p.delta_chi2:.0f})" for p in lost) \
+        or "none profiled"
