@@ -87,8 +87,8 @@ def relative_basis(geometry: np.ndarray, pose: np.ndarray, orders=DEFAULT_ORDERS
 
 @lru_cache(maxsize=16)
 def _rest_basis(geometry: bytes, orders: tuple[int, ...]) -> np.ndarray:
-    """``multipole_basis`` at rest for a geometry (as bytes): the finite differences of a joint
-    fit step the mechanics and the stage offset with the geometry unchanged."""
+    """``multipole_basis`` at rest for a geometry (as bytes), kept for the last few: a joint
+    fit's finite-difference steps in the mechanics and the stage offset leave the geometry."""
     basis = multipole_basis(np.frombuffer(geometry), np.zeros(3), orders)
     basis.flags.writeable = False
     return basis
