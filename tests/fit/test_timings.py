@@ -27,3 +27,23 @@ def test_a_stage_that_raises_is_still_timed():
         with times.stage("mechanics"):
             raise ValueError("refused")
     assert times.seconds["mechanics"] >= 0.0
+
+
+def test_the_fit_runs_on_one_blas_thread_and_gives_the_rest_back(monkeypatch):
+    from threadpoolctl import threadpool_info
+
+    from whiskercal.fit import run
+
+    def blas_threads():
+        return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+    seen = []
+
+    def first_stage(raw):  # the fit's first step: record the threads and stop there
+        seen.append(blas_threads())
+        raise RuntimeError("stopped")
+    monkeypatch.setattr(run, "refuse_z_against_truth", first_stage)
+    before = blas_threads()
+    with pytest.raises(RuntimeError, match="stopped"):
+        run.fit(None)
+    assert seen and seen[0] and all(n == 1 for n in seen[0]) and blas_threads() == before

@@ -12,7 +12,8 @@ from whiskercal.testing.fields import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
                                        simulate_fields, true_suspension)
 from whiskercal.mechfit.fieldmap import fit_pose_map
 from whiskercal.mechfit.forward import pose_of, rod_equilibria
-from whiskercal.mechfit.magnetmap import MagnetPoseMap, fit_magnet_map, relative_basis
+from whiskercal.mechfit.magnetmap import (MagnetPoseMap, fit_magnet_map, multipole_basis,
+                                          relative_basis)
 from whiskercal.twin.params import DEFAULT_SENSOR
 
 
@@ -53,3 +54,14 @@ def test_on_the_twin_the_map_extrapolates_to_plane_contacts():
     assert len(contacts) > 100
     assert np.all(magnet_rms < 5.0)  # µT; the noise of one sample is 5.6 / 9.0
     assert np.all(polynomial_rms > 10 * magnet_rms)
+
+
+def test_the_rest_basis_kept_for_a_geometry_is_the_one_computed_afresh():
+    # the geometry is read by value: an array changed in place after a call is a new geometry
+    geometry = np.array([-4.0, 0.05, 0.02, -6.4, 0.15, 0.1, 0.04])
+    poses = np.random.default_rng(1).uniform(-0.2, 0.0, (20, 3))
+    for _ in range(2):
+        fresh = multipole_basis(geometry, poses) - multipole_basis(geometry, np.zeros(3))
+        assert np.array_equal(relative_basis(geometry, poses), fresh)
+        geometry[0] -= 0.5
+    assert not np.array_equal(relative_basis(geometry, poses), fresh)

@@ -90,6 +90,22 @@ def test_a_suspension_refuses_non_physical_values():
         Suspension(78.0, 50.0, 0.1, 1e-3)
 
 
+def test_a_tip_loads_slope_is_its_end_states_and_its_parameters_are_its_own():
+    from whiskercal.mechfit.forward import tip_load, tip_load_and_angle
+    from whiskercal.twin.physics import elastica as el
+
+    suspension = Suspension(78.0, 3.0, 0.1, 1e-3)
+    force = np.array([-0.4, -1.2])  # EI/L²
+    pose, tip, moment, angle = tip_load_and_angle(suspension, force, 0.0)
+    p = suspension.params()
+    p[el.P_FX], p[el.P_FY] = force
+    assert angle == el.end_state(el.CANTILEVER, np.array([moment]), p, el.DEFAULT_STEPS)[2]
+    assert all(np.array_equal(a, b) for a, b in zip(tip_load(suspension, force, 0.0),
+                                                   (pose, tip, moment)))
+    # the vector handed out is a copy: a caller setting its force leaves the next one clean
+    assert suspension.params()[el.P_FX] == 0.0
+
+
 def test_monotone_range_stops_where_z_turns_back():
     assert monotone_z_range(np.array([0.0, -1.0, -3.0, -2.0, -5.0])) == (-3.0, 0.0)
 

@@ -7,6 +7,7 @@ from dataclasses import asdict, replace
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from whiskercal.fit.contact_threshold import contact_threshold, threshold_warnings
 from whiskercal.fit.metrics import (evidence_metrics, raw_metrics,
@@ -51,6 +52,16 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
         (``model.errors``: too few points, a degree out of range, a grid that stops short of
         the tip without ``allow_extrapolation``...).
     """
+    # The fit's linear algebra is on matrices of a few hundred rows at most, and it is called
+    # thousands of times: waking BLAS threads for each costs more than they save (most in the
+    # table's interpolant, a small solve per triangle), the more so on a busy machine.
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _fit(raw, options, progress)
+
+
+def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | None
+         ) -> FitResult:
+    """``fit``'s stages, on one BLAS thread."""
     refuse_z_against_truth(raw)
     times = StageTimes(progress)
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)

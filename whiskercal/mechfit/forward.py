@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -72,7 +73,12 @@ class Suspension:
             root_translational_stiffness_n_per_mm=ei / (length ** 3 * self.trans_compliance))
 
     def params(self) -> np.ndarray:
-        """The elastica's nondimensional parameter vector (no contact set)."""
+        """The elastica's nondimensional parameter vector (no contact set), a fresh copy."""
+        return self._params.copy()
+
+    @cached_property
+    def _params(self) -> np.ndarray:
+        # made once: the tip families and load grids solve thousands of loads per suspension
         p = el.new_params()
         p[el.P_STUB] = self.stub_mm / self.length_mm
         p[el.P_CROT] = self.rot_compliance
@@ -166,6 +172,14 @@ def tip_load(suspension: Suspension, force: np.ndarray, moment_guess: float
 
     Returns None when Newton does not converge from ``moment_guess`` (nondimensional).
     """
+    solved = tip_load_and_angle(suspension, force, moment_guess)
+    return None if solved is None else solved[:3]
+
+
+def tip_load_and_angle(suspension: Suspension, force: np.ndarray, moment_guess: float
+                       ) -> tuple[np.ndarray, np.ndarray, float, float] | None:
+    """``tip_load`` and the direction of the wire at its tip (rad), from the one end state
+    both come from."""
     p = suspension.params()
     p[el.P_FX], p[el.P_FY] = force
     z, converged, _ = el.newton(el.CANTILEVER, np.array([moment_guess]), p, el.DEFAULT_STEPS,
@@ -176,11 +190,4 @@ def tip_load(suspension: Suspension, force: np.ndarray, moment_guess: float
     _, _, th, tip_x, tip_y = el.end_state(el.CANTILEVER, z, p, el.DEFAULT_STEPS)
     pose = np.array([p[el.P_CROT] * z[0], p[el.P_CTRANS] * force[0] * length,
                      p[el.P_CTRANS] * force[1] * length])
-    return pose, np.array([tip_x, tip_y]) * length, float(z[0])
-
-
-def tip_tangent_angle(suspension: Suspension, force: np.ndarray, moment: float) -> float:
-    """Direction of the wire at its tip (rad) for a solved tip load."""
-    p = suspension.params()
-    p[el.P_FX], p[el.P_FY] = force
-    return float(el.end_state(el.CANTILEVER, np.array([moment]), p, el.DEFAULT_STEPS)[2])
+    return pose, np.array([tip_x, tip_y]) * length, float(z[0]), float(th)

@@ -17,6 +17,7 @@ Nothing here knows the twin's magnet: only its form (a magnet on the suspension)
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.polynomial import legendre
@@ -33,11 +34,21 @@ START_GAP_MM = 2.5
 START_OUT_OF_PLANE_MM = 0.05  # |w| enters squared: start off the symmetric point
 
 
-def _legendre(order: int, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """P_l(c) and P_l'(c)."""
+@lru_cache(maxsize=None)
+def _legendre_series(order: int) -> tuple[np.ndarray, np.ndarray]:
+    """The Legendre series of P_l and of P_l', made once per order: a fit evaluates the basis
+    thousands of times, and making the derivative's series cost more than evaluating both."""
     coefficients = np.zeros(order + 1)
     coefficients[order] = 1.0
-    return legendre.legval(c, coefficients), legendre.legval(c, legendre.legder(coefficients))
+    derivative = legendre.legder(coefficients)
+    coefficients.flags.writeable = derivative.flags.writeable = False
+    return coefficients, derivative
+
+
+def _legendre(order: int, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """P_l(c) and P_l'(c)."""
+    coefficients, derivative = _legendre_series(order)
+    return legendre.legval(c, coefficients), legendre.legval(c, derivative)
 
 
 def multipole_basis(geometry: np.ndarray, pose: np.ndarray, orders=DEFAULT_ORDERS) -> np.ndarray:
@@ -70,7 +81,17 @@ def multipole_basis(geometry: np.ndarray, pose: np.ndarray, orders=DEFAULT_ORDER
 
 def relative_basis(geometry: np.ndarray, pose: np.ndarray, orders=DEFAULT_ORDERS) -> np.ndarray:
     """The basis less its value at rest (pose 0)."""
-    return multipole_basis(geometry, pose, orders) - multipole_basis(geometry, np.zeros(3), orders)
+    geometry = np.asarray(geometry, float)
+    return multipole_basis(geometry, pose, orders) - _rest_basis(geometry.tobytes(), tuple(orders))
+
+
+@lru_cache(maxsize=16)
+def _rest_basis(geometry: bytes, orders: tuple[int, ...]) -> np.ndarray:
+    """``multipole_basis`` at rest for a geometry (as bytes), kept for the last few: a joint
+    fit's finite-difference steps in the mechanics and the stage offset leave the geometry."""
+    basis = multipole_basis(np.frombuffer(geometry), np.zeros(3), orders)
+    basis.flags.writeable = False
+    return basis
 
 
 @dataclass(frozen=True)

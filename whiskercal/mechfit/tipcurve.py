@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.mechfit.forward import Suspension, tip_load, tip_tangent_angle
+from whiskercal.mechfit.forward import Suspension, tip_load_and_angle
 
 MAX_TIP_SLOPE_RAD = 1.9
 SLOPE_STEP_RAD = 0.0125
@@ -47,11 +47,10 @@ def _direction(slope: float, beta: float, world: bool = False) -> np.ndarray:
 
 def _slope_error(suspension, slope, beta, magnitude, moment, world=False):
     force = magnitude * _direction(slope, beta, world)
-    solved = tip_load(suspension, force, moment)
+    solved = tip_load_and_angle(suspension, force, moment)
     if solved is None:
         return None
-    pose, tip, moment = solved
-    angle = tip_tangent_angle(suspension, force, moment)
+    pose, tip, moment, angle = solved
     return angle - slope, pose, tip, moment
 
 
