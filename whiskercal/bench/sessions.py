@@ -106,7 +106,10 @@ def session_row(sensor: SensorParams, seed: int) -> dict:
            "diameter_mm": sensor.whisker.diameter_mm,
            "stiffness_ratio": twin_data.stiffness_ratio(sensor.whisker)}
     with tempfile.TemporaryDirectory(prefix="whiskercal-session-") as folder:
-        raw = read_raw_grid(_collect_grid(sensor, seed, Path(folder)))
+        try:
+            raw = read_raw_grid(_collect_grid(sensor, seed, Path(folder)))
+        except WhiskercalError as error:  # the plan cannot be collected on this build
+            return {**row, "refused": f"collect: {type(error).__name__}: {error}"}
         try:
             result = fit(raw, FitOptions())
         except WhiskercalError as error:
