@@ -297,3 +297,16 @@ def test_the_truth_of_a_soft_suspension_is_its_tip_curves_first_branch():
     z, tips = true_tips_in_range(soft, -10000.0, -100.0)
     assert z.size > 20 and np.all(np.diff(z) < 0)
     assert np.max(np.abs(tips - truth.true_tip(soft, z))) < 1e-6
+
+
+def test_the_level_sets_warnings_are_said_of_it_where_another_model_ships():
+    from types import SimpleNamespace
+
+    from whiskercal.fit.run import _level_set_warnings
+
+    calibration = SimpleNamespace(warnings=["the surface under-fits: its CV RMSE 9 µT"])
+    shipped = _level_set_warnings(calibration, SimpleNamespace(name="level-set"))
+    assert shipped == calibration.warnings
+    other = _level_set_warnings(calibration, SimpleNamespace(name="mechanics-yz"))
+    assert other == ["the level set (not shipped: mechanics-yz ships): the surface under-fits: "
+                     "its CV RMSE 9 µT"]

@@ -88,7 +88,8 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
                **(truth.metrics() if truth is not None else {}),
                **(table.metrics if table is not None else {}), **_shaft_metrics(shaft)}
     return FitResult(calibration, options, model_options, metrics,
-                     length_warnings + calibration.warnings + tip_model.warnings
+                     length_warnings + _level_set_warnings(calibration, tip_model)
+                     + tip_model.warnings
                      + (table.warnings if table is not None else [])
                      + threshold_warnings(threshold), truth,
                      raw.sensor_id,
@@ -97,6 +98,15 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
                      field_table=None if table is None else table.table, shaft_surface=shaft,
                      load_branches=None if table is None else table.branches,
                      timings_s=times.seconds)
+
+
+def _level_set_warnings(calibration: Calibration, tip_model) -> list[str]:
+    """The surface's and the level set's warnings, said of the level set where another tip
+    model ships: a trace that scatters by millimetres does not make the mechanics' tips do so."""
+    if tip_model.name == "level-set":
+        return list(calibration.warnings)
+    return [f"the level set (not shipped: {tip_model.name} ships): {w}"
+            for w in calibration.warnings]
 
 
 def _field_table(raw: RawGrid, length_mm: float, options: FitOptions, times: StageTimes,
