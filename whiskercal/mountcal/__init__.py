@@ -6,10 +6,10 @@ process or a robot over rosbridge (``touch``), and fits the mount with its uncer
 ``contour run --robot`` read.
 """
 
-from whiskercal.mountcal.plan import Cylinder, Press, plan_presses
+from whiskercal.mountcal.plan import Cylinder, Press, plan_presses, station_angles
 from whiskercal.mountcal.run import (TWIN_URL, MountCalResult, Routine, mount_cal, parse_cylinder,
                                      parse_twin_url, write_result)
 from whiskercal.mountcal.solve import MountFit, solve_mount
 
 __all__ = ["TWIN_URL", "Cylinder", "MountCalResult", "MountFit", "Press", "Routine", "mount_cal",
-           "parse_cylinder", "parse_twin_url", "plan_presses", "solve_mount", "write_result"]
+           "parse_cylinder", "parse_twin_url", "plan_presses", "solve_mount", "station_angles", "write_result"]

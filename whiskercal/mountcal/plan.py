@@ -69,21 +69,26 @@ class Press:
         return np.array([*base, heading])
 
 
-def plan_presses(reference_z_uT: float, side_deg: float = 180.0, arc_deg: float = 120.0,
-                 stations: int = 4, tilts_deg=TILTS_DEG, depths=DEPTHS) -> list[Press]:
-    """The presses, station by station along the arc (``arc_deg`` wide, centred on the
-    direction ``side_deg`` from the cylinder's centre: where the robot comes from)."""
+def station_angles(side_deg: float = 180.0, arc_deg: float = 120.0, stations: int = 4) -> np.ndarray:
+    """The stations' directions from the cylinder's centre (deg): ``stations`` along an arc
+    ``arc_deg`` wide centred on ``side_deg`` (where the robot comes from), checked."""
     from whiskercal.checks import integer, number
 
-    number(arc_deg, "--arc", low=0.0, high=360.0, unit="deg")
+    arc = number(arc_deg, "--arc", low=0.0, high=360.0, unit="deg")
     count = integer(stations, "--stations", low=1, high=36)
+    span = arc * (1.0 - 1.0 / count) if arc >= 360.0 else arc
+    return side_deg + (np.linspace(-span / 2, span / 2, count) if count > 1 else np.zeros(1))
+
+
+def plan_presses(reference_z_uT: float | None, angles_deg, tilts_deg=TILTS_DEG,
+                 depths=DEPTHS) -> list[Press]:
+    """The presses, station by station (``station_angles``), each tilt at each station holding
+    the ``depths`` of ``reference_z_uT`` (µT, negative: the calibration's side)."""
     if reference_z_uT is None or not reference_z_uT < 0:
         raise UsageError("the artifact has no deflection target to press to: write one with "
                          "`whiskercal optimal-depth report`, or give --target-uT")
-    span = arc_deg * (1.0 - 1.0 / count) if arc_deg >= 360.0 else arc_deg
-    angles = side_deg + (np.linspace(-span / 2, span / 2, count) if count > 1 else np.zeros(1))
     levels = tuple(float(reference_z_uT) * fraction for fraction in depths)
-    return [Press(float(angle), float(tilt), levels) for angle in angles for tilt in tilts_deg]
+    return [Press(float(angle), float(tilt), levels) for angle in angles_deg for tilt in tilts_deg]
 
 
 def transit(cylinder: Cylinder, reach_mm: float, start: Press, end: Press) -> list[np.ndarray]:

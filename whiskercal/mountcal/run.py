@@ -20,7 +20,8 @@ import numpy as np
 
 from whiskercal.errors import UsageError
 from whiskercal.mount import Mount
-from whiskercal.mountcal.plan import RETREAT_MM, STANDOFF_MM, Cylinder, plan_presses, transit
+from whiskercal.mountcal.plan import (RETREAT_MM, STANDOFF_MM, Cylinder, plan_presses,
+                                      station_angles, transit)
 from whiskercal.mountcal.solve import MountFit, solve_mount
 from whiskercal.mountcal.touch import RobotDriver, Touch, TwinDriver, go_to, press, retreat
 
@@ -101,15 +102,17 @@ def mount_cal(artifact: str | Path, routine: Routine = Routine(), url: str = TWI
     mount is the nominal one) drives a robot."""
     from whiskercal import runtime
 
+    options = parse_twin_url(url) if setup is None else None
+    angles = station_angles(routine.side_deg, routine.arc_deg, routine.stations)
     calibration = runtime.load(artifact)
     reference = calibration.target_z_uT if routine.target_z_uT is None else routine.target_z_uT
-    presses = plan_presses(reference, routine.side_deg, routine.arc_deg, routine.stations)
+    presses = plan_presses(reference, angles)
     tip_of = tip_reader(calibration)
     if setup is not None:
         return _on_robot(setup, calibration, routine, presses, tip_of, echo)
-    options = parse_twin_url(url)
     twin, driver = _twin(calibration.sensor_id, routine, options, presses[0])
-    touches = run_presses(driver, presses, routine.cylinder, tip_of)
+    reach_mm = twin.carried.mobile.sensor.whisker.reach_mm
+    touches = run_presses(driver, presses, routine.cylinder, tip_of, reach_mm)
     fit = fit_touches(touches, routine, tip_error(calibration))
     return MountCalResult(fit, touches, routine, url, twin.true, {"seed": options["seed"]})
 
@@ -160,8 +163,9 @@ def _twin(sensor_id: str, routine: Routine, options: dict, first):
     return twin, TwinDriver(twin, options["rate_hz"])
 
 
-def run_presses(driver, presses, cylinder: Cylinder, tip_of, reach_mm: float = 78.0) -> list[Touch]:
-    """Every press in turn, with the transits between them; the touches held."""
+def run_presses(driver, presses, cylinder: Cylinder, tip_of, reach_mm: float) -> list[Touch]:
+    """Every press in turn, with the transits between them; the touches held. ``reach_mm``
+    places the standoffs (the tip's distance from the base frame's origin, undeflected)."""
     touches: list[Touch] = []
     for index, planned in enumerate(presses):
         if index:
@@ -193,9 +197,16 @@ def _on_robot(setup, calibration, routine: Routine, presses, tip_of, echo) -> Mo
         loop = RobotLoop(0.0, watchdog_s=setup.safety.watchdog_s)
         rest, rate = rest_reading(robot, samples, loop)
         driver = RobotDriver(robot, samples, rest, rate, setup.safety.watchdog_s)
-        touches = run_presses(driver, presses, routine.cylinder, tip_of)
+        touches = run_presses(driver, presses, routine.cylinder, tip_of, reach(calibration))
     fit = fit_touches(touches, routine, tip_error(calibration))
     return MountCalResult(fit, touches, routine, setup.url, None, {"rest_uT": list(rest), "rate_hz": rate})
+
+
+def reach(calibration) -> float:
+    """The whisker's reach from the artifact alone (mm): its lookup's tip at the deflection
+    nearest rest, which is where the tip of the straight whisker lies, to a fraction of a mm."""
+    low, high = calibration.z_range_uT
+    return float(np.hypot(*calibration.tip(high if abs(high) < abs(low) else low)))
 
 
 def parse_cylinder(spec: str, pose_text: str | None) -> Cylinder:

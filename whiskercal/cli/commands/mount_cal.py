@@ -53,13 +53,16 @@ def command(artifact, object_spec, object_pose, side_deg, arc_deg, stations, tar
     refuse_existing([out], force, "the mount")
     cylinder = parse_cylinder(object_spec, object_pose)
     nominal = read_mount(mount_path) if mount_path else Mount()
+    target = None if target_uT is None else number(target_uT, "--target-uT", high=0.0, unit="µT")
     routine = Routine(cylinder, nominal, number(side_deg, "--side", low=-360.0, high=360.0),
-                      arc_deg, stations, target_uT)
+                      arc_deg, stations, target)
     url = robot_url or TWIN_URL
-    setup = None
-    if not url.startswith("sim:"):
-        from whiskercal.cli.commands._contour_robot import robot_setup
+    from whiskercal.cli.commands._contour_robot import refuse_robot_options, robot_setup
 
+    if url.startswith("sim:"):
+        refuse_robot_options("cylinder", robot)
+        setup = None
+    else:
         setup = robot_setup(url, None, {**robot, "mount_path": mount_path})
     echo = (lambda line: click.echo(line, err=True)) if as_json else click.echo
     result = mount_cal(artifact, routine, url, setup, echo)
