@@ -6,7 +6,7 @@ from __future__ import annotations
 import click
 
 from whiskercal.cli.app import echo_json, force_option
-from whiskercal.cli.commands._contour_robot import robot_options
+from whiskercal.cli.commands._contour_robot import refuse_robot_options, robot_options, robot_setup
 
 
 @click.command("mount-cal")
@@ -57,8 +57,6 @@ def command(artifact, object_spec, object_pose, side_deg, arc_deg, stations, tar
     routine = Routine(cylinder, nominal, number(side_deg, "--side", low=-360.0, high=360.0),
                       arc_deg, stations, target)
     url = robot_url or TWIN_URL
-    from whiskercal.cli.commands._contour_robot import refuse_robot_options, robot_setup
-
     if url.startswith("sim:"):
         refuse_robot_options("cylinder", robot)
         setup = None
