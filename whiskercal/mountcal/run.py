@@ -117,6 +117,19 @@ def mount_cal(artifact: str | Path, routine: Routine = Routine(), url: str = TWI
     return MountCalResult(fit, touches, routine, url, twin.true, {"seed": options["seed"]})
 
 
+def mount_cal_recorded(track_path: str | Path, artifact: str | Path,
+                       routine: Routine = Routine()) -> MountCalResult:
+    """The mount from the held touches of a replay track (``mountcal.recorded``) instead of
+    pressing; ``artifact`` is the one the replay read (its tip error goes into the
+    uncertainty)."""
+    from whiskercal import runtime
+    from whiskercal.mountcal.recorded import touches_from_track
+
+    touches = touches_from_track(track_path)
+    fit = fit_touches(touches, routine, tip_error(runtime.load(artifact)))
+    return MountCalResult(fit, touches, routine, str(track_path))
+
+
 def fit_touches(touches: list[Touch], routine: Routine, tip_error_mm: float) -> MountFit:
     """The mount of the held touches (``solve.solve_mount``)."""
     return solve_mount([t.effector_pose for t in touches], [t.tip_mm for t in touches],

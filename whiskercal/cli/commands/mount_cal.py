@@ -31,11 +31,14 @@ from whiskercal.cli.commands._contour_robot import refuse_robot_options, robot_o
 @click.option("--out", type=click.Path(dir_okay=False), required=True,
               help="The fitted mount file (TOML [mount]) for replay, contour evaluate and "
                    "contour run --robot --mount.")
+@click.option("--track", "track_path", type=click.Path(dir_okay=False), default=None,
+              help="Fit the held touches of a replay track instead of pressing (a recording "
+                   "replayed with --poses and no --mount; --artifact the one it was replayed with).")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit (and on the twin its error) as JSON.")
 @robot_options
 @force_option
 def command(artifact, object_spec, object_pose, side_deg, arc_deg, stations, target_uT, out,
-            as_json, force, robot_url, mount_path, **robot) -> None:
+            track_path, as_json, force, robot_url, mount_path, **robot) -> None:
     """Press the whisker on a cylinder of known size and place at a few poses and fit the
     sensor's mount on the end effector (x, y, yaw with their uncertainty) to the tips.
 
@@ -47,9 +50,11 @@ def command(artifact, object_spec, object_pose, side_deg, arc_deg, stations, tar
     from whiskercal.atomic import refuse_existing, refuse_input_as_output
     from whiskercal.checks import number
     from whiskercal.mount import Mount, read_mount
-    from whiskercal.mountcal import TWIN_URL, Routine, mount_cal, parse_cylinder, write_result
+    from whiskercal.errors import UsageError
+    from whiskercal.mountcal import (TWIN_URL, Routine, mount_cal, mount_cal_recorded,
+                                     parse_cylinder, write_result)
 
-    refuse_input_as_output(out, [artifact, mount_path], "the mount")
+    refuse_input_as_output(out, [artifact, mount_path, track_path], "the mount")
     refuse_existing([out], force, "the mount")
     cylinder = parse_cylinder(object_spec, object_pose)
     nominal = read_mount(mount_path) if mount_path else Mount()
@@ -57,13 +62,18 @@ def command(artifact, object_spec, object_pose, side_deg, arc_deg, stations, tar
     routine = Routine(cylinder, nominal, number(side_deg, "--side", low=-360.0, high=360.0),
                       arc_deg, stations, target)
     url = robot_url or TWIN_URL
-    if url.startswith("sim:"):
-        refuse_robot_options("cylinder", robot)
-        setup = None
+    if track_path is not None:
+        if robot_url is not None:
+            raise UsageError("--track fits a recording: leave out --robot")
+        result = mount_cal_recorded(track_path, artifact, routine)
     else:
-        setup = robot_setup(url, None, {**robot, "mount_path": mount_path})
-    echo = (lambda line: click.echo(line, err=True)) if as_json else click.echo
-    result = mount_cal(artifact, routine, url, setup, echo)
+        setup = None
+        if url.startswith("sim:"):
+            refuse_robot_options("cylinder", robot)
+        else:
+            setup = robot_setup(url, None, {**robot, "mount_path": mount_path})
+        echo = (lambda line: click.echo(line, err=True)) if as_json else click.echo
+        result = mount_cal(artifact, routine, url, setup, echo)
     write_result(out, result)
     summary = result.summary()
     if as_json:
