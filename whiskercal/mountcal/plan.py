@@ -7,9 +7,8 @@ moves every tip by the same amount: with one tilt only one direction of the offs
 Tilting the whisker against the normal turns that direction in the base frame, so several
 tilts see both x and y. The yaw turns the tips about the base's origin; pressed deeper, the tip
 swings round that origin along its arc, so tips at several depths separate a turn from a
-shift. The stations round the cylinder make an error in where it stands a pattern the mount
-cannot take (a shift of the centre reads differently from each side), so it stays out of the
-fit rather than into it.
+shift. Stations round the cylinder make an error in where it stands read differently from each
+side, which no mount does, so the wider their arc the less of it goes into the fit.
 """
 
 from __future__ import annotations
