@@ -11,12 +11,10 @@ uncertainty.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from whiskercal.errors import UsageError
-from whiskercal.mountcal.touch import Touch
+from whiskercal.mountcal.touch import Touch, mean_pose
 
 STILL_MM_S, STILL_RAD_S = 0.5, 0.005
 HOLD_S = 0.2
@@ -40,7 +38,7 @@ def touches_from_track(path) -> list[Touch]:
         raise UsageError(f"{path} has no poses: replay the recording with --poses")
     runs = _held_runs(columns["t_s"], pose, tip, columns["contact"] > 0)
     axial = columns["axial_uT"]  # NaN where the recording had no Z axis
-    return _grouped([Touch(_mean_pose(pose[run]), float(np.mean(columns["z_uT"][run])),
+    return _grouped([Touch(mean_pose(pose[run]), float(np.mean(columns["z_uT"][run])),
                            float(np.mean(axial[run])), tip[run].mean(axis=0)) for run in runs])
 
 
@@ -62,11 +60,6 @@ def _held_runs(t_s, pose, tip, contact) -> list[slice]:
                 runs.append(slice(start, index))
             start = None
     return runs
-
-
-def _mean_pose(poses: np.ndarray) -> np.ndarray:
-    return np.array([*poses[:, :2].mean(axis=0),
-                     math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())])
 
 
 def _grouped(touches: list[Touch]) -> list[Touch]:

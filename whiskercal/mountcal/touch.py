@@ -136,13 +136,18 @@ def hold(driver, tip_of) -> Touch:
             poses.append(driver.robot.effector_pose())
             kinds.append(kind)
     z, axial = np.mean(rows, axis=0)
-    poses = np.asarray(poses)
-    pose = np.array([*poses[:, :2].mean(axis=0),
-                     math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())])
+    pose = mean_pose(poses)
     kind = None if kinds[0] is None else max(set(kinds), key=kinds.count)
     truth = driver.true_tip() if hasattr(driver, "true_tip") else None
     return Touch(pose, float(z), float(axial), np.asarray(tip_of(float(z), float(axial)), float),
                  kind, truth)
+
+
+def mean_pose(poses) -> np.ndarray:
+    """The mean of poses (n, 3) held still: the positions' mean, the headings' circular mean."""
+    poses = np.asarray(poses, float)
+    return np.array([*poses[:, :2].mean(axis=0),
+                     math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())])
 
 
 def retreat(driver, heading: float, back_mm: float) -> None:
