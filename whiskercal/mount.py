@@ -48,10 +48,45 @@ class Mount:
         y = pose[..., 1] + sin * self.x_mm + cos * self.y_mm
         return np.stack([x, y, heading + math.radians(self.yaw_deg)], axis=-1)
 
+    def effector_velocity(self, effector_pose, base_velocity_mm_s, turn_rad_s: float) -> np.ndarray:
+        """The end effector's world velocity (mm/s) that moves the base frame at
+        ``base_velocity_mm_s`` while both turn at ``turn_rad_s``: v_e = v_b - ω × (base - effector)."""
+        effector = np.asarray(effector_pose, dtype=float)
+        lever = self.base_pose(effector)[:2] - effector[:2]
+        return np.asarray(base_velocity_mm_s, float) - turn_rad_s * np.array([-lever[1], lever[0]])
+
+    def offset_by(self, error) -> "Mount":
+        """This mount moved by ``error`` (dx mm, dy mm, dyaw deg), key by key: where a sensor
+        drawn at this mount really sits when it is off by that much."""
+        dx, dy, dyaw = (float(value) for value in error)
+        return Mount(self.x_mm + dx, self.y_mm + dy, self.yaw_deg + dyaw)
+
+    def as_dict(self) -> dict:
+        """The mount as its file's keys (JSON-able)."""
+        return {key: float(getattr(self, key)) for key in MOUNT_KEYS}
+
     def to_world(self, effector_pose, points_mm) -> np.ndarray:
         """Points (..., 2) in the sensor's base frame, mm, to the world frame, each with the end
         effector's pose (..., 3) at its sample."""
         return base_to_world(self.base_pose(effector_pose), points_mm)
+
+
+MAX_ERROR_MM, MAX_ERROR_DEG = 50.0, 45.0
+"""The largest mount error (offset from the drawing) the twin carries a sensor at: far more
+than a real mount is off by, far less than a frame or unit mistake."""
+
+
+def parse_mount_error(text: str, where: str = "--mount-error") -> tuple[float, float, float]:
+    """``DX,DY,DEG`` (mm, mm, degrees) as a tuple, each finite and within
+    :data:`MAX_ERROR_MM` / :data:`MAX_ERROR_DEG`; one UsageError line otherwise."""
+    from whiskercal.checks import number
+
+    cells = str(text).split(",")
+    if len(cells) != 3:
+        raise UsageError(f"{where} must be DX,DY,DEG (mm, mm, degrees), not {text!r}")
+    dx, dy = (number(cell, f"{where} {axis}", low=-MAX_ERROR_MM, high=MAX_ERROR_MM, unit="mm")
+              for axis, cell in zip(("dx", "dy"), cells))
+    return dx, dy, number(cells[2], f"{where} deg", low=-MAX_ERROR_DEG, high=MAX_ERROR_DEG)
 
 
 def base_to_world(base_pose, points_mm) -> np.ndarray:
@@ -84,8 +119,13 @@ def read_mount(path: str | Path) -> Mount:
     return Mount(**{key: getattr(table, key) for key in MOUNT_KEYS})
 
 
+def mount_text(mount: Mount, comment: str = "") -> str:
+    """``mount`` as a mount file's text (the format :func:`read_mount` reads)."""
+    lines = [f"# {line}" for line in comment.splitlines()] + ["[mount]"]
+    lines += [f"{key} = {float(getattr(mount, key))!r}" for key in MOUNT_KEYS]
+    return "\n".join(lines) + "\n"
+
+
 def write_mount(path: str | Path, mount: Mount, comment: str = "") -> None:
     """Write ``mount`` as a mount file (the format :func:`read_mount` reads)."""
-    lines = [f"# {line}" for line in comment.splitlines()] + ["[mount]"]
-    lines += [f"{key} = {getattr(mount, key)!r}" for key in MOUNT_KEYS]
-    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    Path(path).write_text(mount_text(mount, comment), encoding="utf-8")

@@ -49,8 +49,29 @@ def test_it_prints_the_url_topics_and_outline_then_serves_for_its_duration():
     assert time.monotonic() - started >= 4.0
 
 
+def test_a_mount_error_carries_the_sensor_off_the_nominal_mount(tmp_path):
+    from whiskercal.mount import Mount, write_mount
+
+    nominal = tmp_path / "nominal.toml"
+    write_mount(nominal, Mount(0.0, 30.0, 90.0))
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    server = subprocess.Popen([sys.executable, "-m", "whiskercal", "sim", "serve", "--robot",
+                               "--shape", "cylinder", "--port", "0", "--rate-hz", "30",
+                               "--duration", "1", "--mount", str(nominal),
+                               "--mount-error", "1.5,-0.5,2", "--json"], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        out, _ = server.communicate(timeout=60)
+    finally:
+        server.kill()
+    assert server.returncode == 0
+    assert json.loads(out)["true_mount"] == {"x_mm": 1.5, "y_mm": 29.5, "yaw_deg": 92.0}
+
+
 @pytest.mark.parametrize("words, message", [
     (["--robot"], "give --shape"),
+    (["--robot", "--shape", "octagon", "--mount-error", "1,2"], "--mount-error must be DX,DY,DEG"),
+    (["--mount-error", "1,2,3"], "are for --robot"),
     (["--shape", "octagon"], "are for --robot"),
     (["--robot", "--shape", "octagon", "--rate-hz", "0"], "--rate-hz must be"),
     (["--robot", "--shape", "wall"], "Invalid value for '--shape'"),

@@ -130,6 +130,9 @@ COMPARISONS = {c.name: c for c in (
     Comparison("robot-loop", "contour run --robot through the twin's rosbridge server at 300 and "
                "30 Hz against the in-process loop; the loop's latency",
                _module_run("whiskercal.bench.robot_loop")),
+    Comparison("mount-cal", "mount-cal on the twin: the nominal and the fitted mount against the "
+               "true one, and the contour's size error through each",
+               _module_run("whiskercal.bench.mount_cal")),
 )}
 
 

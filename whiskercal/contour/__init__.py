@@ -89,7 +89,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                    speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
                    on_progress: Callable[[float], None] | None = None,
                    stop_requested: Callable[[], bool] | None = None,
-                   mu_kinetic: float = 0.0, mu_static: float | None = None) -> ContourRunFile:
+                   mu_kinetic: float = 0.0, mu_static: float | None = None,
+                   mount=None) -> ContourRunFile:
     """Run the loop on the twin against ``shape`` with the calibration ``artifact``; the run,
     in memory.
 
@@ -98,6 +99,9 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     ``whiskercal optimal-depth report`` writes); ``speed_mm_s`` the total speed of the config.
     ``mu_static`` (with ``mu_kinetic``): Coulomb stick-slip at the tip; ``mu_kinetic`` alone:
     mu_s = mu_k, the tip sticking inside the cone and sliding on its edge, no stick-slip.
+    ``mount``: (nominal ``Mount``, its error (dx mm, dy mm, dyaw deg)) to drive the twin's end
+    effector through a mount, the sensor truly at the nominal one moved by the error
+    (``contour.mounted``); the run's config records both.
     """
     import numpy as np
 
@@ -120,13 +124,15 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)  # scales the PID to the build
     run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
                       config, duration_s, seed, on_progress, stop_requested, friction,
-                      tip_mm_per_uT)
+                      tip_mm_per_uT, mount)
+    extra = {} if run.mount is None else {"mount": run.mount}
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
                           float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
                           run.columns, {"follow": run.config, "artifact": str(artifact),
                                         "tip_mm_per_uT": tip_mm_per_uT,
                                         "mu_kinetic": float(mu_kinetic),
-                                        "mu_static": None if friction is None else friction.mu_static},
+                                        "mu_static": None if friction is None else friction.mu_static,
+                                        **extra},
                           transitions=run.transitions)
 
 

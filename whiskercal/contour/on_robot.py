@@ -7,6 +7,7 @@ readable partial run), then the error that stopped it, if any, raised for the ca
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -70,20 +71,28 @@ def contour_on_robot(setup: RobotSetup, artifact: str | Path, out: str | Path, *
 def _run(setup: RobotSetup, tracker, target, loop, tip_mm_per_uT, echo, on_progress,
          recorder) -> RobotRun:
     """Connect, run, and stop the robot (a zero twist) however the run ended."""
+    with connected(setup, echo) as (robot, samples):
+        run = run_on_robot(robot, samples, tracker, target, loop, tip_mm_per_uT,
+                           on_progress=on_progress, recorder=recorder)
+        run.config["robot"] = {"sent": robot.sent, "clipped": robot.clipped,
+                               "zero_twists": robot.zeros + 1}
+    return run
+
+
+@contextlib.contextmanager
+def connected(setup: RobotSetup, echo: Callable[[str], None] = print):
+    """The robot (``RosbridgeRobot`` through the setup's mount) and its field samples; leaving
+    the block however (an error, Ctrl-C) sends the zero twist, then closes the stream and link."""
     link = RosbridgeLink(setup.url, setup.topics, setup.connect_timeout_s)
     samples = None
     try:
         samples = FieldTopic(link) if setup.sensor_port is None else SerialSamples(setup.sensor_port)
         with RosbridgeRobot(link, setup.mount, setup.safety, setup.dry_run, echo) as robot:
-            run = run_on_robot(robot, samples, tracker, target, loop, tip_mm_per_uT,
-                               on_progress=on_progress, recorder=recorder)
-            run.config["robot"] = {"sent": robot.sent, "clipped": robot.clipped,
-                                   "zero_twists": robot.zeros + 1}
+            yield robot, samples
     finally:
         if samples is not None:
             samples.close()
         link.close()
-    return run
 
 
 def _as_file(run: RobotRun, setup: RobotSetup, artifact, sensor_id: str, target: float,

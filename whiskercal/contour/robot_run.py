@@ -77,7 +77,7 @@ def run_on_robot(robot, samples, tracker, target_z_uT: float, loop: RobotLoop,
     latencies: list[float] = []
     try:
         robot.stop()
-        rest, rate = _rest(robot, samples, loop)
+        rest, rate = rest_reading(robot, samples, loop)
         run.rest_uT, run.rate_hz = rest, rate
         config = loop.config.replace(rate_hz=rate)
         run.config = config.to_dict()
@@ -92,13 +92,13 @@ def run_on_robot(robot, samples, tracker, target_z_uT: float, loop: RobotLoop,
     return run
 
 
-def _rest(robot, samples, loop: RobotLoop) -> tuple[tuple[float, float], float]:
+def rest_reading(robot, samples, loop: RobotLoop) -> tuple[tuple[float, float], float]:
     """The rest reading (Y, Z µT) and the stream's rate (Hz) from ``rest_s`` of samples taken
     with the robot held still (the first pose awaited too)."""
     readings, stamps = [], []
     first = None
     while first is None or stamps[-1] - first < loop.rest_s:
-        sample = _next(samples, robot, loop.watchdog_s)
+        sample = next_sample(samples, robot, loop.watchdog_s)
         first = sample.stamp_s if first is None else first
         readings.append(sample.field_uT)
         stamps.append(sample.stamp_s)
@@ -110,7 +110,7 @@ def _rest(robot, samples, loop: RobotLoop) -> tuple[tuple[float, float], float]:
     return (float(np.median(readings[:, 1])), float(np.median(readings[:, 2]))), round(rate, 1)
 
 
-def _next(samples, robot, watchdog_s: float):
+def next_sample(samples, robot, watchdog_s: float):
     """The next sample, with the link checked and the pose fresh; WatchdogError otherwise."""
     sample = samples.next(watchdog_s)
     robot.link.check()
@@ -128,7 +128,7 @@ def _follow(robot, samples, follower, rest, loop: RobotLoop, rows, latencies, on
     """Every sample through the follower until ``duration_s`` of stream time; True at the end."""
     first = None
     while True:
-        sample = _next(samples, robot, loop.watchdog_s)
+        sample = next_sample(samples, robot, loop.watchdog_s)
         first = sample.stamp_s if first is None else first
         t_s = sample.stamp_s - first
         if t_s > loop.duration_s:

@@ -19,6 +19,7 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.contour.mounted import MountedTwin
 from whiskercal.follow import FollowConfig, Follower
 from whiskercal.twin.mobile import MobileSensor
 from whiskercal.twin.outlines import Outline
@@ -41,6 +42,7 @@ class ContourRun:
     transitions: dict[str, np.ndarray] = field(default_factory=dict)
     complete: bool = False
     wall_s: float = 0.0
+    mount: dict | None = None  # the nominal and the twin's true mount, when the run had one
 
 
 def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
@@ -61,16 +63,22 @@ def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
 def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: FollowConfig,
                 duration_s: float, seed: int = 0, on_progress: Callable[[float], None] | None = None,
                 stop_requested: Callable[[], bool] | None = None,
-                friction=None, tip_mm_per_uT: float | None = None) -> ContourRun:
+                friction=None, tip_mm_per_uT: float | None = None, mount=None) -> ContourRun:
     """Run the loop for ``duration_s`` s of robot time, or until stopped (a partial run);
     ``friction``: a ``Coulomb``, friction at the tip (``twin.mobile``), None: frictionless;
-    ``tip_mm_per_uT``: the calibration's tip motion per µT at the target (scales the PID)."""
+    ``tip_mm_per_uT``: the calibration's tip motion per µT at the target (scales the PID);
+    ``mount``: (nominal ``Mount``, error (dx mm, dy mm, dyaw deg)): the loop drives the end
+    effector through the nominal mount, the twin carries the sensor at the nominal one moved
+    by the error (``contour.mounted``); None: the loop drives the sensor's base frame itself."""
     rng = np.random.default_rng(seed)
     reach_mm = sensor.whisker.reach_mm
     robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng, reach_mm),
                          seed=seed, friction=friction)
-    follower = Follower(tracker, target_z_uT, config, reach_mm, tip_mm_per_uT)
     run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
+    if mount is not None:
+        robot = MountedTwin.placed(robot, *mount)
+        run.mount = robot.truth()
+    follower = Follower(tracker, target_z_uT, config, reach_mm, tip_mm_per_uT)
     rows: dict[str, list] = {name: [] for name in COLUMNS}
     changes: dict[str, list] = {name: [] for name in TRANSITION_COLUMNS}
     dt, steps = 1.0 / config.rate_hz, int(round(duration_s * config.rate_hz))

@@ -188,16 +188,11 @@ class RosbridgeRobot:
         except Exception:
             self.stop()
             raise
-        velocity, turn = self._effector_twist(velocity_mm_s, float(turn_rad_s), effector)
+        turn = float(turn_rad_s)
+        velocity = self.mount.effector_velocity(effector, velocity_mm_s, turn)
         velocity, turn, cut = self.safety.clip(velocity, turn)
         self.clipped += cut
         self._send(velocity, turn)
-
-    def _effector_twist(self, velocity_mm_s, turn_rad_s: float, effector) -> tuple[np.ndarray, float]:
-        """The end effector's velocity for the base's: v_e = v_b - ω × (base - effector)."""
-        lever = self.mount.base_pose(effector)[:2] - effector[:2]
-        velocity = np.asarray(velocity_mm_s, float) - turn_rad_s * np.array([-lever[1], lever[0]])
-        return velocity, turn_rad_s
 
     def stop(self) -> None:
         """A zero twist (printed instead in a dry run)."""

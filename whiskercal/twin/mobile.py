@@ -152,6 +152,12 @@ class MobileSensor:
             else:
                 equilibrium = self._solve_sticking(obstacle, previous)
             equilibrium = _reindexed(equilibrium, first, count)
+            if equilibrium.slipped_past and not (self._previous is not None
+                                                 and self._previous.in_contact):
+                # a first touch the cold solve could not bring in (its lateral path from first
+                # touch fails at a fraction of a mm of overlap for some angles) is no slip past
+                # a wire that never touched: the next period tries it again
+                equilibrium = replace(equilibrium, slipped_past=False)
         self._previous = equilibrium
         kind = "collision" if self.collided else equilibrium.kind
         field = self.physics.field_uT(equilibrium)

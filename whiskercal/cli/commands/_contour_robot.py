@@ -9,7 +9,7 @@ import click
 
 from whiskercal.cli.app import App, echo_json
 
-ROBOT_ONLY = ("pose_topic", "tf_frames", "twist_topic", "twist_frame", "field_topic", "mount_path",
+ROBOT_ONLY = ("pose_topic", "tf_frames", "twist_topic", "twist_frame", "field_topic",
               "watchdog_ms", "dry_run", "max_speed", "max_turn", "box")
 
 
@@ -34,7 +34,8 @@ def robot_options(function):
                      help="sensor_msgs/MagneticField of the sensor (ignored with --sensor PORT)."),
         click.option("--mount", "mount_path", type=click.Path(dir_okay=False), default=None,
                      help="TOML [mount] table: the sensor's base frame on the end effector "
-                          "[default: the end effector is the base frame]."),
+                          "[default: the end effector is the base frame]; on the twin, the "
+                          "nominal mount the loop drives through (see --mount-error)."),
         click.option("--watchdog-ms", type=float, default=200.0, show_default=True,
                      help="No pose or no sample for this long: a zero twist and the run stops."),
         click.option("--dry-run", is_flag=True,

@@ -34,14 +34,14 @@ def robot_sensor(sensor_name, artifact):
 
 
 def serve_robot(shape: str, seed: int, sensor, port: int, rate_hz: float, duration_s, mount_path,
-                as_json: bool) -> None:
+                as_json: bool, mount_error: str | None = None) -> None:
     """Serve until ``duration_s`` (None: Ctrl-C); print where, once the port is bound."""
     import numpy as np
 
     from whiskercal.checks import integer, positive
     from whiskercal.contour.run import start_pose
     from whiskercal.follow import FollowConfig
-    from whiskercal.mount import read_mount
+    from whiskercal.mount import Mount, parse_mount_error, read_mount
     from whiskercal.twin.devices.rosbridge_robot import RobotTwinServer, Topics
     from whiskercal.twin.mobile import MobileSensor
     from whiskercal.twin.outlines import outline
@@ -53,6 +53,8 @@ def serve_robot(shape: str, seed: int, sensor, port: int, rate_hz: float, durati
                       sensor.whisker.reach_mm)
     mobile = MobileSensor(sensor, shape_outline, pose, seed=seed)
     mount = read_mount(mount_path) if mount_path else None
+    if mount_error is not None:  # the twin carries the sensor where it truly sits
+        mount = (mount or Mount()).offset_by(parse_mount_error(mount_error))
     server = RobotTwinServer(mobile, rate_hz, Topics(), mount, port)
     ready = lambda served: _announce(served, shape, seed, sensor.sensor_id, pose, as_json)
     try:
@@ -72,7 +74,8 @@ def _announce(server, shape, seed, sensor_id, pose, as_json) -> None:
                        "sensor": topics.sensor_frame},
             "outline": OUTLINE_SPECS[shape], "outline_pose": "0,0,0", "shape": shape,
             "rate_hz": server.rate_hz, "seed": seed, "sensor_id": sensor_id,
-            "start_pose": [float(pose[0]), float(pose[1]), math.degrees(float(pose[2]))]}
+            "start_pose": [float(pose[0]), float(pose[1]), math.degrees(float(pose[2]))],
+            "true_mount": server.carried.truth()}
     if as_json:
         echo_json(info)
     else:

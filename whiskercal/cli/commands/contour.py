@@ -57,13 +57,16 @@ def command() -> None:
               help="Also write the magnetometer's stream and the sensor base's poses as a ROS 2 "
                    "bag (a folder: metadata.yaml and NAME.mcap) for `whiskercal replay` or "
                    "Foxglove; the static field to replay it with is in the run's config.")
+@click.option("--mount-error", default=None, metavar="DX,DY,DEG",
+              help="The twin's sensor truly sits off the nominal --mount by DX, DY mm and DEG "
+                   "degrees (a real mount is never where its drawing says) [default: 0,0,0].")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
 @robot_options
 @force_option
 @pass_app
 def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, speed_mm_s,
-                duration_s, mu_static, mu_kinetic, seed, out, record_path, as_json, force,
-                **robot) -> None:
+                duration_s, mu_static, mu_kinetic, seed, out, record_path, mount_error, as_json,
+                force, **robot) -> None:
     """Run the loop around SHAPE on the twin, or on a robot with --robot, and record every
     sample (Ctrl-C keeps a readable partial run)."""
     from whiskercal.atomic import refuse_existing, refuse_input_as_output
@@ -78,6 +81,9 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     refuse_existing([out], force, "the run")
     check_seed(seed)
     if robot["robot_url"] is not None:
+        if mount_error is not None:
+            raise UsageError("--mount-error places the twin's sensor; a robot's mount is off by "
+                             "what it is off by (`whiskercal mount-cal` measures it)")
         if record_path is not None:
             raise UsageError("--record writes a twin run's stream; a robot's run is recorded by "
                              "its own ROS recorder (ros2 bag record), which replay reads")
@@ -95,6 +101,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
                                  config=load_follow_config(config_path), speed_mm_s=speed_mm_s,
                                  duration_s=duration_s, seed=seed, mu_kinetic=mu_kinetic,
                                  mu_static=mu_static, record=record_path,
+                                 mount=_twin_mount(robot["mount_path"], mount_error),
                                  on_progress=shown if bar else None)
     summary = summarize(record)
     if record_path is not None:
@@ -107,6 +114,16 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     if not record.complete:
         click.echo(f"stopped: the partial run is in {out}", err=True)
         sys.exit(130)
+
+
+def _twin_mount(mount_path, mount_error):
+    """(nominal mount, its error) for the twin, or None for neither."""
+    from whiskercal.mount import Mount, parse_mount_error, read_mount
+
+    if mount_path is None and mount_error is None:
+        return None
+    nominal = read_mount(mount_path) if mount_path else Mount()
+    return nominal, parse_mount_error(mount_error or "0,0,0")
 
 
 @command.command("report")

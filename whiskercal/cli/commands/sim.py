@@ -59,11 +59,14 @@ def command() -> None:
 @click.option("--mount", "mount_path", type=click.Path(dir_okay=False), default=None,
               help="With --robot: TOML [mount] table; the pose and twists are then the end "
                    "effector's that carries the base so.")
+@click.option("--mount-error", default=None, metavar="DX,DY,DEG",
+              help="With --robot: the sensor truly sits off --mount by DX, DY mm and DEG degrees "
+                   "(what `whiskercal mount-cal` measures) [default: 0,0,0].")
 @pass_app
 def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod_radius: float,
           stock: bool, homing: str | None, origin: str | None, faults: tuple[str, ...], firmware: str,
           duration: float | None, as_json: bool, as_robot: bool, shape, port, rate_hz, artifact,
-          mount_path) -> None:
+          mount_path, mount_error) -> None:
     """Expose a simulated rig on two pseudo-terminals until Ctrl-C (with --robot: the twin's
     mobile base on a rosbridge WebSocket).
 
@@ -82,9 +85,9 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
         if shape is None:
             raise UsageError("--robot serves the twin's base against an object: give --shape")
         return serve_robot(shape, seed, robot_sensor(sensor, artifact), port, rate_hz, duration,
-                           mount_path, as_json)
-    if shape is not None or artifact is not None or mount_path is not None:
-        raise UsageError("--shape, --artifact and --mount are for --robot")
+                           mount_path, as_json, mount_error)
+    if shape is not None or artifact is not None or mount_path is not None or mount_error is not None:
+        raise UsageError("--shape, --artifact, --mount and --mount-error are for --robot")
     options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
                "stock": ["1" if stock else "0"], "homing": [homing or ""],
                "origin": [origin or ""], "fault": list(faults)}

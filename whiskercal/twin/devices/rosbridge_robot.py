@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from whiskercal.protocol import rosbridge as ros
+from whiskercal.twin.carried import CarriedSensor
 
 HOST = "127.0.0.1"
 
@@ -60,17 +61,18 @@ class RobotTwinServer:
     topics
         Names and frames.
     mount
-        The sensor's base frame on the end effector (``whiskercal.mount.Mount``-like: ``x_mm``,
-        ``y_mm``, ``yaw_deg``); the pose published is the end effector's, the twists taken are
-        the end effector's. None: the end effector is the base frame.
+        The sensor's true base frame on the end effector (``whiskercal.mount.Mount``-like:
+        ``x_mm``, ``y_mm``, ``yaw_deg``; ``twin.carried``); the pose published is the end
+        effector's, the twists taken are the end effector's. None: the end effector is the
+        base frame.
     """
 
     def __init__(self, mobile, rate_hz: float, topics: Topics = Topics(), mount=None,
                  port: int = 0) -> None:
         self.mobile, self.rate_hz, self.topics = mobile, float(rate_hz), topics
         self.port = int(port)
-        self._mount = (0.0, 0.0, 0.0) if mount is None else (
-            float(mount.x_mm), float(mount.y_mm), math.radians(float(mount.yaw_deg)))
+        self.carried = CarriedSensor(mobile, (0.0, 0.0, 0.0) if mount is None else (
+            mount.x_mm, mount.y_mm, mount.yaw_deg))
         rest = mobile.physics.field_uT(mobile.physics.free())
         self.rest_uT = np.asarray(rest, float)
         self.types = {topics.pose: ros.POSE_TYPE, topics.twist: ros.TWIST_TYPE,
@@ -93,11 +95,7 @@ class RobotTwinServer:
     # -- the end effector and the base --------------------------------------------------------
     def effector_pose(self) -> np.ndarray:
         """The end effector's world pose (x mm, y mm, heading rad) for the base's pose."""
-        base = self.mobile.pose()
-        mx, my, yaw = self._mount
-        heading = base[2] - yaw
-        c, s = math.cos(heading), math.sin(heading)
-        return np.array([base[0] - c * mx + s * my, base[1] - s * mx - c * my, heading])
+        return self.carried.effector_pose()
 
     def apply_twist(self, message: dict) -> None:
         """Command the base from an end-effector twist (world frame, or the end effector's)."""
@@ -112,9 +110,7 @@ class RobotTwinServer:
         elif frame not in ("", self.topics.world_frame):
             raise ValueError(f"twist in frame {frame!r}: this twin takes "
                              f"{self.topics.world_frame!r} or {self.topics.effector_frame!r}")
-        arm = self.mobile.pose()[:2] - effector[:2]  # the base moves with the effector's turn
-        velocity = np.array([vx, vy]) + turn * np.array([-arm[1], arm[0]])
-        self.mobile.command(velocity, turn)
+        self.carried.command_effector(np.array([vx, vy]), turn)
         self.twists += 1
 
     # -- the simulation -----------------------------------------------------------------------
