@@ -53,19 +53,28 @@ def robot_options(function):
 
 
 def refuse_robot_options(shape, robot: dict) -> None:
-    """On the twin: --shape is needed, and a robot option without --robot is a mistake."""
+    """On the twin: --shape is needed, and a robot option given without --robot is a mistake.
+
+    "Given" is what click saw on the command line or in the environment, not a value that
+    differs from the default: ``--watchdog-ms 200`` without --robot is refused too.
+    """
     from whiskercal.errors import UsageError
 
-    defaults = {"pose_topic": "/whiskercal/pose", "twist_topic": "/whiskercal/twist",
-                "field_topic": "/whiskercal/field", "watchdog_ms": 200.0, "max_speed": 20.0,
-                "max_turn": 0.5}
+    context = click.get_current_context()
     for name in ROBOT_ONLY:
-        value = robot[name]
-        if value not in (None, False, defaults.get(name)):
-            raise UsageError(f"--{name.replace('_path', '').replace('_', '-')} drives a robot: "
-                             "give --robot too")
+        source = context.get_parameter_source(name)
+        if source not in (None, click.core.ParameterSource.DEFAULT):
+            raise UsageError(f"{_option_name(context, name)} drives a robot: give --robot too")
     if shape is None:
         raise UsageError("give --shape (the twin's object), or --robot rosbridge://HOST:PORT")
+
+
+def _option_name(context: click.Context, name: str) -> str:
+    """The option's long name on the command line (``mount_path`` is ``--mount``)."""
+    for param in context.command.params:
+        if param.name == name:
+            return max(param.opts, key=len)
+    return f"--{name.replace('_', '-')}"
 
 
 def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_mm_s, duration_s,
