@@ -212,7 +212,9 @@ CASES = [
     ("--out c.h5 --config unknown.toml", 2, "[nosuch]: unknown table"),
     ("--out c.h5 --config inverted.toml", 2, "reach_min_mm < reach_max_mm"),
     ("--out c.h5 --config loss.toml", 2, "max_frame_loss"),
-    ("--out raw.h5", 2, "already exists"),
+    ("--out raw.h5", 2, "already exists: pass --force to replace it, or --resume"),
+    ("--out raw.h5 --force --resume", 2, "--force replaces it: give one"),
+    ("--out left.h5 --force", 2, "journal of an interrupted run"),  # a partial run is resumed
     ("--out left.h5", 2, "left.h5.journal is the journal of an interrupted run"),
     ("--out c.h5 --resume", 2, "nothing to resume"),
     ("--out trunc_raw.h5 --resume", 2, "truncated"),
@@ -242,6 +244,7 @@ CASES = [
     ("--out s.h5 --config nandepth.toml", 2, "depths_mm"),
     ("--out s.h5 --config negtravel.toml", 2, "[trials] travel_mm: must be a number > 0, not -1"),
     ("--out study.h5", 2, "pass --resume"),
+    ("--out study.h5 --force --resume", 2, "--force replaces it: give one"),
     ("--out trunc_study.h5 --resume", 4, "truncated"),
     ("--out raw.h5 --resume", 4, "not a whiskercal.plane_study file"),
 ]]

@@ -81,17 +81,18 @@ class StudyWriter:
         Identity of the sensor.
     resume
         Continue an existing file instead of refusing to overwrite it.
+    force
+        Replace an existing finished study (the new file, written whole, is renamed over it);
+        a partial one is continued with ``resume``, never replaced.
     """
 
-    def __init__(self, path: str | Path, config: dict, sensor_id: str, resume: bool = False):
+    def __init__(self, path: str | Path, config: dict, sensor_id: str, resume: bool = False,
+                 force: bool = False):
         self.path = Path(path)
         self.config = config
-        if self.path.exists() and resume:
+        refuse_to_replace(self.path, resume, force)
+        if resume:
             self._check_resumable()
-        elif self.path.exists():
-            raise UsageError(f"{self.path} exists; pass --resume to continue it or choose another --out")
-        elif resume:
-            raise UsageError(f"{self.path} does not exist: nothing to resume")
         else:
             self._create(sensor_id)
 
@@ -152,6 +153,32 @@ class StudyWriter:
         def write(handle: h5py.File) -> None:
             handle.attrs["complete"] = True
         self._update(write)
+
+
+def refuse_to_replace(path: Path, resume: bool, force: bool) -> None:
+    """The output rule for a study file: an existing one is refused unless ``force``, and a
+    partial one (not marked complete) is continued with ``resume``, never replaced."""
+    if resume and force:
+        raise UsageError("--resume continues the study in --out and --force replaces it: give one")
+    if resume and not path.exists():
+        raise UsageError(f"{path} does not exist: nothing to resume")
+    if resume or not path.exists():
+        return
+    if not force:
+        raise UsageError(f"the study file {path} already exists: pass --resume to continue it, "
+                         "or --force to replace it")
+    if _is_partial(path):
+        raise UsageError(f"{path} is a partial study: continue it with --resume (--force "
+                         "replaces only a finished study; delete a partial one to discard it)")
+
+
+def _is_partial(path: Path) -> bool:
+    """True for a readable study file not marked complete (an unreadable one holds no study)."""
+    try:
+        with h5io.open_h5(path) as handle:
+            return not bool(handle.attrs.get("complete", False))
+    except ArtifactError:
+        return False
 
 
 def _comparable(config: dict) -> str:

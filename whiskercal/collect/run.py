@@ -138,25 +138,55 @@ def check_resumable(out: Path, plan: GridPlan) -> None:
                          "configuration (start a new file or use the original config)")
 
 
-def open_checkpoint(out: Path, header: RawHeader, resume: bool) -> Checkpoint:
-    """A new checkpoint, or the resumed one; refuses to overwrite an existing run."""
-    if not out.parent.is_dir():
-        raise UsageError(f"{out.parent}: no such directory for the output file")
+def refuse_to_replace(out: Path, resume: bool, force: bool) -> None:
+    """The output rule for a raw dataset, before any port opens: an existing one is refused
+    unless ``force``; a partial run (its journal, or a file not marked complete) is continued
+    with ``resume``, never replaced, even with ``force``."""
+    if resume and force:
+        raise UsageError("--resume continues the run in --out and --force replaces it: give one")
     if resume:
-        return Checkpoint.resume(out, header)
-    if out.exists():
-        raise UsageError(f"{out} already exists; continue it with --resume or choose another --out")
+        return
     if journal_path(out).exists():
         raise UsageError(f"{journal_path(out)} is the journal of an interrupted run of {out}; "
                          "continue it with --resume, or delete the journal to discard it")
+    if not out.exists():
+        return
+    if not force:
+        raise UsageError(f"the raw dataset {out} already exists: pass --force to replace it, "
+                         "or --resume to continue it")
+    if _is_partial(out):
+        raise UsageError(f"{out} is a partial run: continue it with --resume (--force replaces "
+                         "only a finished dataset; delete a partial one to discard it)")
+
+
+def _is_partial(out: Path) -> bool:
+    """True for a readable raw dataset not marked complete (an unreadable file holds no run)."""
+    from whiskercal.artifacts.h5io import open_h5
+    from whiskercal.errors import ArtifactError
+
+    try:
+        with open_h5(out) as handle:
+            return not bool(handle.attrs.get("complete", False))
+    except ArtifactError:
+        return False
+
+
+def open_checkpoint(out: Path, header: RawHeader, resume: bool, force: bool = False) -> Checkpoint:
+    """A new checkpoint, or the resumed one; an existing run is replaced only with ``force``."""
+    if not out.parent.is_dir():
+        raise UsageError(f"{out.parent}: no such directory for the output file")
+    refuse_to_replace(out, resume, force)  # again: the file may have appeared since the start
+    if resume:
+        return Checkpoint.resume(out, header)
     return Checkpoint.start(out, header)
 
 
 def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bool = False,
-            on_progress: Callable[[Progress], None] | None = None,
+            force: bool = False, on_progress: Callable[[Progress], None] | None = None,
             stop_requested: Callable[[], bool] | None = None,
             stage_client=None, sensor_client=None) -> RunSummary:
-    """Collect the plan's grid into ``out`` (or continue it with ``resume``).
+    """Collect the plan's grid into ``out`` (or continue it with ``resume``; an existing finished
+    dataset is replaced only with ``force``, see :func:`refuse_to_replace`).
 
     ``stage_port``/``sensor_port`` are URLs, device names or open pyserial objects; tests may
     pass ready clients instead (``stage_client``/``sensor_client``), which are left open.
@@ -170,21 +200,22 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
         before the failure is in the file, and the message says how to continue.
     """
     out = Path(out)
+    refuse_to_replace(out, resume, force)
     if resume:
         check_resumable(out, plan)
     with RigSession.open(stage_port, sensor_port, session_config(plan.config),
                          stage_client=stage_client, sensor_client=sensor_client) as rig:
-        return _session(rig, out, plan, resume, on_progress, stop_requested)
+        return _session(rig, out, plan, resume, on_progress, stop_requested, force=force)
 
 
 def _session(rig: RigSession, out: Path, plan: GridPlan, resume: bool, on_progress,
-             stop_requested) -> RunSummary:
+             stop_requested, force: bool = False) -> RunSummary:
     """Check, open the checkpoint and run the collector on an open rig session."""
     refuse_other_fixture(rig)
     check_limits(plan, rig.travel_mm)
     header = make_header(plan, rig.devices, _sensor_id(plan.config, rig),
                          twin_sensor_description(rig))
-    checkpoint = open_checkpoint(out, header, resume)
+    checkpoint = open_checkpoint(out, header, resume, force)
     if checkpoint.complete:  # killed after completing, before the journal was removed
         checkpoint.close()
         journal_path(out).unlink(missing_ok=True)

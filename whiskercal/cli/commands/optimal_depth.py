@@ -32,9 +32,12 @@ def command() -> None:
               help="TOML file overriding the documented defaults (whiskercal/study/default_study.toml).")
 @click.option("--resume", is_flag=True, help="Continue a partial study file; finished trials are kept.")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
+@click.option("--force", is_flag=True,
+              help="Replace a finished study in --out (the new file, written whole, is renamed "
+                   "over it); a partial study is continued with --resume, never replaced.")
 @pass_app
 def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, config_path: Path | None,
-                resume: bool, as_json: bool) -> None:
+                resume: bool, as_json: bool, force: bool) -> None:
     """Run the flat-plane study: first contact, then one constant-velocity slide per depth."""
     from whiskercal.cli.progress import progress_bar
     from whiskercal.study.config import load_config
@@ -44,7 +47,7 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
     config = load_config(config_path)
     with progress_bar(app, "trials", description="study", as_json=as_json) as bar:
         summary = run_study(stage_url, sensor_url, out_path, config, resume=resume,
-                            progress=bar.update if bar else None)
+                            progress=bar.update if bar else None, force=force)
     result = {**summary.__dict__, "wall_time_s": round(summary.wall_time_s, 3)}
     for warning in summary.warnings:
         click.echo(f"warning: {warning}", err=True)
