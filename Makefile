@@ -56,7 +56,7 @@ demo: $(INSTALLED)
 
 # The bench's JSON also refreshes the documentation's figure snapshots (docs/figures/*.json).
 bench: $(INSTALLED)
-	$(PY) -m whiskercal bench --out out/bench
+	$(PY) -m whiskercal bench --out out/bench --force
 	$(PY) -m whiskercal twin validate --json > out/bench/twin-validate.json
 	$(PY) scripts/docs_figures.py snapshot out/bench
 

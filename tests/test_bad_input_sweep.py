@@ -59,6 +59,8 @@ FILES = {
     "rpexists/track.csv": b"an earlier track",
     "repexists/contour.json": b"{}",
     "odexists/errors.png": b"an earlier figure",
+    "bnexists/bench.json": b"{}",
+    "bnchart/surface-degree-truth.png": b"an earlier chart",
 }
 FILES["evaluation.json"] = FILES["metres.csv"]  # points where an evaluation would write its JSON
 
@@ -203,6 +205,9 @@ CASES = [
      "already exists: pass --force"),
     ("optimal-depth report study.h5 --artifact cal.h5 --out odexists", 2, "errors.png already exists"),
     ("replay tiny.csv --artifact cal.h5 --out rpexists", 2, "track.csv already exists"),
+    ("bench --quick --only field-speed --out bnexists", 2, "bench.json already exists: pass --force"),
+    ("bench --quick --only surface-degree --out bnchart", 2,
+     "surface-degree-truth.png already exists: pass --force"),
 ] + [(" ".join(COLLECT + extra.split()), code, words) for extra, code, words in [
     ("--out c.h5 --config nosuch.toml", 2, "no such config file"),
     ("--out c.h5 --config garbage.toml", 2, "not valid TOML"),
