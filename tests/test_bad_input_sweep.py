@@ -7,6 +7,7 @@ command's --help) and words its one error line must hold. No row may end in a tr
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import shutil
@@ -188,6 +189,14 @@ CASES = [
     ("report cal.h5 --out r.html --raw raw110.h5", 2, "pass --allow-other-sensor"),
     ("report cal.h5 --out r.html --study study110.h5", 2, "recorded on sensor 'long-110mm'"),
     ("optimal-depth report study110.h5 --artifact cal.h5 --out od", 2, "pass --allow-other-sensor"),
+    # the same sensor id: another raw grid than the one fitted, another plan, another target's study
+    ("report cal.h5 --out r.html --raw raw.h5", 2, "is not the one the calibration was fitted from"),
+    ("report cal.h5 --out r.html --study reach90_study.h5", 2,
+     "planned for a whisker of 90 mm to its tip, the calibration traces 78 mm"),
+    ("report othertarget.h5 --out r.html --study study.h5", 2,
+     "is not the one the calibration was given its target by"),
+    ("optimal-depth report reach90_study.h5 --artifact cal.h5 --out od", 2,
+     "planned for a whisker of 90 mm"),
     # refused before the run
     ("contour run --shape cylinder --artifact cal.h5 --out c.h5 --seed -1", 2, "--seed must be an integer >= 0"),
     ("contour run --shape cylinder --artifact cal.h5 --out c.h5 --seed 12345678901234567890", 2,
@@ -307,6 +316,12 @@ def _y_flipped(handle) -> None:
         handle[name][...] = values
 
 
+def _set_config(handle, table: str, key: str, value) -> None:
+    config = json.loads(handle.attrs["config"])
+    config[table][key] = value
+    handle.attrs["config"] = json.dumps(config)
+
+
 def _text_attr(handle) -> None:
     trial = handle["trials"][sorted(handle["trials"])[0]]
     trial.attrs["depth_mm"] = "deep"
@@ -328,6 +343,11 @@ def _linked_and_malformed(folder: Path) -> None:
         "short_raw.h5": ("raw.h5", lambda h: _shortened(h, "points/field_mean_uT")),
         "textdepth_study.h5": ("study.h5", _text_attr),
         "flipped_raw.h5": ("raw.h5", _y_flipped),
+        # the same sensor id, but a study planned for a longer whisker, and a target chosen by
+        # another study than the one given
+        "reach90_study.h5": ("study.h5", lambda h: _set_config(h, "geometry", "tip_reach_mm", 90.0)),
+        "othertarget.h5": ("cal.h5", lambda h: h["target"].attrs.__setitem__("study_sha256",
+                                                                             "ab" * 32)),
     }
     for name, (source, edit) in edits.items():
         _edited(folder, source, name, edit)

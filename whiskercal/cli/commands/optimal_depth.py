@@ -77,8 +77,8 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
               help="Target rule: scores within this (mm) of the lowest tie, and the shallowest "
                    "tied depth wins.")
 @click.option("--allow-other-sensor", is_flag=True,
-              help="Analyse a study recorded on another sensor than the artifact's (refused "
-              "otherwise), with a warning.")
+              help="Analyse a study of another sensor id, or planned for another whisker reach, "
+              "than the artifact's, with a warning; refused otherwise.")
 @click.option("--json", "as_json", is_flag=True, help="Print the per-trial table and the choice as JSON.")
 @force_option
 def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
@@ -90,7 +90,7 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
     STUDY_PATH is the file `optimal-depth run` wrote.
     """
     from whiskercal import runtime
-    from whiskercal.artifacts.h5io import other_sensor
+    from whiskercal.artifacts.cross_check import check_study_for_target
     from whiskercal.checks import number
     from whiskercal.study.artifact_target import target_artifact_path, write_target
     from whiskercal.study.figures import figure_paths, write_figures
@@ -105,8 +105,7 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
         refuse_input_as_output(output, [study_path, artifact_path])  # before any work
     refuse_existing(outputs, force)
     calibration = runtime.load(artifact_path)
-    warning = other_sensor(calibration.sensor_id, study_path, "the study", allow_other_sensor)
-    if warning:
+    for warning in check_study_for_target(artifact_path, study_path, allow_other_sensor):
         click.echo(f"warning: {warning}", err=True)
     report = build_report(study_path, calibration, margin_weight_mm=margin_weight_mm,
                           allow_missing=allow_missing, tie_mm=tie_mm)
