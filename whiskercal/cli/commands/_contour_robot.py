@@ -78,8 +78,10 @@ def _option_name(context: click.Context, name: str) -> str:
 
 
 def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_mm_s, duration_s,
-                 out, as_json, *, shape, mu_static, mu_kinetic, seed, robot_url, **robot) -> None:
-    """The run on the robot; its summary; a stopped run ends non-zero after its file is written."""
+                 out, as_json, *, shape, mu_static, mu_kinetic, seed, record, robot_url,
+                 **robot) -> None:
+    """The run on the robot; its summary; a stopped run ends non-zero after its file (and its
+    bag, with ``record`` = (PATH, force)) is written."""
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour.on_robot import contour_on_robot, summarize_robot_run
     from whiskercal.errors import UsageError
@@ -95,14 +97,23 @@ def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_
             bar.update(SimpleNamespace(done=int(t_s), total=int(duration_s), taken_now=int(t_s)))
 
         try:
-            record = contour_on_robot(setup, artifact, out, duration_s=duration_s,
-                                      loop_config=config, target_z_uT=target_uT, echo=echo,
-                                      on_progress=shown if bar else None)
+            run = contour_on_robot(setup, artifact, out, duration_s=duration_s,
+                                   loop_config=config, target_z_uT=target_uT, echo=echo,
+                                   on_progress=shown if bar else None, record=record[0],
+                                   force=record[1])
         except KeyboardInterrupt:
             click.echo(f"stopped: the robot was sent a zero twist; the partial run is in {out}",
                        err=True)
             sys.exit(130)
-    print_summary(summarize_robot_run(record), as_json)
+    print_summary(summarize_robot_run(run), as_json)
+    if record[0] is not None and not as_json:
+        print_replay_hint(record[0], *run.config["robot"]["rest_uT"])
+
+
+def print_replay_hint(bag, rest_y_uT: float, rest_z_uT: float) -> None:
+    """How to replay a recorded bag: its rest reading, and its poses."""
+    click.echo(f"recorded {bag} (replay it with --rest-uT {rest_y_uT:.3f} "
+               f"--axial-rest-uT {rest_z_uT:.3f} --poses auto)")
 
 
 def _follow_config(config_path, speed_mm_s):
