@@ -51,7 +51,13 @@ def test_it_prints_the_url_topics_and_outline_then_serves_for_its_duration():
 
 @pytest.mark.parametrize("words, message", [
     (["--robot"], "give --shape"),
-    (["--shape", "octagon"], "are for --robot"),
+    (["--shape", "octagon"], "--shape is for --robot"),
+    # given at its default value is still given, either way round
+    (["--port", "9090"], "--port is for --robot"),
+    (["--rate-hz", "30"], "--rate-hz is for --robot"),
+    (["--robot", "--shape", "octagon", "--scene", "plane"], "--scene is for the rig's boards"),
+    (["--robot", "--shape", "octagon", "--speed", "1"], "--speed is for the rig's boards"),
+    (["--robot", "--shape", "octagon", "--fault", "stall@1"], "--fault is for the rig's boards"),
     (["--robot", "--shape", "octagon", "--rate-hz", "0"], "--rate-hz must be"),
     (["--robot", "--shape", "wall"], "Invalid value for '--shape'"),
 ])

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import click
 
-from whiskercal.cli.app import App, echo_json
+from whiskercal.cli.app import App, echo_json, given_options
 
 ROBOT_ONLY = ("pose_topic", "tf_frames", "twist_topic", "twist_frame", "field_topic", "mount_path",
               "watchdog_ms", "dry_run", "max_speed", "max_turn", "box")
@@ -53,28 +53,15 @@ def robot_options(function):
 
 
 def refuse_robot_options(shape, robot: dict) -> None:
-    """On the twin: --shape is needed, and a robot option given without --robot is a mistake.
-
-    "Given" is what click saw on the command line or in the environment, not a value that
-    differs from the default: ``--watchdog-ms 200`` without --robot is refused too.
-    """
+    """On the twin: --shape is needed, and a robot option given without --robot is a mistake
+    (given at its default value too: ``given_options``)."""
     from whiskercal.errors import UsageError
 
-    context = click.get_current_context()
-    for name in ROBOT_ONLY:
-        source = context.get_parameter_source(name)
-        if source not in (None, click.core.ParameterSource.DEFAULT):
-            raise UsageError(f"{_option_name(context, name)} drives a robot: give --robot too")
+    given = given_options(ROBOT_ONLY)
+    if given:
+        raise UsageError(f"{given[0]} drives a robot: give --robot too")
     if shape is None:
         raise UsageError("give --shape (the twin's object), or --robot rosbridge://HOST:PORT")
-
-
-def _option_name(context: click.Context, name: str) -> str:
-    """The option's long name on the command line (``mount_path`` is ``--mount``)."""
-    for param in context.command.params:
-        if param.name == name:
-            return max(param.opts, key=len)
-    return f"--{name.replace('_', '-')}"
 
 
 def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_mm_s, duration_s,
