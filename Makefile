@@ -58,6 +58,9 @@ demo: $(INSTALLED)
 bench: $(INSTALLED)
 	$(PY) -m whiskercal bench --out out/bench --force
 	$(PY) -m whiskercal twin validate --json > out/bench/twin-validate.json
+	for f in sensors/*.toml; do \
+	  $(PY) -m whiskercal twin describe $$f --json > out/bench/twin-describe-$$(basename $$f .toml).json; \
+	done
 	$(PY) scripts/docs_figures.py snapshot out/bench
 
 # The site (mkdocs-material) into build/site; --strict: a broken link or a missing page fails it.

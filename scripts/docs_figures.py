@@ -68,7 +68,24 @@ BENCH_TABLES = {
                       ("warned", "warned", 0), ("silent_failure", "silent failure", 0)],
     "twin-validate": [("name", "check", 0), ("value", "result", 2), ("limit", "limit", 2),
                       ("ok", "passed", 0), ("detail", "detail", 0)],
+    "contour-target": [("tip_model", "tip model", 0), ("shape", "object", 0),
+                       ("target_z_uT", "target (µT)", 4), ("default", "chosen target", 0),
+                       ("mean_error_mm", "mean error, no alignment (mm)", 2),
+                       ("std_error_mm", "std (mm)", 2), ("max_error_mm", "max (mm)", 2),
+                       ("aligned_mean_error_mm", "aligned mean (mm)", 2),
+                       ("coverage", "coverage", 2), ("contacts_lost", "contacts lost", 0),
+                       ("time_to_go_round_s", "round in (s)", 4)],
 }
+# the sensor files' descriptions (`twin describe`, one JSON per file of sensors/): the columns of
+# their table, each a value computed from one description (``_describe_row``)
+DESCRIBE_COLUMNS = [("sensor", "sensor", 0), ("ei", "EI (N·mm²)", 4),
+                    ("ratio", "k_θ·L/EI", 3), ("kind", "at the paper's deflection: contact", 0),
+                    ("force_mN", "force (mN)", 2), ("z_uT", "z (µT)", 4),
+                    ("one_to_one", "one-to-one z range (µT)", 0),
+                    ("ends", "the range ends", 0),
+                    ("peak_share", "largest share of an axis' range", 2),
+                    ("saturates", "saturates", 0)]
+DESCRIBE_COMMAND = "whiskercal twin describe PATH --json"
 # the command that writes each snapshot's source JSON (``make bench`` runs them into out/bench),
 # and where in it the table's rows are
 SOURCES = {"twin-validate": ("whiskercal twin validate --json", "checks")}
@@ -90,6 +107,32 @@ STUDY_COLUMNS = [("depth", "depth (mm)", 0), ("contact_fraction", "contact", 2),
                  ("filtered_std_mm", "filtered std (mm)", 2),
                  ("true_filtered_mean_mm", "vs true tip (mm)", 2), ("n_slips", "slips", 0),
                  ("failing", "failing", 0)]
+
+
+def _describe_row(description: dict) -> dict:
+    """One sensor file's row: its stiffness, the paper's deflection, the one-to-one range (and
+    why it ends) and how much of the magnetometer's range the sweep uses."""
+    deflection, one = description["paper_deflection"], description["one_to_one"]
+    low, high = one["z_range_uT"]
+    ends = {"fold": f"z folds at a tip slope of {abs(one['tip_slope_rad']):.2g} rad",
+            "sweep_end": "the whole sweep", "contact_lost": "where the rod loses the tip"}
+    saturation = description["saturation"]
+    return {"sensor": description["sensor_id"], "ei": description["bending_stiffness_n_mm2"],
+            "ratio": description["root_ratio_k_theta_l_over_ei"], "kind": deflection["kind"],
+            "force_mN": 1e3 * deflection["force_n"], "z_uT": deflection["z_uT"],
+            "one_to_one": f"{low:.0f}..{high:.0f}",
+            "ends": ends.get(one["ends_at"], one["ends_at"]),
+            "peak_share": max(saturation["peak_fraction"]),
+            "saturates": "no" if saturation["axis"] is None else
+            f"{saturation['axis']} at {saturation['z_uT']:.0f} µT"}
+
+
+def _describe_figure() -> str:
+    snap = _snapshot("twin-describe")
+    rows = [_describe_row(d) for d in snap["result"]["sensors"]]
+    return (markdown_table(rows, DESCRIBE_COLUMNS)
+            + f"\n\n*From `docs/figures/twin-describe.json`, written by `{snap['written_by']}` "
+            "for each file of `sensors/` (default magnetometer settings).*\n")
 
 
 def _golden_value(value, digits: int) -> str:
@@ -184,10 +227,12 @@ def render(name: str) -> str:
         return _golden_figure()
     if name.startswith("study-"):
         return _study_figure(name[len("study-"):])
+    if name == "twin-describe":
+        return _describe_figure()
     if name in BENCH_TABLES:
         return _bench_figure(name)
     raise KeyError(f"unknown figure {name!r}; known: recorded-datasets, study-DATASET, "
-                   f"{', '.join(BENCH_TABLES)}")
+                   f"twin-describe, {', '.join(BENCH_TABLES)}")
 
 
 def snapshot(bench_dir: Path) -> list[Path]:
@@ -204,6 +249,15 @@ def snapshot(bench_dir: Path) -> list[Path]:
                    "snapshot_by": "make bench (scripts/docs_figures.py snapshot)",
                    "result": result}
         target = FIGURES / f"{name}.json"
+        target.write_text(json.dumps(payload, indent=1, allow_nan=True) + "\n", encoding="utf-8")
+        written.append(target)
+    descriptions = sorted(bench_dir.glob("twin-describe-*.json"))
+    if descriptions:
+        payload = {"written_by": DESCRIBE_COMMAND, "comparison": "twin-describe",
+                   "snapshot_by": "make bench (scripts/docs_figures.py snapshot)",
+                   "result": {"sensors": [json.loads(p.read_text(encoding="utf-8"))
+                                          for p in descriptions]}}
+        target = FIGURES / "twin-describe.json"
         target.write_text(json.dumps(payload, indent=1, allow_nan=True) + "\n", encoding="utf-8")
         written.append(target)
     return written

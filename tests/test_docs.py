@@ -48,10 +48,22 @@ def test_a_figure_table_says_which_command_wrote_it():
     figures = _load("docs_figures")
     for path in sorted((DOCS / "figures").glob("*.json")):
         snapshot = json.loads(path.read_text())
-        assert snapshot["written_by"].startswith(("whiskercal bench", "whiskercal twin validate"))
+        assert snapshot["written_by"].startswith(("whiskercal bench", "whiskercal twin validate",
+                                                  "whiskercal twin describe"))
         assert f"`{snapshot['written_by']}`" in figures.render(path.stem)
     with pytest.raises(KeyError, match="unknown figure"):
         figures.render("no-such-figure")
+
+
+def test_the_sensor_files_table_has_a_row_for_each_file_and_no_typed_figure():
+    figures = _load("docs_figures")
+    table = figures.render("twin-describe")
+    ids = sorted(p.stem for p in (ROOT / "sensors").glob("*.toml"))
+    snapshot = json.loads((DOCS / "figures" / "twin-describe.json").read_text())
+    assert sorted(d["sensor_id"] for d in snapshot["result"]["sensors"]) == ids
+    assert all(f"| {sensor_id} |" in table for sensor_id in ids)
+    page = (DOCS / "twin.md").read_text()
+    assert "<!-- figure: twin-describe -->" in page and "| twin-paper-75mm |" not in page
 
 
 def test_product_pages_carry_no_measurement_history():
