@@ -11,7 +11,7 @@ OUT ?= out/demo
 LOCK ?= requirements.lock
 LATEST_VENV ?= .venv-latest
 
-.PHONY: setup test test-all test-latest lock demo bench docs firmware firmware-deps clean
+.PHONY: setup test test-all test-latest lock demo walkthrough-figures bench docs firmware firmware-deps clean
 
 setup: $(INSTALLED)
 
@@ -53,6 +53,10 @@ lock:
 
 demo: $(INSTALLED)
 	OUT=$(OUT) PY=$(PY) bash scripts/demo.sh
+
+# The tutorial's example outputs (docs/walkthrough.md) are what the demo printed.
+walkthrough-figures: demo
+	$(PY) scripts/docs_figures.py transcript $(OUT)
 
 # The bench's JSON also refreshes the documentation's figure snapshots (docs/figures/*.json).
 bench: $(INSTALLED)

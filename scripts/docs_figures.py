@@ -6,6 +6,7 @@ renders them where a page holds a marker ``<!-- figure: NAME -->`` (``render``).
 names the command that wrote it, and its table says so under it.
 
     python scripts/docs_figures.py snapshot out/bench     # after whiskercal bench --out out/bench
+    python scripts/docs_figures.py transcript out/demo    # after make demo: the tutorial's outputs
 """
 
 from __future__ import annotations
@@ -263,8 +264,32 @@ def snapshot(bench_dir: Path) -> list[Path]:
     return written
 
 
+# the tutorial's example outputs: what `make demo` printed at each step (scripts/demo.sh keeps
+# them in OUT/transcript/), included in docs/walkthrough.md by pymdownx.snippets
+TRANSCRIPTS = FIGURES / "walkthrough"
+TRANSCRIPT_NAMES = ("collect-dry-run", "collect", "fit", "study-report", "report", "runtime")
+
+
+def transcript(demo_dir: Path) -> list[Path]:
+    """Copy the demo's transcript (OUT/transcript/NAME.txt) into docs/figures/walkthrough/."""
+    missing = [n for n in TRANSCRIPT_NAMES if not (demo_dir / "transcript" / f"{n}.txt").is_file()]
+    if missing:
+        raise FileNotFoundError(f"{demo_dir}/transcript lacks {', '.join(missing)}: run make demo")
+    TRANSCRIPTS.mkdir(exist_ok=True)
+    written = []
+    for name in TRANSCRIPT_NAMES:
+        text = (demo_dir / "transcript" / f"{name}.txt").read_text(encoding="utf-8")
+        target = TRANSCRIPTS / f"{name}.txt"
+        target.write_text(text.rstrip("\n") + "\n", encoding="utf-8")
+        written.append(target)
+    return written
+
+
+COMMANDS = {"snapshot": snapshot, "transcript": transcript}
+
 if __name__ == "__main__":
-    if len(sys.argv) != 3 or sys.argv[1] != "snapshot":
-        sys.exit("usage: python scripts/docs_figures.py snapshot BENCH_DIR")
-    for path in snapshot(Path(sys.argv[2])):
+    if len(sys.argv) != 3 or sys.argv[1] not in COMMANDS:
+        sys.exit("usage: python scripts/docs_figures.py snapshot BENCH_DIR\n"
+                 "       python scripts/docs_figures.py transcript DEMO_OUT")
+    for path in COMMANDS[sys.argv[1]](Path(sys.argv[2])):
         print(f"wrote {path.relative_to(ROOT)}")

@@ -257,7 +257,7 @@ CASES = [
     ("--out s.h5 --config nodepths.toml", 2, "depths_mm"),
     ("--out s.h5 --config nandepth.toml", 2, "depths_mm"),
     ("--out s.h5 --config negtravel.toml", 2, "[trials] travel_mm: must be a number > 0, not -1"),
-    ("--out study.h5", 2, "pass --resume"),
+    ("--out study.h5", 2, "already exists: pass --force to replace it, or --resume"),
     ("--out study.h5 --force --resume", 2, "--force replaces it: give one"),
     ("--out trunc_study.h5 --resume", 4, "truncated"),
     ("--out raw.h5 --resume", 4, "not a whiskercal.plane_study file"),

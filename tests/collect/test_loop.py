@@ -211,7 +211,7 @@ def test_force_replaces_a_finished_dataset_whole_and_never_a_partial_run(tmp_pat
     with pytest.raises(UsageError, match="interrupted run .* continue it with --resume"):
         run(tmp_path, force=True)
     journal_path(out).unlink()  # its journal gone, the file alone is still a partial run
-    with pytest.raises(UsageError, match="partial run: continue it with --resume"):
+    with pytest.raises(UsageError, match="partial raw dataset: continue it with --resume"):
         run(tmp_path, force=True)
     assert out.read_bytes() == partial
 

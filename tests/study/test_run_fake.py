@@ -58,7 +58,7 @@ def test_resume_with_another_config_is_refused(tmp_path):
     other = _config(tmp_path, "[safety]\noverload_uT = 9000.0\n")
     with pytest.raises(UsageError, match="another configuration"):
         StudyWriter(tmp_path / "study.h5", other, "fake-sensor", resume=True)
-    with pytest.raises(UsageError, match="already exists: pass --resume .* or --force"):
+    with pytest.raises(UsageError, match="already exists: pass --force to replace it, or --resume"):
         StudyWriter(tmp_path / "study.h5", config, "fake-sensor")
     with pytest.raises(UsageError, match="nothing to resume"):
         StudyWriter(tmp_path / "other.h5", config, "fake-sensor", resume=True)

@@ -156,29 +156,11 @@ class StudyWriter:
 
 
 def refuse_to_replace(path: Path, resume: bool, force: bool) -> None:
-    """The output rule for a study file: an existing one is refused unless ``force``, and a
-    partial one (not marked complete) is continued with ``resume``, never replaced."""
-    if resume and force:
-        raise UsageError("--resume continues the study in --out and --force replaces it: give one")
-    if resume and not path.exists():
+    """The output rule for a study file (``h5io.refuse_to_replace_run``); nothing to resume
+    where no file is."""
+    if resume and not force and not path.exists():
         raise UsageError(f"{path} does not exist: nothing to resume")
-    if resume or not path.exists():
-        return
-    if not force:
-        raise UsageError(f"the study file {path} already exists: pass --resume to continue it, "
-                         "or --force to replace it")
-    if _is_partial(path):
-        raise UsageError(f"{path} is a partial study: continue it with --resume (--force "
-                         "replaces only a finished study; delete a partial one to discard it)")
-
-
-def _is_partial(path: Path) -> bool:
-    """True for a readable study file not marked complete (an unreadable one holds no study)."""
-    try:
-        with h5io.open_h5(path) as handle:
-            return not bool(handle.attrs.get("complete", False))
-    except ArtifactError:
-        return False
+    h5io.refuse_to_replace_run(path, resume, force, "study")
 
 
 def _comparable(config: dict) -> str:

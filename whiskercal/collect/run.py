@@ -139,36 +139,14 @@ def check_resumable(out: Path, plan: GridPlan) -> None:
 
 
 def refuse_to_replace(out: Path, resume: bool, force: bool) -> None:
-    """The output rule for a raw dataset, before any port opens: an existing one is refused
-    unless ``force``; a partial run (its journal, or a file not marked complete) is continued
-    with ``resume``, never replaced, even with ``force``."""
-    if resume and force:
-        raise UsageError("--resume continues the run in --out and --force replaces it: give one")
-    if resume:
-        return
-    if journal_path(out).exists():
+    """The output rule for a raw dataset, before any port opens (``h5io.refuse_to_replace_run``):
+    an interrupted run's journal is continued with ``resume`` whatever ``force`` says."""
+    from whiskercal.artifacts.h5io import refuse_to_replace_run
+
+    if not resume and journal_path(out).exists():
         raise UsageError(f"{journal_path(out)} is the journal of an interrupted run of {out}; "
                          "continue it with --resume, or delete the journal to discard it")
-    if not out.exists():
-        return
-    if not force:
-        raise UsageError(f"the raw dataset {out} already exists: pass --force to replace it, "
-                         "or --resume to continue it")
-    if _is_partial(out):
-        raise UsageError(f"{out} is a partial run: continue it with --resume (--force replaces "
-                         "only a finished dataset; delete a partial one to discard it)")
-
-
-def _is_partial(out: Path) -> bool:
-    """True for a readable raw dataset not marked complete (an unreadable file holds no run)."""
-    from whiskercal.artifacts.h5io import open_h5
-    from whiskercal.errors import ArtifactError
-
-    try:
-        with open_h5(out) as handle:
-            return not bool(handle.attrs.get("complete", False))
-    except ArtifactError:
-        return False
+    refuse_to_replace_run(out, resume, force, "raw dataset")
 
 
 def open_checkpoint(out: Path, header: RawHeader, resume: bool, force: bool = False) -> Checkpoint:
