@@ -90,7 +90,7 @@ class StudyWriter:
                  force: bool = False):
         self.path = Path(path)
         self.config = config
-        refuse_to_replace(self.path, resume, force)
+        h5io.refuse_to_replace_run(self.path, resume, force, "study")
         if resume:
             self._check_resumable()
         else:
@@ -153,14 +153,6 @@ class StudyWriter:
         def write(handle: h5py.File) -> None:
             handle.attrs["complete"] = True
         self._update(write)
-
-
-def refuse_to_replace(path: Path, resume: bool, force: bool) -> None:
-    """The output rule for a study file (``h5io.refuse_to_replace_run``); nothing to resume
-    where no file is."""
-    if resume and not force and not path.exists():
-        raise UsageError(f"{path} does not exist: nothing to resume")
-    h5io.refuse_to_replace_run(path, resume, force, "study")
 
 
 def _comparable(config: dict) -> str:

@@ -59,13 +59,6 @@ def _read_group(group: h5py.Group) -> dict[str, np.ndarray]:
     return out
 
 
-def refuse_to_replace(path: Path, resume: bool, force: bool) -> None:
-    """The output rule for a shaft study file; nothing to resume where no file is."""
-    if resume and not force and not path.exists():
-        raise UsageError(f"{path} does not exist: nothing to resume")
-    h5io.refuse_to_replace_run(path, resume, force, "shaft study")
-
-
 class ShaftStudyWriter:
     """Create (or with ``resume`` continue) a shaft study file; add finished trials atomically.
     An existing finished file is replaced only with ``force`` (``h5io.refuse_to_replace_run``)."""
@@ -73,7 +66,7 @@ class ShaftStudyWriter:
     def __init__(self, path: str | Path, config: dict, sensor_id: str, resume: bool = False,
                  force: bool = False):
         self.path, self.config = Path(path), config
-        refuse_to_replace(self.path, resume, force)
+        h5io.refuse_to_replace_run(self.path, resume, force, "shaft study")
         if resume:
             with h5io.open_h5(self.path) as handle:
                 h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, self.path)

@@ -139,14 +139,11 @@ def check_resumable(out: Path, plan: GridPlan) -> None:
 
 
 def refuse_to_replace(out: Path, resume: bool, force: bool) -> None:
-    """The output rule for a raw dataset, before any port opens (``h5io.refuse_to_replace_run``):
-    an interrupted run's journal is continued with ``resume`` whatever ``force`` says."""
+    """The output rule for a raw dataset and its journal, before any port opens
+    (``h5io.refuse_to_replace_run``)."""
     from whiskercal.artifacts.h5io import refuse_to_replace_run
 
-    if not resume and journal_path(out).exists():
-        raise UsageError(f"{journal_path(out)} is the journal of an interrupted run of {out}; "
-                         "continue it with --resume, or delete the journal to discard it")
-    refuse_to_replace_run(out, resume, force, "raw dataset")
+    refuse_to_replace_run(out, resume, force, "raw dataset", journal=journal_path(out))
 
 
 def open_checkpoint(out: Path, header: RawHeader, resume: bool, force: bool = False) -> Checkpoint:

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from whiskercal.artifacts.shaft_study import ShaftStudyWriter, ShaftTrial, refuse_to_replace
+from whiskercal.artifacts import h5io
+from whiskercal.artifacts.shaft_study import ShaftStudyWriter, ShaftTrial
 from whiskercal.protocol.sensor_config import SensorConfig
 from whiskercal.errors import UsageError
 from whiskercal.rig.overload import SENSOR_AXIS_Y, OverloadError, check_overload
@@ -47,7 +48,7 @@ def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
                     resume: bool = False, progress=None, force: bool = False) -> ShaftRunSummary:
     """Run (or continue) the shaft study into ``out_path``; return what was done. An existing
     finished file is replaced only with ``force``."""
-    refuse_to_replace(Path(out_path), resume, force)  # before any port opens
+    h5io.refuse_to_replace_run(Path(out_path), resume, force, "shaft study")  # before any port opens
     summary = ShaftRunSummary(out=str(out_path))
     with RigSession.open(stage_port, sensor_port, session_config(config)) as rig:
         world = getattr(rig.sensor_port, "world", None)

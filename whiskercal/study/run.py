@@ -25,8 +25,9 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.artifacts import h5io
 from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE,
-                                              StudyWriter, TrialRecord, refuse_to_replace)
+                                              StudyWriter, TrialRecord)
 from whiskercal.collect.faults import frame_loss, frame_loss_warning
 from whiskercal.errors import DeviceError, UsageError
 from whiskercal.progress import Progress
@@ -90,7 +91,7 @@ def run_study(stage_port, sensor_port, out_path: str | Path, config: dict, resum
         Device failures, alarms, the overload guard, no contact, a refused resume; every
         finished trial is in the file and ``resume`` continues with the rest.
     """
-    refuse_to_replace(Path(out_path), resume, force)  # before any port opens
+    h5io.refuse_to_replace_run(Path(out_path), resume, force, "study")  # before any port opens
     with RigSession.open(stage_port, sensor_port, session_config(config),
                          stage_client=stage_client, sensor_client=sensor_client) as rig:
         world = getattr(rig.sensor_port, "world", None)
