@@ -36,8 +36,13 @@ def record_bag(path: str | Path, columns: dict[str, np.ndarray], rest_field_uT,
     field = np.tile(rest, (len(t_s), 1))
     field[:, 1] += np.asarray(columns["z_uT"], float)
     field[:, 2] += np.asarray(columns["axial_uT"], float)
-    pose = np.asarray(columns["pose"], float).reshape(-1, 3)
-    return write_bag(path, [Series(FIELD_TOPIC, "field", t_s, field, SENSOR_FRAME),
+    return _stream_bag(path, t_s, field, columns["pose"], replace)
+
+
+def _stream_bag(path, t_s, field_uT, pose, replace: bool) -> Path:
+    """The bag of a field stream (n, 3) µT and the sensor base's poses (n, 3) at times ``t_s``."""
+    pose = np.asarray(pose, float).reshape(-1, 3)
+    return write_bag(path, [Series(FIELD_TOPIC, "field", t_s, field_uT, SENSOR_FRAME),
                             Series(POSE_TOPIC, "pose", t_s, pose)], replace=replace)
 
 
@@ -60,8 +65,5 @@ class BagRecorder:
 
     def write(self) -> Path:
         """The bag of every sample added (the field and the base's poses, one each a sample)."""
-        t_s = np.asarray(self.stamps, float)
-        field = np.asarray(self.fields, float).reshape(-1, 3)
-        pose = np.asarray(self.poses, float).reshape(-1, 3)
-        return write_bag(self.path, [Series(FIELD_TOPIC, "field", t_s, field, SENSOR_FRAME),
-                                     Series(POSE_TOPIC, "pose", t_s, pose)], replace=self.replace)
+        return _stream_bag(self.path, np.asarray(self.stamps, float),
+                           np.asarray(self.fields, float).reshape(-1, 3), self.poses, self.replace)

@@ -72,11 +72,10 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     from whiskercal.checks import seed as check_seed
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour import contour_to_file, summarize
+    from whiskercal.contour.record import refuse_existing as refuse_existing_bag
     from whiskercal.follow import load_follow_config
     from whiskercal.twin.outlines import outline
     from whiskercal.twin.sensor_file import resolve_sensor
-
-    from whiskercal.contour.record import refuse_existing as refuse_existing_bag
 
     refuse_input_as_output(out, [artifact] + ([config_path] if config_path else []), "the run")
     refuse_existing([out], force, "the run")
