@@ -66,6 +66,17 @@ def test_the_sensor_files_table_has_a_row_for_each_file_and_no_typed_figure():
     assert "<!-- figure: twin-describe -->" in page and "| twin-paper-75mm |" not in page
 
 
+SNIPPET = re.compile(r'--8<-- "([^"]+)"')
+
+
+def test_the_tutorials_outputs_are_the_demos_transcript():
+    figures = _load("docs_figures")
+    page = (DOCS / "walkthrough.md").read_text()
+    included = SNIPPET.findall(page)
+    assert included == [f"docs/figures/walkthrough/{n}.txt" for n in figures.TRANSCRIPT_NAMES]
+    assert all((ROOT / path).read_text().strip() for path in included)
+
+
 def test_product_pages_carry_no_measurement_history():
     found = [f"{p.relative_to(ROOT)}:{n}: {line.strip()[:80]}"
              for p in _product_pages() for n, line in enumerate(p.read_text().splitlines(), 1)
