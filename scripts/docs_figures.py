@@ -70,7 +70,7 @@ BENCH_TABLES = {
     "twin-validate": [("name", "check", 0), ("value", "result", 2), ("limit", "limit", 2),
                       ("ok", "passed", 0), ("detail", "detail", 0)],
     "contour-target": [("tip_model", "tip model", 0), ("shape", "object", 0),
-                       ("target_z_uT", "target (µT)", 4), ("default", "chosen target", 0),
+                       ("target_z_uT", "target (µT)", 5), ("default", "chosen target", 0),
                        ("mean_error_mm", "mean error, no alignment (mm)", 2),
                        ("std_error_mm", "std (mm)", 2), ("max_error_mm", "max (mm)", 2),
                        ("aligned_mean_error_mm", "aligned mean (mm)", 2),

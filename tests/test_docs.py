@@ -66,6 +66,14 @@ def test_the_sensor_files_table_has_a_row_for_each_file_and_no_typed_figure():
     assert "<!-- figure: twin-describe -->" in page and "| twin-paper-75mm |" not in page
 
 
+def test_the_contour_results_are_the_benchs_not_typed():
+    page = (DOCS / "contour.md").read_text()
+    assert "<!-- figure: contour-target -->" in page
+    assert not re.search(r"^\| (cylinder|rounded square|octagon|[0-9]) \|", page, re.M)
+    table = _load("docs_figures").render("contour-target")
+    assert "| yz-table | octagon |" in table and "| z-lookup | cylinder |" in table
+
+
 SNIPPET = re.compile(r'--8<-- "([^"]+)"')
 
 
