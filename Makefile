@@ -11,7 +11,7 @@ OUT ?= out/demo
 LOCK ?= requirements.lock
 LATEST_VENV ?= .venv-latest
 
-.PHONY: setup test test-all test-latest lock demo bench docs firmware firmware-deps clean
+.PHONY: setup test test-all test-latest lock demo walkthrough-figures bench docs firmware firmware-deps clean
 
 setup: $(INSTALLED)
 
@@ -54,10 +54,17 @@ lock:
 demo: $(INSTALLED)
 	OUT=$(OUT) PY=$(PY) bash scripts/demo.sh
 
+# The tutorial's example outputs (docs/walkthrough.md) are what the demo printed.
+walkthrough-figures: demo
+	$(PY) scripts/docs_figures.py transcript $(OUT)
+
 # The bench's JSON also refreshes the documentation's figure snapshots (docs/figures/*.json).
 bench: $(INSTALLED)
-	$(PY) -m whiskercal bench --out out/bench
+	$(PY) -m whiskercal bench --out out/bench --force
 	$(PY) -m whiskercal twin validate --json > out/bench/twin-validate.json
+	for f in sensors/*.toml; do \
+	  $(PY) -m whiskercal twin describe $$f --json > out/bench/twin-describe-$$(basename $$f .toml).json; \
+	done
 	$(PY) scripts/docs_figures.py snapshot out/bench
 
 # The site (mkdocs-material) into build/site; --strict: a broken link or a missing page fails it.

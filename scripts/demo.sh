@@ -17,6 +17,10 @@ mkdir -p "$OUT"
 wcal() { "$PY" -m whiskercal "$@"; }
 started=$(date +%s)
 step() { echo; echo "== $1 ($(( $(date +%s) - started )) s)"; }
+# What each step prints is also kept in $OUT/transcript/NAME.txt: the tutorial's example outputs
+# (docs/walkthrough.md) are these, copied by `python scripts/docs_figures.py transcript $OUT`.
+TRANSCRIPT="$OUT/transcript"
+keep() { local name=$1; shift; "$@" | tee "$TRANSCRIPT/$name.txt"; }
 
 RAW="$OUT/raw_grid.h5"
 CAL="$OUT/calibration.h5"
@@ -30,7 +34,8 @@ CONTOUR_DIR="$OUT/contour"
 CONTOUR_S=90
 # The demo owns these outputs: a rerun starts them afresh (collect never overwrites a dataset).
 rm -rf "$RAW" "$RAW.journal" "$CAL" "$FIT_LOG" "$STUDY" "$STUDY.partial" "$STUDY_DIR" "$FINAL" "$HTML" \
-    "$CONTOUR" "$CONTOUR_DIR"
+    "$CONTOUR" "$CONTOUR_DIR" "$TRANSCRIPT"
+mkdir -p "$TRANSCRIPT"
 
 collect_config=()
 study_config=()
@@ -58,7 +63,8 @@ step "0/7 check the twin's mechanics against independent references"
 wcal twin validate
 
 step "1/7 collect the calibration grid (sim:// stage and sensor)"
-wcal collect --stage "sim://demo_grid/stage?seed=$SEED" --sensor sim://demo_grid/sensor \
+keep collect-dry-run wcal collect --dry-run "${collect_config[@]}"
+keep collect wcal collect --stage "sim://demo_grid/stage?seed=$SEED" --sensor sim://demo_grid/sensor \
     --out "$RAW" "${collect_config[@]}"
 
 # The fit (the surface, both tip models and the (Y, Z) table: most of a minute) and the study's
@@ -75,15 +81,17 @@ if ! wait "$fit_pid"; then cat "$FIT_LOG" >&2; exit 1; fi
 trap - EXIT
 step "2/7 the fit, done"
 cat "$FIT_LOG"
+cp "$FIT_LOG" "$TRANSCRIPT/fit.txt"
 
 step "4/7 report the study and choose the deflection target"
-wcal optimal-depth report "$STUDY" --artifact "$CAL" --out "$STUDY_DIR" --out-artifact "$FINAL"
+keep study-report wcal optimal-depth report "$STUDY" --artifact "$CAL" --out "$STUDY_DIR" \
+    --out-artifact "$FINAL"
 
 step "5/7 write the HTML report"
-wcal report "$FINAL" --raw "$RAW" --study "$STUDY" --out "$HTML"
+keep report wcal report "$FINAL" --raw "$RAW" --study "$STUDY" --out "$HTML"
 
 step "6/7 load the final artifact as a robot does (whiskercal.runtime)"
-"$PY" - "$FINAL" <<'EOF'
+keep runtime "$PY" - "$FINAL" <<'EOF'
 import sys
 
 import numpy as np

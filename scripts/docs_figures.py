@@ -6,6 +6,7 @@ renders them where a page holds a marker ``<!-- figure: NAME -->`` (``render``).
 names the command that wrote it, and its table says so under it.
 
     python scripts/docs_figures.py snapshot out/bench     # after whiskercal bench --out out/bench
+    python scripts/docs_figures.py transcript out/demo    # after make demo: the tutorial's outputs
 """
 
 from __future__ import annotations
@@ -78,7 +79,24 @@ BENCH_TABLES = {
                   ("octagon.calibrated.size_error_mm", "calibrated (mm)", 2)],
     "twin-validate": [("name", "check", 0), ("value", "result", 2), ("limit", "limit", 2),
                       ("ok", "passed", 0), ("detail", "detail", 0)],
+    "contour-target": [("tip_model", "tip model", 0), ("shape", "object", 0),
+                       ("target_z_uT", "target (µT)", 5), ("default", "chosen target", 0),
+                       ("mean_error_mm", "mean error, no alignment (mm)", 2),
+                       ("std_error_mm", "std (mm)", 2), ("max_error_mm", "max (mm)", 2),
+                       ("aligned_mean_error_mm", "aligned mean (mm)", 2),
+                       ("coverage", "coverage", 2), ("contacts_lost", "contacts lost", 0),
+                       ("time_to_go_round_s", "round in (s)", 4)],
 }
+# the sensor files' descriptions (`twin describe`, one JSON per file of sensors/): the columns of
+# their table, each a value computed from one description (``_describe_row``)
+DESCRIBE_COLUMNS = [("sensor", "sensor", 0), ("ei", "EI (N·mm²)", 4),
+                    ("ratio", "k_θ·L/EI", 3), ("kind", "at the paper's deflection: contact", 0),
+                    ("force_mN", "force (mN)", 2), ("z_uT", "z (µT)", 4),
+                    ("one_to_one", "one-to-one z range (µT)", 0),
+                    ("ends", "the range ends", 0),
+                    ("peak_share", "largest share of an axis' range", 2),
+                    ("saturates", "saturates", 0)]
+DESCRIBE_COMMAND = "whiskercal twin describe PATH --json"
 # the command that writes each snapshot's source JSON (``make bench`` runs them into out/bench),
 # and where in it the table's rows are
 SOURCES = {"twin-validate": ("whiskercal twin validate --json", "checks")}
@@ -100,6 +118,32 @@ STUDY_COLUMNS = [("depth", "depth (mm)", 0), ("contact_fraction", "contact", 2),
                  ("filtered_std_mm", "filtered std (mm)", 2),
                  ("true_filtered_mean_mm", "vs true tip (mm)", 2), ("n_slips", "slips", 0),
                  ("failing", "failing", 0)]
+
+
+def _describe_row(description: dict) -> dict:
+    """One sensor file's row: its stiffness, the paper's deflection, the one-to-one range (and
+    why it ends) and how much of the magnetometer's range the sweep uses."""
+    deflection, one = description["paper_deflection"], description["one_to_one"]
+    low, high = one["z_range_uT"]
+    ends = {"fold": f"z folds at a tip slope of {abs(one['tip_slope_rad']):.2g} rad",
+            "sweep_end": "the whole sweep", "contact_lost": "where the rod loses the tip"}
+    saturation = description["saturation"]
+    return {"sensor": description["sensor_id"], "ei": description["bending_stiffness_n_mm2"],
+            "ratio": description["root_ratio_k_theta_l_over_ei"], "kind": deflection["kind"],
+            "force_mN": 1e3 * deflection["force_n"], "z_uT": deflection["z_uT"],
+            "one_to_one": f"{low:.0f}..{high:.0f}",
+            "ends": ends.get(one["ends_at"], one["ends_at"]),
+            "peak_share": max(saturation["peak_fraction"]),
+            "saturates": "no" if saturation["axis"] is None else
+            f"{saturation['axis']} at {saturation['z_uT']:.0f} µT"}
+
+
+def _describe_figure() -> str:
+    snap = _snapshot("twin-describe")
+    rows = [_describe_row(d) for d in snap["result"]["sensors"]]
+    return (markdown_table(rows, DESCRIBE_COLUMNS)
+            + f"\n\n*From `docs/figures/twin-describe.json`, written by `{snap['written_by']}` "
+            "for each file of `sensors/` (default magnetometer settings).*\n")
 
 
 def _golden_value(value, digits: int) -> str:
@@ -194,10 +238,12 @@ def render(name: str) -> str:
         return _golden_figure()
     if name.startswith("study-"):
         return _study_figure(name[len("study-"):])
+    if name == "twin-describe":
+        return _describe_figure()
     if name in BENCH_TABLES:
         return _bench_figure(name)
     raise KeyError(f"unknown figure {name!r}; known: recorded-datasets, study-DATASET, "
-                   f"{', '.join(BENCH_TABLES)}")
+                   f"twin-describe, {', '.join(BENCH_TABLES)}")
 
 
 def snapshot(bench_dir: Path) -> list[Path]:
@@ -216,11 +262,44 @@ def snapshot(bench_dir: Path) -> list[Path]:
         target = FIGURES / f"{name}.json"
         target.write_text(json.dumps(payload, indent=1, allow_nan=True) + "\n", encoding="utf-8")
         written.append(target)
+    descriptions = sorted(bench_dir.glob("twin-describe-*.json"))
+    if descriptions:
+        payload = {"written_by": DESCRIBE_COMMAND, "comparison": "twin-describe",
+                   "snapshot_by": "make bench (scripts/docs_figures.py snapshot)",
+                   "result": {"sensors": [json.loads(p.read_text(encoding="utf-8"))
+                                          for p in descriptions]}}
+        target = FIGURES / "twin-describe.json"
+        target.write_text(json.dumps(payload, indent=1, allow_nan=True) + "\n", encoding="utf-8")
+        written.append(target)
     return written
 
 
+# the tutorial's example outputs: what `make demo` printed at each step (scripts/demo.sh keeps
+# them in OUT/transcript/), included in docs/walkthrough.md by pymdownx.snippets
+TRANSCRIPTS = FIGURES / "walkthrough"
+TRANSCRIPT_NAMES = ("collect-dry-run", "collect", "fit", "study-report", "report", "runtime")
+
+
+def transcript(demo_dir: Path) -> list[Path]:
+    """Copy the demo's transcript (OUT/transcript/NAME.txt) into docs/figures/walkthrough/."""
+    missing = [n for n in TRANSCRIPT_NAMES if not (demo_dir / "transcript" / f"{n}.txt").is_file()]
+    if missing:
+        raise FileNotFoundError(f"{demo_dir}/transcript lacks {', '.join(missing)}: run make demo")
+    TRANSCRIPTS.mkdir(exist_ok=True)
+    written = []
+    for name in TRANSCRIPT_NAMES:
+        text = (demo_dir / "transcript" / f"{name}.txt").read_text(encoding="utf-8")
+        target = TRANSCRIPTS / f"{name}.txt"
+        target.write_text(text.rstrip("\n") + "\n", encoding="utf-8")
+        written.append(target)
+    return written
+
+
+COMMANDS = {"snapshot": snapshot, "transcript": transcript}
+
 if __name__ == "__main__":
-    if len(sys.argv) != 3 or sys.argv[1] != "snapshot":
-        sys.exit("usage: python scripts/docs_figures.py snapshot BENCH_DIR")
-    for path in snapshot(Path(sys.argv[2])):
+    if len(sys.argv) != 3 or sys.argv[1] not in COMMANDS:
+        sys.exit("usage: python scripts/docs_figures.py snapshot BENCH_DIR\n"
+                 "       python scripts/docs_figures.py transcript DEMO_OUT")
+    for path in COMMANDS[sys.argv[1]](Path(sys.argv[2])):
         print(f"wrote {path.relative_to(ROOT)}")

@@ -7,6 +7,7 @@ command's --help) and words its one error line must hold. No row may end in a tr
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import shutil
@@ -59,6 +60,8 @@ FILES = {
     "rpexists/track.csv": b"an earlier track",
     "repexists/contour.json": b"{}",
     "odexists/errors.png": b"an earlier figure",
+    "bnexists/bench.json": b"{}",
+    "bnchart/surface-degree-truth.png": b"an earlier chart",
 }
 FILES["evaluation.json"] = FILES["metres.csv"]  # points where an evaluation would write its JSON
 
@@ -194,6 +197,14 @@ CASES = [
     ("report cal.h5 --out r.html --raw raw110.h5", 2, "pass --allow-other-sensor"),
     ("report cal.h5 --out r.html --study study110.h5", 2, "recorded on sensor 'long-110mm'"),
     ("optimal-depth report study110.h5 --artifact cal.h5 --out od", 2, "pass --allow-other-sensor"),
+    # the same sensor id: another raw grid than the one fitted, another plan, another target's study
+    ("report cal.h5 --out r.html --raw raw.h5", 2, "is not the one the calibration was fitted from"),
+    ("report cal.h5 --out r.html --study reach90_study.h5", 2,
+     "planned for a whisker of 90 mm to its tip, the calibration traces 78 mm"),
+    ("report othertarget.h5 --out r.html --study study.h5", 2,
+     "is not the one the calibration was given its target by"),
+    ("optimal-depth report reach90_study.h5 --artifact cal.h5 --out od", 2,
+     "planned for a whisker of 90 mm"),
     # refused before the run
     ("contour run --shape cylinder --artifact cal.h5 --out c.h5 --seed -1", 2, "--seed must be an integer >= 0"),
     ("contour run --shape cylinder --artifact cal.h5 --out c.h5 --seed 12345678901234567890", 2,
@@ -211,6 +222,9 @@ CASES = [
      "already exists: pass --force"),
     ("optimal-depth report study.h5 --artifact cal.h5 --out odexists", 2, "errors.png already exists"),
     ("replay tiny.csv --artifact cal.h5 --out rpexists", 2, "track.csv already exists"),
+    ("bench --quick --only field-speed --out bnexists", 2, "bench.json already exists: pass --force"),
+    ("bench --quick --only surface-degree --out bnchart", 2,
+     "surface-degree-truth.png already exists: pass --force"),
 ] + [(" ".join(COLLECT + extra.split()), code, words) for extra, code, words in [
     ("--out c.h5 --config nosuch.toml", 2, "no such config file"),
     ("--out c.h5 --config garbage.toml", 2, "not valid TOML"),
@@ -220,7 +234,9 @@ CASES = [
     ("--out c.h5 --config unknown.toml", 2, "[nosuch]: unknown table"),
     ("--out c.h5 --config inverted.toml", 2, "reach_min_mm < reach_max_mm"),
     ("--out c.h5 --config loss.toml", 2, "max_frame_loss"),
-    ("--out raw.h5", 2, "already exists"),
+    ("--out raw.h5", 2, "already exists: pass --force to replace it, or --resume"),
+    ("--out raw.h5 --force --resume", 2, "--force replaces it: give one"),
+    ("--out left.h5 --force", 2, "journal of an interrupted run"),  # a partial run is resumed
     ("--out left.h5", 2, "left.h5.journal is the journal of an interrupted run"),
     ("--out c.h5 --resume", 2, "nothing to resume"),
     ("--out trunc_raw.h5 --resume", 2, "truncated"),
@@ -249,7 +265,8 @@ CASES = [
     ("--out s.h5 --config nodepths.toml", 2, "depths_mm"),
     ("--out s.h5 --config nandepth.toml", 2, "depths_mm"),
     ("--out s.h5 --config negtravel.toml", 2, "[trials] travel_mm: must be a number > 0, not -1"),
-    ("--out study.h5", 2, "pass --resume"),
+    ("--out study.h5", 2, "already exists: pass --force to replace it, or --resume"),
+    ("--out study.h5 --force --resume", 2, "--force replaces it: give one"),
     ("--out trunc_study.h5 --resume", 4, "truncated"),
     ("--out raw.h5 --resume", 4, "not a whiskercal.plane_study file"),
 ]]
@@ -307,6 +324,12 @@ def _y_flipped(handle) -> None:
         handle[name][...] = values
 
 
+def _set_config(handle, table: str, key: str, value) -> None:
+    config = json.loads(handle.attrs["config"])
+    config[table][key] = value
+    handle.attrs["config"] = json.dumps(config)
+
+
 def _text_attr(handle) -> None:
     trial = handle["trials"][sorted(handle["trials"])[0]]
     trial.attrs["depth_mm"] = "deep"
@@ -328,6 +351,11 @@ def _linked_and_malformed(folder: Path) -> None:
         "short_raw.h5": ("raw.h5", lambda h: _shortened(h, "points/field_mean_uT")),
         "textdepth_study.h5": ("study.h5", _text_attr),
         "flipped_raw.h5": ("raw.h5", _y_flipped),
+        # the same sensor id, but a study planned for a longer whisker, and a target chosen by
+        # another study than the one given
+        "reach90_study.h5": ("study.h5", lambda h: _set_config(h, "geometry", "tip_reach_mm", 90.0)),
+        "othertarget.h5": ("cal.h5", lambda h: h["target"].attrs.__setitem__("study_sha256",
+                                                                             "ab" * 32)),
     }
     for name, (source, edit) in edits.items():
         _edited(folder, source, name, edit)

@@ -31,3 +31,7 @@ def test_small_demo_runs_every_stage_and_leaves_a_loadable_artifact(tmp_path):
     assert final.target_z_uT is not None
     assert f"target z {final.target_z_uT:.0f} µT" in done.stdout
     assert done.stdout.count(" µT -> tip (") == 6  # five lookup values and the target's tip
+    # what each step printed is kept for the tutorial's example outputs (docs/walkthrough.md)
+    for name in ("collect-dry-run", "collect", "fit", "study-report", "report", "runtime"):
+        assert (tmp_path / "transcript" / f"{name}.txt").read_text().strip(), name
+    assert f"target z {final.target_z_uT:.0f} µT" in (tmp_path / "transcript" / "runtime.txt").read_text()

@@ -48,10 +48,41 @@ def test_a_figure_table_says_which_command_wrote_it():
     figures = _load("docs_figures")
     for path in sorted((DOCS / "figures").glob("*.json")):
         snapshot = json.loads(path.read_text())
-        assert snapshot["written_by"].startswith(("whiskercal bench", "whiskercal twin validate"))
+        assert snapshot["written_by"].startswith(("whiskercal bench", "whiskercal twin validate",
+                                                  "whiskercal twin describe"))
         assert f"`{snapshot['written_by']}`" in figures.render(path.stem)
     with pytest.raises(KeyError, match="unknown figure"):
         figures.render("no-such-figure")
+
+
+def test_the_sensor_files_table_has_a_row_for_each_file_and_no_typed_figure():
+    figures = _load("docs_figures")
+    table = figures.render("twin-describe")
+    ids = sorted(p.stem for p in (ROOT / "sensors").glob("*.toml"))
+    snapshot = json.loads((DOCS / "figures" / "twin-describe.json").read_text())
+    assert sorted(d["sensor_id"] for d in snapshot["result"]["sensors"]) == ids
+    assert all(f"| {sensor_id} |" in table for sensor_id in ids)
+    page = (DOCS / "twin.md").read_text()
+    assert "<!-- figure: twin-describe -->" in page and "| twin-paper-75mm |" not in page
+
+
+def test_the_contour_results_are_the_benchs_not_typed():
+    page = (DOCS / "contour.md").read_text()
+    assert "<!-- figure: contour-target -->" in page
+    assert not re.search(r"^\| (cylinder|rounded square|octagon|[0-9]) \|", page, re.M)
+    table = _load("docs_figures").render("contour-target")
+    assert "| yz-table | octagon |" in table and "| z-lookup | cylinder |" in table
+
+
+SNIPPET = re.compile(r'--8<-- "([^"]+)"')
+
+
+def test_the_tutorials_outputs_are_the_demos_transcript():
+    figures = _load("docs_figures")
+    page = (DOCS / "walkthrough.md").read_text()
+    included = SNIPPET.findall(page)
+    assert included == [f"docs/figures/walkthrough/{n}.txt" for n in figures.TRANSCRIPT_NAMES]
+    assert all((ROOT / path).read_text().strip() for path in included)
 
 
 def test_product_pages_carry_no_measurement_history():

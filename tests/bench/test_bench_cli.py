@@ -112,3 +112,20 @@ def test_tracker_speed_is_in_the_bench_json(tmp_path):
     assert measured["replay"]["out_of_range_below"] > 0  # the stream does run past the range
     # the 1 ms budget is judged in the JSON (within_1ms), not by a timed unit test
     assert isinstance(measured["within_1ms"], bool)
+
+
+def test_an_earlier_bench_in_the_folder_is_refused_and_force_replaces_it(tmp_path):
+    out = tmp_path / "bench"
+    out.mkdir()
+    (out / "field-speed.json").write_text("an earlier result")
+    (out / "notes.txt").write_text("the user's own file")
+    args = ["bench", "--quick", "--only", "field-speed", "--out", str(out)]
+    refused = CliRunner().invoke(cli, args)
+    assert refused.exit_code == 2 and "field-speed.json already exists: pass --force" in refused.stderr
+    assert (out / "field-speed.json").read_text() == "an earlier result"
+    assert sorted(p.name for p in out.iterdir()) == ["field-speed.json", "notes.txt"]
+    forced = CliRunner().invoke(cli, args + ["--force"])
+    assert forced.exit_code == 0, forced.output
+    assert json.loads((out / "field-speed.json").read_text()) != {}  # the new result
+    assert (out / "notes.txt").read_text() == "the user's own file"  # not a bench output
+    assert runner.output_paths(out, runner.select(["field-speed"]))[0] == out / "bench.json"

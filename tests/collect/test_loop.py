@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import h5py
 import numpy as np
 import pytest
@@ -182,6 +184,36 @@ def test_an_existing_output_is_not_overwritten(tmp_path):
         run(tmp_path)
     with pytest.raises(UsageError, match="already complete"):
         run(tmp_path, resume=True)
+
+
+def test_force_replaces_a_finished_dataset_whole_and_never_a_partial_run(tmp_path):
+    out = tmp_path / "raw.h5"
+    run(tmp_path)
+    before = out.read_bytes()
+    keep = tmp_path / "kept.h5"
+    os.link(out, keep)  # a name sharing the old file keeps the old bytes
+    summary, _, _ = run(tmp_path, force=True)
+    assert summary.complete and summary.points == N_SMALL
+    assert read_raw_grid(out).complete and keep.read_bytes() == before
+    assert os.stat(out).st_ino != os.stat(keep).st_ino  # a new file, not the old one rewritten
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.h5", "raw.h5"]  # no scratch left
+    with pytest.raises(UsageError, match="--resume continues .* give one"):
+        run(tmp_path, resume=True, force=True)
+    calls = {"n": 0}
+
+    def stop_after_two():
+        calls["n"] += 1
+        return calls["n"] >= 2
+
+    out.unlink()
+    assert run(tmp_path, stop_requested=stop_after_two)[0].stopped
+    partial = out.read_bytes()
+    with pytest.raises(UsageError, match="interrupted run .* continue it with --resume"):
+        run(tmp_path, force=True)
+    journal_path(out).unlink()  # its journal gone, the file alone is still a partial run
+    with pytest.raises(UsageError, match="partial raw dataset: continue it with --resume"):
+        run(tmp_path, force=True)
+    assert out.read_bytes() == partial
 
 
 def test_a_journal_alone_is_named_as_an_interrupted_run(tmp_path):

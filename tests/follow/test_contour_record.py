@@ -41,10 +41,16 @@ def test_a_recorded_run_replays_to_its_own_estimates(tmp_path):
     assert np.all(np.isfinite(replayed[np.isfinite(estimate[:, 0])]))
 
 
-def test_an_existing_bag_is_refused_before_the_run(tmp_path):
+def test_an_existing_bag_is_refused_before_the_run_and_force_replaces_it(tmp_path):
     (tmp_path / "bag").mkdir()
     result = CliRunner().invoke(cli, ["contour", "run", "--shape", "cylinder", "--artifact",
                                       str(calibration_path()), "--duration", "1", "--out",
                                       str(tmp_path / "run.h5"), "--record", str(tmp_path / "bag")])
-    assert result.exit_code == 2 and "exists: choose another --record" in result.output
+    assert result.exit_code == 2 and "already exists: pass --force to replace it" in result.output
     assert not (tmp_path / "run.h5").exists()
+    forced = CliRunner().invoke(cli, ["contour", "run", "--shape", "cylinder", "--artifact",
+                                      str(calibration_path()), "--duration", "1", "--out",
+                                      str(tmp_path / "run.h5"), "--record", str(tmp_path / "bag"),
+                                      "--force"])
+    assert forced.exit_code == 0, forced.output
+    assert (tmp_path / "bag" / "bag.mcap").is_file()  # the empty folder replaced by the bag

@@ -6,6 +6,7 @@ import json
 import math
 import os
 import re
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -212,3 +213,42 @@ def test_a_robots_bag_with_a_transform_tree_and_a_mount(tmp_path):
     world = np.column_stack([track["world_x_mm"], track["world_y_mm"]])
     # epoch stamps resolve 0.24 µs as float64: the pose moves 10 mm/s, so 1e-5 mm is ample
     np.testing.assert_allclose(world[has_tip], expected[has_tip], atol=1e-4)
+
+
+def _folder_state(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+@pytest.mark.parametrize("failing", ["summary", "bag"])
+def test_the_bag_is_replaced_with_the_other_files_or_not_at_all(world_replay, tmp_path,
+                                                                 monkeypatch, failing):
+    import errno
+
+    from whiskercal.recording import bagwrite
+    from whiskercal.replay import output
+
+    folder = world_replay[0]
+    out = tmp_path / "out"
+    shutil.copytree(folder / "out", out)
+    before = _folder_state(out)
+    args = ("replay", folder / "log.csv", "--artifact", ARTIFACT, "--out", out, "--rest-uT",
+            REST_UT + 1.0, "--poses", folder / "poses.csv", "--mount", folder / "mount.toml",
+            "--max-pose-gap-ms", 30, "--force")
+
+    def full_disk(*args, **kwargs):  # the summary, or the bag, does not fit
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    with monkeypatch.context() as patch:
+        if failing == "summary":
+            patch.setattr(output, "write_summary", full_disk)
+        else:
+            patch.setattr(bagwrite, "_write_rosbag", full_disk)
+        failed = _run(*args)
+    assert failed.exit_code == 2 and "No space left on device" in failed.stderr
+    assert _folder_state(out) == before  # the old bag and files whole, no partial bag beside
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in (folder / "out").iterdir())
+    replaced = _run(*args)
+    assert replaced.exit_code == 0, replaced.output
+    assert read_recording(out / "rosbag").y_uT.size == read_recording(folder / "out" / "rosbag").y_uT.size
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in (folder / "out").iterdir())

@@ -14,6 +14,7 @@ from whiskercal.cli import cli
 from whiskercal.contour import read_contour_run
 from whiskercal.contour.metrics import contour_metrics
 from whiskercal.contour.on_robot import RobotSetup, contour_on_robot
+from whiskercal.errors import UsageError
 from whiskercal.robot import ConnectionLostError, Safety, WatchdogError, WorkspaceError
 from whiskercal.twin.outlines import outline
 
@@ -60,6 +61,33 @@ def test_a_short_run_goes_along_the_octagon_with_no_truth_in_the_client(tmp_path
     assert metrics["mean_error_mm"] < 0.3
     assert abs(run.config["robot"]["rest_uT"][0] - server.rest_uT[1]) < 2.0
     assert run.config["robot"]["sent"] >= len(columns["t_s"]) and record.path
+
+
+def test_a_recorded_robot_run_holds_each_sample_and_the_base_pose_through_the_mount(tmp_path):
+    from whiskercal.mount import Mount
+    from whiskercal.recording import read_poses, read_recording
+
+    server = twin_server("octagon", 100.0)
+    mount, bag = Mount(x_mm=12.0, y_mm=-3.5, yaw_deg=90.0), tmp_path / "robot-bag"
+    (bag).mkdir()  # an earlier bag: refused without force, replaced with it
+    with pytest.raises(UsageError, match="already exists: pass --force"):
+        contour_on_robot(RobotSetup(server.url), CALIBRATION, tmp_path / "r.h5", duration_s=1.0,
+                         record=bag)
+    with serve(server):
+        record = contour_on_robot(RobotSetup(server.url, mount=mount, dry_run=True,
+                                             safety=Safety(watchdog_s=0.5)),
+                                  CALIBRATION, tmp_path / "run.h5", duration_s=1.0,
+                                  echo=lambda line: None, record=bag, force=True)
+    columns, rest = record.columns, record.config["robot"]["rest_uT"]
+    assert record.config["robot"]["record"] == str(bag)
+    stream = read_recording(bag)
+    assert len(stream) == len(columns["t_s"]) > 50 and stream.axes == 3
+    np.testing.assert_allclose(stream.y_uT - rest[0], columns["z_uT"], atol=1e-6)
+    poses = read_poses("auto", bag)
+    assert len(poses) == len(columns["t_s"])
+    # the robot held still (a dry run): every pose is the run's own base pose, not the effector's
+    np.testing.assert_allclose(poses.pose, columns["pose"], atol=1e-6)
+    assert np.linalg.norm(poses.pose[0, :2] - server.mobile.pose()[:2]) > 1.0
 
 
 def test_a_dry_run_prints_every_twist_and_sends_none(tmp_path):

@@ -71,8 +71,14 @@ def test_a_mount_error_carries_the_sensor_off_the_nominal_mount(tmp_path):
 @pytest.mark.parametrize("words, message", [
     (["--robot"], "give --shape"),
     (["--robot", "--shape", "octagon", "--mount-error", "1,2"], "--mount-error must be DX,DY,DEG"),
-    (["--mount-error", "1,2,3"], "are for --robot"),
-    (["--shape", "octagon"], "are for --robot"),
+    (["--mount-error", "1,2,3"], "--mount-error is for --robot"),
+    (["--shape", "octagon"], "--shape is for --robot"),
+    # given at its default value is still given, either way round
+    (["--port", "9090"], "--port is for --robot"),
+    (["--rate-hz", "30"], "--rate-hz is for --robot"),
+    (["--robot", "--shape", "octagon", "--scene", "plane"], "--scene is for the rig's boards"),
+    (["--robot", "--shape", "octagon", "--speed", "1"], "--speed is for the rig's boards"),
+    (["--robot", "--shape", "octagon", "--fault", "stall@1"], "--fault is for the rig's boards"),
     (["--robot", "--shape", "octagon", "--rate-hz", "0"], "--rate-hz must be"),
     (["--robot", "--shape", "wall"], "Invalid value for '--shape'"),
 ])

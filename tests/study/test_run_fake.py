@@ -12,9 +12,9 @@ from whiskercal.study.run import NoContactError
 from study_fakes import fake_config as _config, fake_rig, run_on_clients
 
 
-def _run(tmp_path, config, resume=False, **rig_options):
+def _run(tmp_path, config, resume=False, force=False, **rig_options):
     rig, stage, sensor = fake_rig(config, **rig_options)
-    writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor", resume=resume)
+    writer = StudyWriter(tmp_path / "study.h5", config, "fake-sensor", resume=resume, force=force)
     return rig, run_on_clients(stage, sensor, config, writer)
 
 
@@ -58,10 +58,33 @@ def test_resume_with_another_config_is_refused(tmp_path):
     other = _config(tmp_path, "[safety]\noverload_uT = 9000.0\n")
     with pytest.raises(UsageError, match="another configuration"):
         StudyWriter(tmp_path / "study.h5", other, "fake-sensor", resume=True)
-    with pytest.raises(UsageError, match="exists; pass --resume"):
+    with pytest.raises(UsageError, match="already exists: pass --force to replace it, or --resume"):
         StudyWriter(tmp_path / "study.h5", config, "fake-sensor")
     with pytest.raises(UsageError, match="nothing to resume"):
         StudyWriter(tmp_path / "other.h5", config, "fake-sensor", resume=True)
+
+
+def test_force_replaces_a_finished_study_whole_and_never_a_partial_one(tmp_path):
+    import os
+
+    config = _config(tmp_path)
+    _run(tmp_path, config)
+    out = tmp_path / "study.h5"
+    os.link(out, tmp_path / "kept.h5")
+    before = out.read_bytes()
+    _, summary = _run(tmp_path, config, force=True)
+    assert summary.complete and summary.trials_done == [5.0, 10.0, 15.0]
+    assert (tmp_path / "kept.h5").read_bytes() == before  # the old file replaced, not rewritten
+    assert os.stat(out).st_ino != os.stat(tmp_path / "kept.h5").st_ino
+    with pytest.raises(UsageError, match="give one"):
+        StudyWriter(out, config, "fake-sensor", resume=True, force=True)
+    out.unlink()
+    with pytest.raises(DeviceError, match="vanished"):
+        _run(tmp_path, config, fail_after_s=18.0)
+    partial = out.read_bytes()
+    with pytest.raises(UsageError, match="partial study: continue it with --resume"):
+        _run(tmp_path, config, force=True)
+    assert out.read_bytes() == partial
 
 
 def test_no_contact_is_a_clear_error(tmp_path):

@@ -206,6 +206,43 @@ def read_sensor_id(path: str | Path) -> str:
         return as_text(handle.attrs.get("sensor_id", ""))
 
 
+def refuse_to_replace_run(path: Path, resume: bool, force: bool, what: str,
+                          journal: Path | None = None) -> None:
+    """The output rule for a file a run writes as it goes (a raw dataset, a study): an existing
+    one is refused unless ``force``; a partial one (readable, not marked ``complete``, or with
+    its ``journal`` beside it) is continued with ``resume``, never replaced, even with
+    ``force``; and there must be something to continue."""
+    if resume and force:
+        raise UsageError(f"--resume continues the {what} in --out and --force replaces it: "
+                         "give one")
+    journaled = journal is not None and journal.exists()
+    if resume:
+        if not path.exists() and not journaled:
+            raise UsageError(f"{path} does not exist: nothing to resume")
+        return
+    if journaled:
+        raise UsageError(f"{journal} is the journal of an interrupted run of {path}; continue "
+                         "it with --resume, or delete the journal to discard it")
+    if not path.exists():
+        return
+    if not force:
+        raise UsageError(f"the {what} {path} already exists: pass --force to replace it, or "
+                         "--resume to continue it")
+    if _marked_incomplete(path):
+        raise UsageError(f"{path} is a partial {what}: continue it with --resume (--force "
+                         f"replaces only a finished one; delete a partial one to discard it)")
+
+
+def _marked_incomplete(path: Path) -> bool:
+    """True for a readable file whose ``complete`` attribute is false (an unreadable file holds
+    no run to continue)."""
+    try:
+        with open_h5(path) as handle:
+            return not bool(handle.attrs.get("complete", False))
+    except ArtifactError:
+        return False
+
+
 def other_sensor(expected_id: str, path: str | Path, what: str, allow: bool) -> str | None:
     """Refuse a file of another sensor than ``expected_id`` (its ``sensor_id`` attribute) with
     :class:`UsageError`; with ``allow``, return the warning instead. None when they match."""

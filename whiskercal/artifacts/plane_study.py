@@ -81,17 +81,18 @@ class StudyWriter:
         Identity of the sensor.
     resume
         Continue an existing file instead of refusing to overwrite it.
+    force
+        Replace an existing finished study (the new file, written whole, is renamed over it);
+        a partial one is continued with ``resume``, never replaced.
     """
 
-    def __init__(self, path: str | Path, config: dict, sensor_id: str, resume: bool = False):
+    def __init__(self, path: str | Path, config: dict, sensor_id: str, resume: bool = False,
+                 force: bool = False):
         self.path = Path(path)
         self.config = config
-        if self.path.exists() and resume:
+        h5io.refuse_to_replace_run(self.path, resume, force, "study")
+        if resume:
             self._check_resumable()
-        elif self.path.exists():
-            raise UsageError(f"{self.path} exists; pass --resume to continue it or choose another --out")
-        elif resume:
-            raise UsageError(f"{self.path} does not exist: nothing to resume")
         else:
             self._create(sensor_id)
 

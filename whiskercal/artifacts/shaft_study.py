@@ -60,21 +60,20 @@ def _read_group(group: h5py.Group) -> dict[str, np.ndarray]:
 
 
 class ShaftStudyWriter:
-    """Create (or with ``resume`` continue) a shaft study file; add finished trials atomically."""
+    """Create (or with ``resume`` continue) a shaft study file; add finished trials atomically.
+    An existing finished file is replaced only with ``force`` (``h5io.refuse_to_replace_run``)."""
 
-    def __init__(self, path: str | Path, config: dict, sensor_id: str, resume: bool = False):
+    def __init__(self, path: str | Path, config: dict, sensor_id: str, resume: bool = False,
+                 force: bool = False):
         self.path, self.config = Path(path), config
-        if self.path.exists() and resume:
+        h5io.refuse_to_replace_run(self.path, resume, force, "shaft study")
+        if resume:
             with h5io.open_h5(self.path) as handle:
                 h5io.check_schema(handle, SCHEMA, SUPPORTED_MAJOR, self.path)
                 stored = h5io.read_json_attr(handle, "config", {})
             if _comparable(stored) != _comparable(config):
                 raise UsageError(f"{self.path} was started with another configuration; "
                                  "resume it with the same --config or start a new file")
-        elif self.path.exists():
-            raise UsageError(f"{self.path} exists; pass --resume to continue it or choose another --out")
-        elif resume:
-            raise UsageError(f"{self.path} does not exist: nothing to resume")
         else:
             ensure_dir(self.path.parent)
             h5io.create_trials_file(self.path, schema=SCHEMA, schema_version=SCHEMA_VERSION,

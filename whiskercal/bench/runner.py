@@ -156,6 +156,22 @@ def add_time_ratios(rows: list[dict], x_key: str) -> None:
             row["time_ratio_to_fastest"] = row.get(x_key, np.nan) / fastest
 
 
+# each Pareto chart a result may ask for (its key) and the suffix of its file, NAME{suffix}.png
+PARETO_CHARTS = (("pareto", ""), ("pareto_truth", "-truth"), ("pareto_realistic", "-realistic"),
+                 ("pareto_lookup", "-lookup"))
+
+
+def output_paths(out_dir: str | Path, chosen) -> list[Path]:
+    """Every file a bench of the ``chosen`` comparisons may write into ``out_dir``: bench.json,
+    one JSON per comparison and each chart it may draw."""
+    out_dir = Path(out_dir)
+    paths = [out_dir / "bench.json"]
+    for comparison in chosen:
+        paths.append(out_dir / f"{comparison.name}.json")
+        paths += [out_dir / f"{comparison.name}{suffix}.png" for _, suffix in PARETO_CHARTS]
+    return paths
+
+
 def _charts(name: str, result: dict, out_dir: Path) -> list[str]:
     charts = []
     if name == "stability":
@@ -166,8 +182,7 @@ def _charts(name: str, result: dict, out_dir: Path) -> list[str]:
         from whiskercal.bench.contour_target import draw
 
         charts.append(draw(result, out_dir / "contour-target.png").name)
-    for key, suffix in (("pareto", ""), ("pareto_truth", "-truth"),
-                        ("pareto_realistic", "-realistic"), ("pareto_lookup", "-lookup")):
+    for key, suffix in PARETO_CHARTS:
         spec = result.get(key)
         if spec and result.get("rows"):
             add_time_ratios(result["rows"], spec["x"])
@@ -211,11 +226,16 @@ def run_one(comparison: Comparison, out_dir: Path, quick: bool,
 
 def run_bench(out_dir: str | Path, only=None, quick: bool = False,
               on_start: Callable[[str], None] | None = None,
-              progress: Callable | None = None) -> dict:
-    """Run the selected comparisons and write ``out_dir``/bench.json; return its content."""
+              progress: Callable | None = None, force: bool = False) -> dict:
+    """Run the selected comparisons and write ``out_dir``/bench.json; return its content.
+
+    An earlier bench's file in ``out_dir`` (:func:`output_paths`) is refused before any
+    comparison runs, unless ``force``; each file is replaced atomically.
+    """
     out_dir = Path(out_dir)
-    ensure_dir(out_dir)
     chosen = select(only)
+    atomic.refuse_existing(output_paths(out_dir, chosen), force, "the bench output")
+    ensure_dir(out_dir)
     bench = {"benchmark": "whiskercal-bench", "created": now_iso(), "whiskercal_version": __version__,
              "quick": quick, "machine": machine_info(), "comparisons": {}}
     for comparison in chosen:

@@ -44,3 +44,16 @@ pass_app = click.make_pass_decorator(App, ensure=True)
 force_option = click.option("--force", is_flag=True,
                             help="Replace outputs that exist already (each written whole, then "
                             "renamed over the old one).")
+
+
+def given_options(names) -> list[str]:
+    """The long names (``--mount``) of the current command's parameters among ``names`` that the
+    user gave, on the command line or through the environment: click's parameter source, so an
+    option given at its default value counts as given."""
+    context = click.get_current_context()
+    given = []
+    for param in context.command.params:
+        source = context.get_parameter_source(param.name)
+        if param.name in names and source not in (None, click.core.ParameterSource.DEFAULT):
+            given.append(max(param.opts, key=len))
+    return given

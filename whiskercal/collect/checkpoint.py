@@ -74,13 +74,27 @@ class Checkpoint:
 
     @classmethod
     def start(cls, path: str | Path, header: RawHeader) -> "Checkpoint":
-        """Begin a new run, replacing any file and journal at ``path``."""
+        """Begin a new run, replacing any file and journal at ``path``.
+
+        The new file is created under a hidden name beside ``path`` and renamed over it once its
+        header is on disk (the open handle follows the rename): an old dataset is replaced
+        whole, never truncated in place, and a name hard-linked to it keeps the old one.
+        """
         path = Path(path)
         journal_file = journal_path(path)
         journal_file.unlink(missing_ok=True)
         journal = Journal(journal_file)
         journal.append(_header_record(header))
-        return cls(path, RawGridWriter.create(path, header), journal, header, {})
+        scratch = path.with_name(f".{path.name}.new.partial")
+        writer = RawGridWriter.create(scratch, header)  # flushed
+        try:
+            os.replace(scratch, path)
+        except BaseException:
+            writer.close()
+            scratch.unlink(missing_ok=True)
+            journal.close()
+            raise
+        return cls(path, writer, journal, header, {})
 
     @classmethod
     def resume(cls, path: str | Path, header: RawHeader) -> "Checkpoint":

@@ -138,25 +138,30 @@ def check_resumable(out: Path, plan: GridPlan) -> None:
                          "configuration (start a new file or use the original config)")
 
 
-def open_checkpoint(out: Path, header: RawHeader, resume: bool) -> Checkpoint:
-    """A new checkpoint, or the resumed one; refuses to overwrite an existing run."""
+def refuse_to_replace(out: Path, resume: bool, force: bool) -> None:
+    """The output rule for a raw dataset and its journal, before any port opens
+    (``h5io.refuse_to_replace_run``)."""
+    from whiskercal.artifacts.h5io import refuse_to_replace_run
+
+    refuse_to_replace_run(out, resume, force, "raw dataset", journal=journal_path(out))
+
+
+def open_checkpoint(out: Path, header: RawHeader, resume: bool, force: bool = False) -> Checkpoint:
+    """A new checkpoint, or the resumed one; an existing run is replaced only with ``force``."""
     if not out.parent.is_dir():
         raise UsageError(f"{out.parent}: no such directory for the output file")
+    refuse_to_replace(out, resume, force)  # again: the file may have appeared since the start
     if resume:
         return Checkpoint.resume(out, header)
-    if out.exists():
-        raise UsageError(f"{out} already exists; continue it with --resume or choose another --out")
-    if journal_path(out).exists():
-        raise UsageError(f"{journal_path(out)} is the journal of an interrupted run of {out}; "
-                         "continue it with --resume, or delete the journal to discard it")
     return Checkpoint.start(out, header)
 
 
 def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bool = False,
-            on_progress: Callable[[Progress], None] | None = None,
+            force: bool = False, on_progress: Callable[[Progress], None] | None = None,
             stop_requested: Callable[[], bool] | None = None,
             stage_client=None, sensor_client=None) -> RunSummary:
-    """Collect the plan's grid into ``out`` (or continue it with ``resume``).
+    """Collect the plan's grid into ``out`` (or continue it with ``resume``; an existing finished
+    dataset is replaced only with ``force``, see :func:`refuse_to_replace`).
 
     ``stage_port``/``sensor_port`` are URLs, device names or open pyserial objects; tests may
     pass ready clients instead (``stage_client``/``sensor_client``), which are left open.
@@ -170,21 +175,22 @@ def collect(stage_port, sensor_port, out: str | Path, plan: GridPlan, resume: bo
         before the failure is in the file, and the message says how to continue.
     """
     out = Path(out)
+    refuse_to_replace(out, resume, force)
     if resume:
         check_resumable(out, plan)
     with RigSession.open(stage_port, sensor_port, session_config(plan.config),
                          stage_client=stage_client, sensor_client=sensor_client) as rig:
-        return _session(rig, out, plan, resume, on_progress, stop_requested)
+        return _session(rig, out, plan, resume, on_progress, stop_requested, force=force)
 
 
 def _session(rig: RigSession, out: Path, plan: GridPlan, resume: bool, on_progress,
-             stop_requested) -> RunSummary:
+             stop_requested, force: bool = False) -> RunSummary:
     """Check, open the checkpoint and run the collector on an open rig session."""
     refuse_other_fixture(rig)
     check_limits(plan, rig.travel_mm)
     header = make_header(plan, rig.devices, _sensor_id(plan.config, rig),
                          twin_sensor_description(rig))
-    checkpoint = open_checkpoint(out, header, resume)
+    checkpoint = open_checkpoint(out, header, resume, force)
     if checkpoint.complete:  # killed after completing, before the journal was removed
         checkpoint.close()
         journal_path(out).unlink(missing_ok=True)

@@ -24,11 +24,13 @@ def contour_to_file(shape: str, artifact: str | Path, out: str | Path, **options
     """Run the loop on the twin against ``shape`` with the calibration ``artifact`` (see
     :func:`contour_record` for the options) and write the run to ``out``, also when stopped
     early (then ``complete`` is False); ``record=PATH`` also writes the stream and the poses as
-    a ROS 2 bag there (:mod:`whiskercal.contour.record`)."""
+    a ROS 2 bag there (:mod:`whiskercal.contour.record`; an existing one is replaced only with
+    ``force=True``)."""
     from whiskercal.contour.record import record_bag, refuse_existing
 
     bag = options.pop("record", None)
-    refuse_existing(bag)
+    force = bool(options.pop("force", False))
+    refuse_existing(bag, force)
     asked = options.pop("stop_requested", None)
     with interrupt_as_stop() as interrupted:  # the file is written whole, also after a Ctrl-C
         record = contour_record(shape, artifact, **options,
@@ -42,7 +44,7 @@ def contour_to_file(shape: str, artifact: str | Path, out: str | Path, **options
         write_contour_run(out, record)
     record.path = str(out)
     if bag is not None:
-        record_bag(bag, record.columns, rest)
+        record_bag(bag, record.columns, rest, replace=force)
     return record
 
 

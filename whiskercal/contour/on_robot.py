@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from whiskercal.artifacts.contour_run import ContourRunFile, write_contour_run
+from whiskercal.contour.record import BagRecorder, refuse_existing
 from whiskercal.contour.robot_run import RobotLoop, RobotRun, run_on_robot
 from whiskercal.errors import UsageError
 from whiskercal.mount import Mount
@@ -43,9 +44,14 @@ def contour_on_robot(setup: RobotSetup, artifact: str | Path, out: str | Path, *
                      duration_s: float, loop_config=None, target_z_uT: float | None = None,
                      echo: Callable[[str], None] = print,
                      on_progress: Callable[[float], None] | None = None,
-                     recorder=None) -> ContourRunFile:
+                     record: str | Path | None = None, force: bool = False) -> ContourRunFile:
     """Run the loop on the robot for ``duration_s`` s of stream time with the calibration
-    ``artifact`` and write ``out``; raise what stopped it early (after the file is written)."""
+    ``artifact`` and write ``out``; raise what stopped it early (after the file is written).
+
+    ``record``: also write each sample's reading and the sensor base's pose as a ROS 2 bag
+    there (``contour.record.BagRecorder``), also of a stopped run; an existing one is replaced
+    only with ``force``.
+    """
     from whiskercal import runtime
     from whiskercal.checks import number, positive
     from whiskercal.follow import FollowConfig
@@ -58,14 +64,20 @@ def contour_on_robot(setup: RobotSetup, artifact: str | Path, out: str | Path, *
                          "optimal-depth report`, or give --target-uT")
     loop = RobotLoop(duration_s, loop_config or FollowConfig(), watchdog_s=setup.safety.watchdog_s)
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)
+    refuse_existing(record, force)
+    recorder = None if record is None else BagRecorder(record, setup.mount, replace=force)
     run = _run(setup, calibration.tracker(out_of_range="clip"), target, loop, tip_mm_per_uT,
                echo, on_progress, recorder)
-    record = _as_file(run, setup, artifact, calibration.sensor_id, target, tip_mm_per_uT)
-    write_contour_run(out, record)
-    record.path = str(out)
+    if record is not None:
+        run.config.setdefault("robot", {})["record"] = str(record)
+    result = _as_file(run, setup, artifact, calibration.sensor_id, target, tip_mm_per_uT)
+    write_contour_run(out, result)
+    result.path = str(out)
+    if recorder is not None and recorder.stamps:
+        recorder.write()
     if run.error is not None:
         raise run.error
-    return record
+    return result
 
 
 def _run(setup: RobotSetup, tracker, target, loop, tip_mm_per_uT, echo, on_progress,

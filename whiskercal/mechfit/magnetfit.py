@@ -286,7 +286,7 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     # as for the polynomial map (``identify._richer_map``), only with a tip sweep: on a grid
     # alone a misfit may come from the stage's position error, which a richer map absorbs into
     # the suspension (the recorded default grid's table took a fifth order and biased the
-    # contour runs by 0.011 mm)
+    # contour runs)
     while _swept(sweep) and max(best[1].orders) < MAX_ORDER and _misfit_left(best, fields.size):
         richer = _one_order_more(best[1].orders)
         more = [_joint_fit(best[0].x[:best[1].solved_count], *args, richer, sweep)]

@@ -40,8 +40,9 @@ from whiskercal.model.surface import Surface
 PAPER_STEP_MM = 1e-3
 EXTENSION_CHORD_MM = 5.0  # chord length that sets the tip-side extension's direction
 # A fixed-step trace may lie at most this fraction of its step off the level set (a turn of the
-# tangent of about 2 x 0.03 rad = 3.4 degrees per step). Measured on the twin (docs/model.md):
-# every trace under it erred by at most 0.13 mm, every trace above 0.06 by 0.16 mm to 12 mm.
+# tangent of about 2 x 0.03 rad = 3.4 degrees per step): on the twin every trace under it erred
+# by well under the model error, and traces well above it by much more (docs/research, the
+# stability map).
 DRIFT_FRACTION_OF_STEP = 0.03
 DRIFT_FLOOR_MM = 1e-9
 

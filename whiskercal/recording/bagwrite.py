@@ -9,10 +9,12 @@ its destination and renamed onto it when complete: a crash leaves no half-writte
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -80,29 +82,50 @@ MESSAGE_TYPES = {"field": "sensor_msgs/msg/MagneticField", "pose": "geometry_msg
 def write_bag(path: str | Path, series: list[Series], replace: bool = False) -> Path:
     """Write ``series`` as a rosbag2 folder at ``path`` (refused where ``path`` exists, unless
     ``replace``: then the old bag is removed once the new one is in place)."""
-    from rosbags.rosbag2 import StoragePlugin, Writer
-    from rosbags.typesys import Stores, get_typestore
+    with staged_bag(path, series, replace):
+        pass
+    return Path(path)
 
+
+@contextlib.contextmanager
+def staged_bag(path: str | Path, series: list[Series], replace: bool = False) -> Iterator[Path]:
+    """Write the bag of ``series`` under a temporary name beside ``path`` and yield it; when the
+    block ends without an exception the bag is renamed onto ``path``, else removed.
+
+    A command writing a bag with other files (``atomic.atomic_set``) opens both, so a failure
+    while writing any of them leaves the old bag and the old files whole.
+    """
     path = Path(path)
     if path.exists() and not replace:
         raise UsageError(f"{path} exists: choose another bag name (a bag is never overwritten)")
-    typestore = get_typestore(Stores.ROS2_HUMBLE)
-    scratch = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
     try:
-        with Writer(scratch / path.name, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-            streams = []
-            for one in series:  # in time order across topics, as a recorder receives them
-                connection = writer.add_connection(one.topic, MESSAGE_TYPES[one.kind],
-                                                   typestore=typestore)
-                streams.append(_tagged(typestore, one, connection))
-            for ns, connection, msgtype, message in heapq.merge(*streams, key=lambda m: m[0]):
-                writer.write(connection, ns, typestore.serialize_cdr(message, msgtype))
+        scratch = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial",
+                                        dir=path.parent))
+    except OSError as error:
+        raise UsageError(f"cannot write the bag {path}: {error.strerror or error}") from None
+    try:
+        _write_rosbag(scratch / path.name, series)
+        yield scratch / path.name
         _move_into_place(scratch, path)
     except OSError as error:
         raise UsageError(f"cannot write the bag {path}: {error.strerror or error}") from None
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
-    return path
+
+
+def _write_rosbag(path: Path, series: list[Series]) -> None:
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    typestore = get_typestore(Stores.ROS2_HUMBLE)
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        streams = []
+        for one in series:  # in time order across topics, as a recorder receives them
+            connection = writer.add_connection(one.topic, MESSAGE_TYPES[one.kind],
+                                               typestore=typestore)
+            streams.append(_tagged(typestore, one, connection))
+        for ns, connection, msgtype, message in heapq.merge(*streams, key=lambda m: m[0]):
+            writer.write(connection, ns, typestore.serialize_cdr(message, msgtype))
 
 
 def _move_into_place(scratch: Path, path: Path) -> None:

@@ -7,6 +7,7 @@ its final name, so a kill at any moment leaves the old file or the new one, neve
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -114,19 +115,18 @@ def write_world_plot(path: Path, result: ReplayResult, title: str = "") -> Path:
     return atomic_write(path, lambda p: save_png(fig, p))
 
 
-def write_track_bag(path: Path, result: ReplayResult, field_uT: np.ndarray) -> Path:
-    """The field stream, the sensor base's poses and the world-frame contacts as a ROS 2 bag."""
+def track_bag_series(result: ReplayResult, field_uT: np.ndarray) -> list:
+    """The field stream, the sensor base's poses and the world-frame contacts as a bag's series."""
     from whiskercal.recording.bagwrite import (CONTACT_TOPIC, FIELD_TOPIC, POSE_TOPIC,
-                                               SENSOR_FRAME, Series, write_bag)
+                                               SENSOR_FRAME, Series)
 
     field = np.asarray(field_uT, float)
     if field.ndim == 1:  # Y alone: X and Z unknown, NaN would drop the message
         field = np.column_stack([np.zeros(len(field)), field, np.zeros(len(field))])
     field = np.where(np.isfinite(field), field, 0.0)
-    return write_bag(path, [Series(FIELD_TOPIC, "field", result.t_s, field, SENSOR_FRAME),
-                            Series(POSE_TOPIC, "pose", result.t_s, result.base_pose),
-                            Series(CONTACT_TOPIC, "point", result.t_s, result.world_mm)],
-                     replace=True)
+    return [Series(FIELD_TOPIC, "field", result.t_s, field, SENSOR_FRAME),
+            Series(POSE_TOPIC, "pose", result.t_s, result.base_pose),
+            Series(CONTACT_TOPIC, "point", result.t_s, result.world_mm)]
 
 
 def write_summary(path: Path, summary: dict) -> Path:
@@ -166,13 +166,20 @@ def write_all(out_dir: str | Path, result: ReplayResult, summary: dict, sensor_i
     """Write every file of :data:`FILES` into ``out_dir`` (created): the world plot and the bag
     only when the replay had poses (the bag's field stream is ``field_uT``, the readings as
     recorded); return their paths. The files are renamed into place together once all are
-    written, so a failure leaves the old set whole; the bag, a folder, is written after them."""
+    written, so a failure leaves the old set whole; the bag, a folder, is staged beside its place
+    and renamed with them."""
+    from whiskercal.recording.bagwrite import staged_bag
+
     ensure_dir(out_dir)
     paths = output_paths(out_dir)
     if result.world_mm is None:
         paths = {k: p for k, p in paths.items() if k not in WITH_POSES_ONLY}
     files = {k: p for k, p in paths.items() if k != "bag"}
-    with atomic_set(files) as scratch:
+    with contextlib.ExitStack() as stack:
+        scratch = stack.enter_context(atomic_set(files))
+        if "bag" in paths:  # renamed into place with the files, or removed with them
+            series = track_bag_series(result, result.z_uT if field_uT is None else field_uT)
+            stack.enter_context(staged_bag(paths["bag"], series, replace=True))
         write_csv(scratch["csv"], result)
         write_h5(scratch["h5"], result, summary, sensor_id, inputs or {})
         write_plot(scratch["png"], result, title=result.source)
@@ -180,6 +187,4 @@ def write_all(out_dir: str | Path, result: ReplayResult, summary: dict, sensor_i
             write_world_plot(scratch["world_png"], result, title=result.source)
         write_summary(scratch["summary"],
                       {**summary, "files": {k: p.name for k, p in paths.items()}})
-    if "bag" in paths:
-        write_track_bag(paths["bag"], result, result.z_uT if field_uT is None else field_uT)
     return paths

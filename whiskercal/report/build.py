@@ -216,18 +216,6 @@ def write_report(out_path: str | Path, cal_path, raw_path=None, study_path=None,
     return atomic.write_text(out_path, page)
 
 
-def other_sensor_inputs(cal_path, raw_path=None, study_path=None, allow: bool = False) -> list[str]:
-    """Refuse a raw grid or study recorded on another sensor than the calibration's (UsageError);
-    with ``allow``, the warnings to show instead."""
-    from whiskercal.artifacts.h5io import other_sensor, read_sensor_id
-
-    sensor_id = read_sensor_id(cal_path)
-    found = [other_sensor(sensor_id, path, what, allow)
-             for path, what in ((raw_path, "the raw grid"), (study_path, "the study"))
-             if path is not None]
-    return [message for message in found if message]
-
-
 def report_inputs(cal_path, raw_path=None, study_path=None, bench_dir=None) -> list[Path]:
     """Every file the report reads: the artifact, raw grid, study, bench.json and its charts."""
     inputs = [Path(p) for p in (cal_path, raw_path, study_path) if p is not None]

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from whiskercal.artifacts import h5io
 from whiskercal.artifacts.shaft_study import ShaftStudyWriter, ShaftTrial
 from whiskercal.protocol.sensor_config import SensorConfig
 from whiskercal.errors import UsageError
@@ -44,8 +45,10 @@ def session_config(config: dict) -> SessionConfig:
 
 
 def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
-                    resume: bool = False, progress=None) -> ShaftRunSummary:
-    """Run (or continue) the shaft study into ``out_path``; return what was done."""
+                    resume: bool = False, progress=None, force: bool = False) -> ShaftRunSummary:
+    """Run (or continue) the shaft study into ``out_path``; return what was done. An existing
+    finished file is replaced only with ``force``."""
+    h5io.refuse_to_replace_run(Path(out_path), resume, force, "shaft study")  # before any port opens
     summary = ShaftRunSummary(out=str(out_path))
     with RigSession.open(stage_port, sensor_port, session_config(config)) as rig:
         world = getattr(rig.sensor_port, "world", None)
@@ -53,7 +56,7 @@ def run_shaft_study(stage_port, sensor_port, out_path: str | Path, config: dict,
             _check_world(world, config)  # before a file is written
         sensor_id = str(getattr(getattr(world, "sensor", None), "sensor_id", "") or
                         rig.devices.sensor)
-        writer = ShaftStudyWriter(out_path, config, sensor_id, resume=resume)
+        writer = ShaftStudyWriter(out_path, config, sensor_id, resume=resume, force=force)
         done = set(writer.done())
         rig.start()
         _rise_clear(rig, config)

@@ -25,6 +25,7 @@ from typing import Callable
 
 import numpy as np
 
+from whiskercal.artifacts import h5io
 from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_RETRACT, PHASE_SLIDE,
                                               StudyWriter, TrialRecord)
 from whiskercal.collect.faults import frame_loss, frame_loss_warning
@@ -75,8 +76,9 @@ def session_config(config: dict) -> SessionConfig:
 
 def run_study(stage_port, sensor_port, out_path: str | Path, config: dict, resume: bool = False,
               progress: ProgressCallback | None = None, *, stage_client=None,
-              sensor_client=None) -> RunSummary:
-    """Run (or with ``resume`` continue) the study into ``out_path``; return what was done.
+              sensor_client=None, force: bool = False) -> RunSummary:
+    """Run (or with ``resume`` continue) the study into ``out_path``; return what was done. An
+    existing finished study is replaced only with ``force`` (``StudyWriter``).
 
     ``stage_port``/``sensor_port`` are URLs, device names or open pyserial objects; ready
     clients (``stage_client``/``sensor_client``) are used as they are and left open. On the
@@ -89,12 +91,14 @@ def run_study(stage_port, sensor_port, out_path: str | Path, config: dict, resum
         Device failures, alarms, the overload guard, no contact, a refused resume; every
         finished trial is in the file and ``resume`` continues with the rest.
     """
+    h5io.refuse_to_replace_run(Path(out_path), resume, force, "study")  # before any port opens
     with RigSession.open(stage_port, sensor_port, session_config(config),
                          stage_client=stage_client, sensor_client=sensor_client) as rig:
         world = getattr(rig.sensor_port, "world", None)
         if world is not None:
             truth_module.check_world(world, PlaneGeometry.from_config(config))  # before a file
-        writer = StudyWriter(out_path, config, _sensor_id(world, rig), resume=resume)
+        writer = StudyWriter(out_path, config, _sensor_id(world, rig), resume=resume,
+                             force=force)
         return StudyRun(rig, config, writer, world=world, progress=progress).run()
 
 

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import click
 
-from whiskercal.cli.app import App, echo_json
+from whiskercal.cli.app import App, echo_json, given_options
 
 ROBOT_ONLY = ("pose_topic", "tf_frames", "twist_topic", "twist_frame", "field_topic",
               "watchdog_ms", "dry_run", "max_speed", "max_turn", "box")
@@ -54,24 +54,22 @@ def robot_options(function):
 
 
 def refuse_robot_options(shape, robot: dict) -> None:
-    """On the twin: --shape is needed, and a robot option without --robot is a mistake."""
+    """On the twin: --shape is needed, and a robot option given without --robot is a mistake
+    (given at its default value too: ``given_options``)."""
     from whiskercal.errors import UsageError
 
-    defaults = {"pose_topic": "/whiskercal/pose", "twist_topic": "/whiskercal/twist",
-                "field_topic": "/whiskercal/field", "watchdog_ms": 200.0, "max_speed": 20.0,
-                "max_turn": 0.5}
-    for name in ROBOT_ONLY:
-        value = robot[name]
-        if value not in (None, False, defaults.get(name)):
-            raise UsageError(f"--{name.replace('_path', '').replace('_', '-')} drives a robot: "
-                             "give --robot too")
+    given = given_options(ROBOT_ONLY)
+    if given:
+        raise UsageError(f"{given[0]} drives a robot: give --robot too")
     if shape is None:
         raise UsageError("give --shape (the twin's object), or --robot rosbridge://HOST:PORT")
 
 
 def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_mm_s, duration_s,
-                 out, as_json, *, shape, mu_static, mu_kinetic, seed, robot_url, **robot) -> None:
-    """The run on the robot; its summary; a stopped run ends non-zero after its file is written."""
+                 out, as_json, *, shape, mu_static, mu_kinetic, seed, record, robot_url,
+                 **robot) -> None:
+    """The run on the robot; its summary; a stopped run ends non-zero after its file (and its
+    bag, with ``record`` = (PATH, force)) is written."""
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour.on_robot import contour_on_robot, summarize_robot_run
     from whiskercal.errors import UsageError
@@ -87,14 +85,23 @@ def run_on_robot(app: App, artifact, sensor_port, config_path, target_uT, speed_
             bar.update(SimpleNamespace(done=int(t_s), total=int(duration_s), taken_now=int(t_s)))
 
         try:
-            record = contour_on_robot(setup, artifact, out, duration_s=duration_s,
-                                      loop_config=config, target_z_uT=target_uT, echo=echo,
-                                      on_progress=shown if bar else None)
+            run = contour_on_robot(setup, artifact, out, duration_s=duration_s,
+                                   loop_config=config, target_z_uT=target_uT, echo=echo,
+                                   on_progress=shown if bar else None, record=record[0],
+                                   force=record[1])
         except KeyboardInterrupt:
             click.echo(f"stopped: the robot was sent a zero twist; the partial run is in {out}",
                        err=True)
             sys.exit(130)
-    print_summary(summarize_robot_run(record), as_json)
+    print_summary(summarize_robot_run(run), as_json)
+    if record[0] is not None and not as_json:
+        print_replay_hint(record[0], *run.config["robot"]["rest_uT"])
+
+
+def print_replay_hint(bag, rest_y_uT: float, rest_z_uT: float) -> None:
+    """How to replay a recorded bag: its rest reading, and its poses."""
+    click.echo(f"recorded {bag} (replay it with --rest-uT {rest_y_uT:.3f} "
+               f"--axial-rest-uT {rest_z_uT:.3f} --poses auto)")
 
 
 def _follow_config(config_path, speed_mm_s):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from whiskercal.bench.runner import COMPARISONS
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.app import App, echo_json, force_option, pass_app
 from whiskercal.errors import WhiskercalError
 
 
@@ -39,8 +39,10 @@ def _print(bench: dict, out: str) -> None:
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
               help="Directory for bench.json, one JSON per comparison and the PNG charts.")
 @click.option("--json", "as_json", is_flag=True, help="Print bench.json's content as JSON.")
+@force_option
 @pass_app
-def command(app: App, only: tuple[str, ...], quick: bool, out_dir: str, as_json: bool) -> None:
+def command(app: App, only: tuple[str, ...], quick: bool, out_dir: str, as_json: bool,
+            force: bool) -> None:
     """Measure speed against accuracy and chart one against the other.
 
     Runs each comparison in one process (tip extraction, surface degree, collection settings,
@@ -62,7 +64,8 @@ def command(app: App, only: tuple[str, ...], quick: bool, out_dir: str, as_json:
         def on_row(row: dict) -> None:
             bar.step(current["name"], f"{current['name']}: {_row_label(row)}")
 
-        bench = run_bench(out_dir, only, quick, on_start if bar else None, on_row if bar else None)
+        bench = run_bench(out_dir, only, quick, on_start if bar else None, on_row if bar else None,
+                          force=force)
         if bar:
             bar.finish()
     if as_json:

@@ -86,7 +86,8 @@ def _dry_run(plan, stage: str | None, as_json: bool) -> None:
 @click.option("--stage", metavar="URL", help="Stage port: /dev/ttyUSB0 or sim://NAME/stage.")
 @click.option("--sensor", metavar="URL", help="Sensor port: /dev/ttyUSB1 or sim://NAME/sensor.")
 @click.option("--out", "out", type=click.Path(dir_okay=False), metavar="RAW.h5",
-              help="The raw dataset to write (refuses to overwrite; see --resume).")
+              help="The raw dataset to write (an existing one is refused: see --resume and "
+                   "--force).")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), metavar="FILE",
               help="TOML file overriding the defaults in whiskercal/collect/default_grid.toml.")
 @click.option("--resume", is_flag=True,
@@ -96,8 +97,12 @@ def _dry_run(plan, stage: str | None, as_json: bool) -> None:
               help="Print the plan (points, ranges, path, estimated time, limit checks) and "
                    "move nothing; with --stage, only its settings are read.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--force", is_flag=True,
+              help="Replace a finished dataset in --out (the new run's file is renamed over it "
+                   "once its header is written); a partial run is continued with --resume, "
+                   "never replaced.")
 @pass_app
-def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json) -> None:
+def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json, force) -> None:
     """Collect the calibration grid: touch the whisker at every planned point.
 
     Homes the stage (or requires it homed), measures the static baseline with the rod parked,
@@ -122,7 +127,7 @@ def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json)
 
     with _stop_on_ctrl_c() as stop_requested, \
             progress_bar(app, "points", description="collect", as_json=as_json) as bar:
-        summary = collect(stage, sensor, out, plan, resume=resume,
+        summary = collect(stage, sensor, out, plan, resume=resume, force=force,
                           on_progress=bar.update if bar else None, stop_requested=stop_requested)
     _print_run(summary, as_json)
     for warning in summary.warnings:

@@ -8,7 +8,8 @@ from types import SimpleNamespace
 import click
 
 from whiskercal.cli.app import App, echo_json, force_option, pass_app
-from whiskercal.cli.commands._contour_robot import (print_summary, refuse_robot_options, robot_options,
+from whiskercal.cli.commands._contour_robot import (print_replay_hint, print_summary,
+                                                   refuse_robot_options, robot_options,
                                                    run_on_robot)
 from whiskercal.errors import UsageError
 
@@ -56,7 +57,8 @@ def command() -> None:
 @click.option("--record", "record_path", type=click.Path(), default=None,
               help="Also write the magnetometer's stream and the sensor base's poses as a ROS 2 "
                    "bag (a folder: metadata.yaml and NAME.mcap) for `whiskercal replay` or "
-                   "Foxglove; the static field to replay it with is in the run's config.")
+                   "Foxglove, on the twin or (as the samples arrive) on a robot; the rest "
+                   "reading to replay it with is in the run's config.")
 @click.option("--mount-error", default=None, metavar="DX,DY,DEG",
               help="The twin's sensor truly sits off the nominal --mount by DX, DY mm and DEG "
                    "degrees (a real mount is never where its drawing says) [default: 0,0,0].")
@@ -73,23 +75,23 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     from whiskercal.checks import seed as check_seed
     from whiskercal.cli.progress import progress_bar
     from whiskercal.contour import contour_to_file, summarize
+    from whiskercal.contour.record import refuse_existing as refuse_existing_bag
     from whiskercal.follow import load_follow_config
     from whiskercal.twin.outlines import outline
     from whiskercal.twin.sensor_file import resolve_sensor
 
     refuse_input_as_output(out, [artifact] + ([config_path] if config_path else []), "the run")
     refuse_existing([out], force, "the run")
+    refuse_existing_bag(record_path, force)
     check_seed(seed)
     if robot["robot_url"] is not None:
         if mount_error is not None:
             raise UsageError("--mount-error places the twin's sensor; a robot's mount is off by "
                              "what it is off by (`whiskercal mount-cal` measures it)")
-        if record_path is not None:
-            raise UsageError("--record writes a twin run's stream; a robot's run is recorded by "
-                             "its own ROS recorder (ros2 bag record), which replay reads")
         return run_on_robot(app, artifact, sensor_name, config_path, target_uT, speed_mm_s,
                             duration_s, out, as_json, shape=shape, mu_static=mu_static,
-                            mu_kinetic=mu_kinetic, seed=seed, **robot)
+                            mu_kinetic=mu_kinetic, seed=seed, record=(record_path, force),
+                            **robot)
     refuse_robot_options(shape, robot)
     outline(shape)  # an unknown shape or a parameter out of range: one line, before any work
     sensor = resolve_sensor(sensor_name) if sensor_name else None
@@ -100,7 +102,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
         record = contour_to_file(shape, artifact, out, sensor=sensor, target_z_uT=target_uT,
                                  config=load_follow_config(config_path), speed_mm_s=speed_mm_s,
                                  duration_s=duration_s, seed=seed, mu_kinetic=mu_kinetic,
-                                 mu_static=mu_static, record=record_path,
+                                 mu_static=mu_static, record=record_path, force=force,
                                  mount=_twin_mount(robot["mount_path"], mount_error),
                                  on_progress=shown if bar else None)
     summary = summarize(record)
@@ -109,8 +111,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     print_summary(summary, as_json)
     if record_path is not None and not as_json:
         rest = record.config["record"]["rest_field_uT"]
-        click.echo(f"recorded {record_path} (replay it with --rest-uT {rest[1]:.3f} "
-                   f"--axial-rest-uT {rest[2]:.3f} --poses auto)")
+        print_replay_hint(record_path, rest[1], rest[2])
     if not record.complete:
         click.echo(f"stopped: the partial run is in {out}", err=True)
         sys.exit(130)

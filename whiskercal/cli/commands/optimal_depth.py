@@ -32,9 +32,12 @@ def command() -> None:
               help="TOML file overriding the documented defaults (whiskercal/study/default_study.toml).")
 @click.option("--resume", is_flag=True, help="Continue a partial study file; finished trials are kept.")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
+@click.option("--force", is_flag=True,
+              help="Replace a finished study in --out (the new file, written whole, is renamed "
+                   "over it); a partial study is continued with --resume, never replaced.")
 @pass_app
 def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, config_path: Path | None,
-                resume: bool, as_json: bool) -> None:
+                resume: bool, as_json: bool, force: bool) -> None:
     """Run the flat-plane study: first contact, then one constant-velocity slide per depth."""
     from whiskercal.cli.progress import progress_bar
     from whiskercal.study.config import load_config
@@ -44,7 +47,7 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
     config = load_config(config_path)
     with progress_bar(app, "trials", description="study", as_json=as_json) as bar:
         summary = run_study(stage_url, sensor_url, out_path, config, resume=resume,
-                            progress=bar.update if bar else None)
+                            progress=bar.update if bar else None, force=force)
     result = {**summary.__dict__, "wall_time_s": round(summary.wall_time_s, 3)}
     for warning in summary.warnings:
         click.echo(f"warning: {warning}", err=True)
@@ -74,8 +77,8 @@ def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path, confi
               help="Target rule: scores within this (mm) of the lowest tie, and the shallowest "
                    "tied depth wins.")
 @click.option("--allow-other-sensor", is_flag=True,
-              help="Analyse a study recorded on another sensor than the artifact's (refused "
-              "otherwise), with a warning.")
+              help="Analyse a study of another sensor id, or planned for another whisker reach, "
+              "than the artifact's, with a warning; refused otherwise.")
 @click.option("--json", "as_json", is_flag=True, help="Print the per-trial table and the choice as JSON.")
 @force_option
 def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
@@ -87,7 +90,7 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
     STUDY_PATH is the file `optimal-depth run` wrote.
     """
     from whiskercal import runtime
-    from whiskercal.artifacts.h5io import other_sensor
+    from whiskercal.artifacts.cross_check import check_study_for_target
     from whiskercal.checks import number
     from whiskercal.study.artifact_target import target_artifact_path, write_target
     from whiskercal.study.figures import figure_paths, write_figures
@@ -102,8 +105,7 @@ def report_command(study_path: Path, artifact_path: Path, out_dir: Path | None,
         refuse_input_as_output(output, [study_path, artifact_path])  # before any work
     refuse_existing(outputs, force)
     calibration = runtime.load(artifact_path)
-    warning = other_sensor(calibration.sensor_id, study_path, "the study", allow_other_sensor)
-    if warning:
+    for warning in check_study_for_target(artifact_path, study_path, allow_other_sensor):
         click.echo(f"warning: {warning}", err=True)
     report = build_report(study_path, calibration, margin_weight_mm=margin_weight_mm,
                           allow_missing=allow_missing, tie_mm=tie_mm)

@@ -19,8 +19,10 @@ from whiskercal.cli.app import App, echo_json, force_option, pass_app
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="The HTML file to write (figures embedded, no external resources).")
 @click.option("--allow-other-sensor", is_flag=True,
-              help="Use a raw grid or study recorded on another sensor than the calibration's "
-              "(refused otherwise), with a warning.")
+              help="Use a raw grid or study that does not belong with the calibration (another "
+              "sensor id, a plan for another whisker reach, or not the file the calibration "
+              "records it was fitted from or given its target by), with a warning; refused "
+              "otherwise.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was written as JSON.")
 @force_option
 @pass_app
@@ -34,12 +36,13 @@ def command(app: App, calibration: str, raw_path: str | None, study_path: str | 
     study table and figures, the speed-accuracy charts, and provenance (hashes, versions, times).
     """
     from whiskercal.atomic import refuse_existing, refuse_input_as_output
-    from whiskercal.report.build import other_sensor_inputs, report_inputs, write_report
+    from whiskercal.artifacts.cross_check import check_report_inputs
+    from whiskercal.report.build import report_inputs, write_report
 
     refuse_input_as_output(out_path, report_inputs(calibration, raw_path, study_path, bench_dir),
                            "the report")
     refuse_existing([out_path], force, "the report")
-    for warning in other_sensor_inputs(calibration, raw_path, study_path, allow_other_sensor):
+    for warning in check_report_inputs(calibration, raw_path, study_path, allow_other_sensor):
         click.echo(f"warning: {warning}", err=True)
     if app.interactive:
         click.echo("drawing the report ...", err=True)

@@ -33,16 +33,19 @@ def command() -> None:
               help="TOML file overriding the defaults (whiskercal/shaftstudy/config.py).")
 @click.option("--resume", is_flag=True, help="Continue a partial file; finished trials are kept.")
 @click.option("--json", "as_json", is_flag=True, help="Print the run's summary as JSON.")
+@click.option("--force", is_flag=True,
+              help="Replace a finished shaft study in --out (the new file, written whole, is "
+                   "renamed over it); a partial one is continued with --resume, never replaced.")
 @pass_app
 def run_command(app: App, stage_url: str, sensor_url: str, out_path: Path,
-                config_path: Path | None, resume: bool, as_json: bool) -> None:
+                config_path: Path | None, resume: bool, as_json: bool, force: bool) -> None:
     """Press and slide the rod at each radial distance and approach direction."""
     from whiskercal.shaftstudy.config import load_config
     from whiskercal.shaftstudy.run import run_shaft_study
 
     refuse_input_as_output(out_path, [config_path], "the shaft study file")
     summary = run_shaft_study(stage_url, sensor_url, out_path, load_config(config_path),
-                              resume=resume)
+                              resume=resume, force=force)
     if as_json:
         echo_json(summary.__dict__)
         return

@@ -8,9 +8,14 @@ import time
 
 import click
 
-from whiskercal.cli.app import App, echo_json, pass_app
+from whiskercal.cli.app import App, echo_json, given_options, pass_app
 from whiskercal.cli.commands._sim_robot import OUTLINE_SPECS, robot_sensor, serve_robot
 from whiskercal.twin.scenes import scene_names
+
+
+# the options of one way of serving only: the rig's boards on ptys, or the robot on rosbridge
+RIG_ONLY = ("scene", "speed", "rod_radius", "stock", "homing", "origin", "faults", "firmware")
+ROBOT_ONLY = ("shape", "port", "rate_hz", "artifact", "mount_path", "mount_error")
 
 
 @click.group("sim")
@@ -81,13 +86,15 @@ def serve(app: App, scene: str, seed: int, speed: float, sensor: str | None, rod
     number(rod_radius, "--rod-radius", low=0, unit="mm")
     if duration is not None:
         number(duration, "--duration (leave it out to run until Ctrl-C)", low=0, unit="s")
+    misplaced = given_options(RIG_ONLY if as_robot else ROBOT_ONLY)
+    if misplaced:
+        raise UsageError(f"{misplaced[0]} is for the rig's boards, not --robot" if as_robot else
+                         f"{misplaced[0]} is for --robot")
     if as_robot:
         if shape is None:
             raise UsageError("--robot serves the twin's base against an object: give --shape")
         return serve_robot(shape, seed, robot_sensor(sensor, artifact), port, rate_hz, duration,
                            mount_path, as_json, mount_error)
-    if shape is not None or artifact is not None or mount_path is not None or mount_error is not None:
-        raise UsageError("--shape, --artifact, --mount and --mount-error are for --robot")
     options = {"scene": [scene], "seed": [str(seed)], "rod_radius": [str(rod_radius)],
                "stock": ["1" if stock else "0"], "homing": [homing or ""],
                "origin": [origin or ""], "fault": list(faults)}
