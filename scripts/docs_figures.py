@@ -77,6 +77,15 @@ BENCH_TABLES = {
                   ("cylinder.calibrated.size_error_mm", "calibrated (mm)", 2),
                   ("octagon.nominal.size_error_mm", "octagon, nominal (mm)", 2),
                   ("octagon.calibrated.size_error_mm", "calibrated (mm)", 2)],
+    "sensor-sessions": [("build", "build", 0), ("stiffness_ratio", "k_θ·L/EI", 3),
+                        ("sessions", "sessions", 0), ("tip_models", "tip model shipped", 0),
+                        ("best_rmse_mm", "best seed, true RMS (mm)", 2),
+                        ("worst_rmse_mm", "worst seed, true RMS (mm)", 2),
+                        ("worst_seed", "worst seed", 0), ("spread_mm", "spread (mm)", 2),
+                        ("worst_max_mm", "worst true max (mm)", 2),
+                        ("worst_realistic_held_mm", "worst with friction, held (mm)", 2),
+                        ("missing_goal", "seeds missing a goal", 0),
+                        ("refused", "seeds refused", 0)],
     "twin-validate": [("name", "check", 0), ("value", "result", 2), ("limit", "limit", 2),
                       ("ok", "passed", 0), ("detail", "detail", 0)],
     "contour-target": [("tip_model", "tip model", 0), ("shape", "object", 0),
@@ -99,7 +108,9 @@ DESCRIBE_COLUMNS = [("sensor", "sensor", 0), ("ei", "EI (N·mm²)", 4),
 DESCRIBE_COMMAND = "whiskercal twin describe PATH --json"
 # the command that writes each snapshot's source JSON (``make bench`` runs them into out/bench),
 # and where in it the table's rows are
-SOURCES = {"twin-validate": ("whiskercal twin validate --json", "checks")}
+SOURCES = {"twin-validate": ("whiskercal twin validate --json", "checks"),
+           "sensor-sessions": ("whiskercal bench --only sensor-family (its sessions)",
+                               "per_build")}
 # the recorded datasets' golden results (written by make record-data, checked by make regress)
 GOLDEN_ROWS = [("fit.tip_model", "tip model shipped by the regression's fit", 0),
                ("fit.rmse_uT", "surface fit residual, RMS (µT)", 3),
@@ -162,6 +173,8 @@ def _get(row: dict, key: str):
 
 def _cell(row: dict, key: str, style) -> str:
     value = _get(row, key)
+    if isinstance(value, list):
+        return ", ".join(str(v) for v in value) or "none"
     if style == "s":
         return _seconds(value)
     if style == 0:
@@ -246,14 +259,26 @@ def render(name: str) -> str:
                    f"twin-describe, {', '.join(BENCH_TABLES)}")
 
 
+def _bench_result(bench_dir: Path, name: str) -> dict | None:
+    """A tabled comparison's result from a bench directory (the sessions: sensor-family's
+    ``sessions`` part), None where the bench did not write it."""
+    source = bench_dir / ("sensor-family.json" if name == "sensor-sessions" else f"{name}.json")
+    if not source.is_file():
+        return None
+    result = json.loads(source.read_text(encoding="utf-8"))
+    if name != "sensor-sessions":
+        return result
+    return {**result["sessions"], "machine": result.get("machine", {})} \
+        if "sessions" in result else None
+
+
 def snapshot(bench_dir: Path) -> list[Path]:
     """Copy each tabled comparison's JSON from a bench directory into docs/figures/."""
     written = []
     for name in BENCH_TABLES:
-        source = bench_dir / f"{name}.json"
-        if not source.is_file():
+        result = _bench_result(bench_dir, name)
+        if result is None:
             continue
-        result = json.loads(source.read_text(encoding="utf-8"))
         command = SOURCES.get(name, ("whiskercal bench" + (" --quick" if result.get("quick")
                                                           else ""),))[0]
         payload = {"written_by": command, "comparison": name,

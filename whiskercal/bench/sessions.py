@@ -177,6 +177,9 @@ def per_build(rows: list[dict]) -> list[dict]:
                         "stiffness_ratio": mine[0]["stiffness_ratio"],
                         "worst_seed": worst["seed"], "worst_rmse_mm": max(rmse),
                         "best_rmse_mm": min(rmse), "spread_mm": max(rmse) - min(rmse),
+                        "worst_max_mm": max(r.get("tip_curve_max_mm", math.inf) for r in mine),
+                        "worst_realistic_held_mm": max(
+                            r.get("realistic_held", {}).get("rmse_mm", math.inf) for r in mine),
                         "refused": [r["seed"] for r in mine if "refused" in r],
                         "missing_goal": [r["seed"] for r in mine if not meets_goal(r)],
                         "tip_models": sorted({str(r.get("tip_model")) for r in mine})})
