@@ -25,9 +25,11 @@ RECORDED = ROOT / "data" / "twin-short-60mm"
 
 
 def _options(**fields) -> FitOptions:
-    """The fit's options without the (Y, Z) table: these tests are about the rest of the fit,
-    and the table adds 30-60 s to a fit (tests/fit/test_tip_model.py tests the default)."""
-    return FitOptions(field_table=False, **fields)
+    """The fit's options for the rigid root's analytic grid: the level set (no suspension to
+    fit, so the default refuses the grid, as one test here checks) without the (Y, Z) table:
+    these tests are about the rest of the fit, and the table adds 30-60 s to a fit
+    (tests/fit/test_tip_model.py tests the default)."""
+    return FitOptions(**{"field_table": False, "tip_model": "level-set", **fields})
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +95,7 @@ def test_write_round_trips_through_the_artifact_reader(recorded, tmp_path):
 
 
 def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
-    result = fit(rigid_raw, _options(samples=8, threshold_uT=250.0, tip_model="level-set"))
+    result = fit(rigid_raw, _options(samples=8, threshold_uT=250.0))
     assert result.truth is None and compare_with_twin_truth(rigid_raw, result.calibration) is None
     assert not any(name.startswith(("lookup_vs_truth", "contact_error")) for name in result.metrics)
     assert result.artifact_data().truth is None
@@ -107,7 +109,7 @@ def test_a_real_rig_grid_has_no_truth_comparison(rigid_raw):
 
 def test_the_default_fit_refuses_a_grid_no_model_can_estimate_and_says_what_to_change(rigid_raw):
     with pytest.raises(ModelError) as refused:
-        fit(rigid_raw, _options(samples=8))
+        fit(rigid_raw, _options(samples=8, tip_model="auto"))
     message = str(refused.value)
     assert message.startswith("no tip model's error can be estimated from this grid")
     assert "[sweep]" in message and "trace_length_mm" in message
