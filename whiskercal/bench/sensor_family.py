@@ -143,6 +143,14 @@ def _followed_row(sensor, table: FieldTableFit, lookup, z_range) -> dict:
             "noise_floor": {"one_sample": floor["one_sample"], "held": floor["held"]}}
 
 
+def followed_held(sensor, branches: dict, z_range) -> dict:
+    """The runtime's follower through an artifact's load branches (its arrays) on the twin's
+    pressed planes: the held errors (mm)."""
+    followed = _pressed_follower_errors(LoadBranches.from_arrays(branches),
+                                        pressed.presses(sensor), z_range)
+    return followed["held"]
+
+
 def _pressed_follower_errors(branches: LoadBranches, planes, z_range) -> dict:
     """The runtime's follower through ``branches`` on the pressed planes, read as a stream."""
 

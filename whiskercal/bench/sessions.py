@@ -78,10 +78,16 @@ def _collect_grid(sensor: SensorParams, seed: int, folder: Path) -> Path:
 
 
 def _realistic_held(sensor: SensorParams, result, z_range) -> dict:
-    """Realistic contacts held, read as the runtime reads the artifact: its (Y, Z) table where
-    one is written, else its z lookup (``read``)."""
+    """Realistic contacts held, read as the runtime reads the artifact (``read``): its (Y, Z)
+    table where one is written; the loads it follows from first touch where those are written
+    instead, on the twin's planes pressed in (``sensor_family``'s pressed contacts); else its
+    z lookup."""
+    from whiskercal.bench.sensor_family import followed_held
     from whiskercal.model.field_table import FieldTipTable
 
+    if result.load_branches is not None:
+        return {**followed_held(sensor, result.load_branches, z_range),
+                "read": "loads followed"}
     contacts = twin_data.realistic_contacts(sensor)
     table = result.field_table
     if table is None:
