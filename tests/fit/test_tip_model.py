@@ -200,3 +200,24 @@ def test_a_refusal_no_joint_fit_stands_in_for_is_raised(rigid_calibration, joint
     assert choice is refused
     with pytest.raises(ModelError, match="nor can the mechanics-informed model stand in"):
         tip_model.refuse_unless_resolved(choice)
+
+
+@pytest.mark.parametrize("estimate, requested, trusted_table, refused", [
+    (0.3, "auto", False, False),           # warned, not refused
+    (0.8, "auto", False, True),            # over twice the goal, nothing else to read
+    (0.8, "auto", True, False),            # a trusted table ships beside it
+    (0.8, "mechanics", False, False),      # asked for by name: shipped knowingly
+    (float("nan"), "auto", False, True),   # no estimate at all
+    (float("nan"), "level-set", False, False),
+])
+def test_auto_refuses_a_z_lookup_it_cannot_vouch_for_unless_a_trusted_table_ships(
+        estimate, requested, trusted_table, refused):
+    choice = tip_model.TipModelChoice("mechanics", estimate)
+    if not refused:
+        assert tip_model.refuse_unless_resolved(choice, requested, trusted_table) is choice
+        return
+    with pytest.raises(ModelError) as error:
+        tip_model.refuse_unless_resolved(choice, requested, trusted_table)
+    assert "--tip-model level-set" in str(error.value) and "[sweep]" in str(error.value)
+    if estimate == estimate:  # finite: the figure and the bound are named
+        assert "0.80 mm RMS, over 0.5 mm" in str(error.value)

@@ -174,7 +174,7 @@ def measure(sensor, seed: int = 0, tip_sweep: bool = True, with_table: bool = Fa
         table = field_table(sensor, grid, sweep, choice) if with_table else None
         if table is not None:
             calibration, choice = adopt_joint_lookup(calibration, choice, table.z_lookup, "auto")
-        refuse_unless_resolved(choice)
+        refuse_unless_resolved(choice, "auto", table is not None and table.trusted)
     except WhiskercalError as error:
         return {**row, "refused": f"{type(error).__name__}: {error}", "warned": True,
                 "silent_failure": False}

@@ -68,6 +68,11 @@ class FieldTableFit:
     # the joint fit the table came from (None when none was made): for checks against a truth
     mechanics: MechanicsFit | None = None
 
+    @property
+    def trusted(self) -> bool:
+        """A table or loads to follow are written: a reader trusted on its own estimate."""
+        return self.table is not None or self.branches is not None
+
 
 @dataclass(frozen=True)
 class TableContacts:

@@ -75,7 +75,8 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
     if table is not None:
         calibration, tip_model = adopt_joint_lookup(calibration, tip_model, table.z_lookup,
                                                     options.tip_model)
-    tip_model = refuse_unless_resolved(tip_model, options.tip_model)
+    tip_model = refuse_unless_resolved(tip_model, options.tip_model,
+                                       table is not None and table.trusted)
     grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
     with times.stage("truth"):
         truth = compare_with_twin_truth(grid, calibration)

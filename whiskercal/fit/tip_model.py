@@ -43,6 +43,9 @@ from whiskercal.model.lookup import LookupReport
 WARN_TIP_ERROR_MM = 0.25
 # the tip model's name when the (Y, Z) joint fit's z lookup ships (``adopt_joint_lookup``)
 JOINT_TIP_MODEL = "mechanics-yz"
+# an estimate above this (mm RMS, twice the goal: the estimate runs high) with no trusted table
+# beside it is refused by ``auto`` (``refuse_unless_resolved``)
+REFUSE_TIP_ERROR_MM = 2.0 * WARN_TIP_ERROR_MM
 # what a calibration that cannot be estimated should change, in the refusal's words
 WHAT_TO_CHANGE = ("Change the plan: the tip sweep on (collect's [sweep] enabled = true), with "
                   "more angles or offsets nearer the tip ([sweep] angles, offsets_mm), or a reach "
@@ -188,19 +191,29 @@ def _refused(untraceable: ModelError, why_not: str, mechanics) -> TipModelChoice
     return choice
 
 
-def refuse_unless_resolved(choice: TipModelChoice, requested: str = "auto") -> TipModelChoice:
-    """``choice``, unless it is a refusal no joint fit stood in for, or (with ``auto``) a model
-    whose tip error no fit could estimate: then raise.
+def refuse_unless_resolved(choice: TipModelChoice, requested: str = "auto",
+                           trusted_table: bool = False) -> TipModelChoice:
+    """``choice``, unless it is a refusal no joint fit stood in for, or (with ``auto``) a z
+    lookup whose estimated tip error is unknown or above :data:`REFUSE_TIP_ERROR_MM` with no
+    trusted (Y, Z) table or loads beside it (``trusted_table``): then raise.
 
-    A model shipped without an estimate may be off by millimetres with nothing to tell, and a
-    lab would find out only at the robot; an explicit ``--tip-model`` ships it knowingly.
+    Such an artifact may be off by millimetres with nothing to tell, and a lab would find out
+    only at the robot; an explicit ``--tip-model`` ships it knowingly, with its warning. Where
+    a trusted table ships, a robot streaming Z reads that, and the z lookup's estimate is
+    warned for one streaming Y only.
     """
     if choice.refusal is not None:
         raise choice.refusal
-    if requested == "auto" and not math.isfinite(choice.estimated_tip_error_mm):
-        raise ModelError(f"no tip model's error can be estimated from this grid ("
-                         f"{'; '.join(choice.warnings) or 'no estimate'}). {WHAT_TO_CHANGE}")
-    return choice
+    estimate = choice.estimated_tip_error_mm
+    if requested != "auto" or trusted_table or estimate <= REFUSE_TIP_ERROR_MM:
+        return choice
+    if math.isfinite(estimate):
+        why = (f"the best tip model ({choice.name}) is estimated to err {estimate:.2f} mm RMS, "
+               f"over {REFUSE_TIP_ERROR_MM} mm, and no (Y, Z) table could be trusted")
+    else:
+        why = (f"no tip model's error can be estimated from this grid "
+               f"({'; '.join(choice.warnings) or 'no estimate'})")
+    raise ModelError(f"{why}. {WHAT_TO_CHANGE}")
 
 
 def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice,
