@@ -89,7 +89,9 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                    speed_mm_s: float | None = None, duration_s: float = 120.0, seed: int = 0,
                    on_progress: Callable[[float], None] | None = None,
                    stop_requested: Callable[[], bool] | None = None,
-                   mu_kinetic: float = 0.0, mu_static: float | None = None) -> ContourRunFile:
+                   mu_kinetic: float = 0.0, mu_static: float | None = None,
+                   nuisances=None, rezero: bool = False,
+                   scale_filter: bool = True) -> ContourRunFile:
     """Run the loop on the twin against ``shape`` with the calibration ``artifact``; the run,
     in memory.
 
@@ -98,6 +100,9 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     ``whiskercal optimal-depth report`` writes); ``speed_mm_s`` the total speed of the config.
     ``mu_static`` (with ``mu_kinetic``): Coulomb stick-slip at the tip; ``mu_kinetic`` alone:
     mu_s = mu_k, the tip sticking inside the cone and sliding on its edge, no stick-slip.
+    ``nuisances``: what a real rig adds (``twin.nuisances.Nuisances``; None: off); ``rezero``:
+    the tracker re-zeroes its rest out of contact (``runtime.Calibration.tracker``);
+    ``scale_filter``: the tracker's filter is scaled to the loop's rate (the same at 300 Hz).
     """
     import numpy as np
 
@@ -107,6 +112,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     from whiskercal.twin.params import DEFAULT_SENSOR
 
     shape_outline = outline(shape)  # an unknown shape is refused before the artifact loads
+    if nuisances is not None and nuisances.contact.mu_static and not mu_kinetic and mu_static is None:
+        mu_kinetic, mu_static = nuisances.contact.mu_kinetic, nuisances.contact.mu_static
     mu_kinetic, friction = _friction(shape_outline, mu_kinetic, mu_static)
     sensor = sensor or DEFAULT_SENSOR
     calibration = runtime.load(artifact)
@@ -118,16 +125,31 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
         config = config.replace(total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)  # scales the PID to the build
-    run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
-                      config, duration_s, seed, on_progress, stop_requested, friction,
-                      tip_mm_per_uT)
+    tracker = calibration.tracker(out_of_range="clip", rezero=bool(rezero),
+                                  rate_hz=_loop_rate(config, nuisances) if scale_filter else None)
+    run = run_contour(shape_outline, sensor, tracker, target, config, duration_s, seed,
+                      on_progress, stop_requested, friction, tip_mm_per_uT, nuisances)
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
                           float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
                           run.columns, {"follow": run.config, "artifact": str(artifact),
                                         "tip_mm_per_uT": tip_mm_per_uT,
                                         "mu_kinetic": float(mu_kinetic),
-                                        "mu_static": None if friction is None else friction.mu_static},
+                                        "mu_static": None if friction is None else friction.mu_static,
+                                        **_nuisance_config(nuisances, rezero)},
                           transitions=run.transitions)
+
+
+def _loop_rate(config: FollowConfig, nuisances) -> float:
+    """The loop's rate (Hz): the robot nuisance's when it sets one, else the config's."""
+    robot_rate = 0.0 if nuisances is None else nuisances.robot.rate_hz
+    return robot_rate or config.rate_hz
+
+
+def _nuisance_config(nuisances, rezero: bool) -> dict:
+    """The run config's record of the nuisances and the re-zero (nothing when both are off, so
+    that runs without them are written as before)."""
+    recorded = {} if nuisances is None or nuisances.off else {"nuisances": nuisances.to_dict()}
+    return {**recorded, **({"rezero": True} if rezero else {})}
 
 
 def _friction(shape_outline, mu_kinetic, mu_static):
