@@ -112,8 +112,9 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     from whiskercal.twin.params import DEFAULT_SENSOR
 
     shape_outline = outline(shape)  # an unknown shape is refused before the artifact loads
-    if nuisances is not None and nuisances.contact.mu_static and not mu_kinetic and mu_static is None:
-        mu_kinetic, mu_static = nuisances.contact.mu_kinetic, nuisances.contact.mu_static
+    contact = None if nuisances is None else nuisances.contact
+    if contact is not None and contact.mu_static and not mu_kinetic and mu_static is None:
+        mu_kinetic, mu_static = contact.mu_kinetic, contact.mu_static  # the nuisance's friction
     mu_kinetic, friction = _friction(shape_outline, mu_kinetic, mu_static)
     sensor = sensor or DEFAULT_SENSOR
     calibration = runtime.load(artifact)
