@@ -89,6 +89,10 @@ EXTRA_TABLES = {
                           [("case", "object", 0), ("all_mean_error_mm", "all nuisances, every "
                            "counter-measure (mm)", 3), ("goal_mm", "goal (mm)", 2),
                            ("met", "met", 0), ("set_by", "set by", 0)]),
+    "error-budget-fluctuation": ("error-budget", lambda result: [result["contact_fluctuation"]],
+                                 [("target_z_uT", "deflection target (µT)", 4),
+                                  ("fluctuation_uT", "the twin's in-contact fluctuation (µT)", 3),
+                                  ("measured_uT", "the authors' logs (µT)", 0)]),
     "error-budget-levels": ("error-budget", lambda result: [
         {"key": f"{table}.{key}", "value": json.dumps(value), "source": result["sources"][f"{table}.{key}"]}
         for table, values in result["levels"].items() for key, value in values.items()],

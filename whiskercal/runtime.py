@@ -69,9 +69,9 @@ from whiskercal.artifacts.h5io import malformed_is_an_error
 from whiskercal.errors import UsageError
 from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.load_branches import LoadBranches
-from whiskercal.model.collision import CollisionDetector, RestTracker, RezeroParams
+from whiskercal.model.collision import CollisionDetector, CreepInverse, RestTracker, RezeroParams
 from whiskercal.model.errors import ExtrapolationLimitError, ZOutOfRangeError
-from whiskercal.model.kalman import ConstantStateKalman, rate_scaled
+from whiskercal.model.kalman import FILTER_RATE_HZ, ConstantStateKalman, rate_scaled
 from whiskercal.model.lookup import TipLookup, check_out_of_range
 from whiskercal.model.trace import get_tracer
 
@@ -104,7 +104,8 @@ class Tracker:
     with ``rezero``, the rest re-zeroed out of contact (``model.collision.RestTracker``)."""
 
     def __init__(self, calibration: "Calibration", out_of_range: str = "raise",
-                 rezero: RezeroParams | None = None, rate_hz: float | None = None) -> None:
+                 rezero: RezeroParams | None = None, rate_hz: float | None = None,
+                 creep: tuple[float, float] | None = None) -> None:
         """Raises ModelError for an ``out_of_range`` policy other than "raise", "nan", "clip",
         or a ``rate_hz`` that is not a positive number."""
         check_out_of_range(out_of_range)
@@ -115,6 +116,7 @@ class Tracker:
         branches = calibration.load_branches
         self._follower = None if branches is None else branches.follower()
         self._rest = None if rezero is None else RestTracker(rezero)
+        self._creep = None if creep is None else CreepInverse(*creep, rate_hz or FILTER_RATE_HZ)
 
     @property
     def rest_uT(self) -> np.ndarray:
@@ -139,19 +141,21 @@ class Tracker:
         UsageError
             When z is not one real number; the tracker's state is unchanged.
         """
-        if self._rest is None:
+        if self._rest is None and self._creep is None:
             return self._update(z_uT, axial_uT)
         if type(z_uT) is not float:
             z_uT = _z_scalar(z_uT)
         reading = (z_uT, float("nan") if axial_uT is None else float(axial_uT))
-        settling = not self._rest.settled
+        settling = self._rest is not None and not self._rest.settled
         if settling:  # the first readings are the rest, before anything is decided on them
             self._rest.observe(reading, False)
-        rest = self._rest.rest_uT
-        z0 = z_uT - float(rest[0])
-        axial0 = None if axial_uT is None else reading[1] - float(rest[1])
+        rest = np.zeros(2) if self._rest is None else self._rest.rest_uT
+        zeroed = np.array(reading) - rest
+        if self._creep is not None:
+            zeroed = self._creep.update(zeroed)
+        z0, axial0 = float(zeroed[0]), None if axial_uT is None else float(zeroed[1])
         state = self._update(z0, axial0)
-        if not settling:
+        if self._rest is not None and not settling:
             self._rest.observe(reading, state.contact)
         return replace(state, z_uT=z0)
 
@@ -312,7 +316,8 @@ class Calibration:
         return trusted is None or not trusted[0] <= z_uT <= trusted[1]
 
     def tracker(self, out_of_range: str = "raise", rezero: bool | RezeroParams = False,
-                rate_hz: float | None = None) -> Tracker:
+                rate_hz: float | None = None,
+                creep: tuple[float, float] | None = None) -> Tracker:
         """A fresh streaming tracker (collision detection + lookup + filter).
 
         ``out_of_range``: "raise" (strict), "clip" or "nan" (streaming, flagged; module docstring).
@@ -322,11 +327,13 @@ class Calibration:
         ``rate_hz``: the stream's sample rate; the filter's process noise, set per sample at
         ``model.kalman.FILTER_RATE_HZ``, is scaled to it (``model.kalman.rate_scaled``), so
         that the filter follows a moving tip as fast in time at 30 Hz as at 300 Hz. None: as
-        the artifact has it.
+        the artifact has it. ``creep``: (share, time constant s) of the suspension's creep,
+        measured on the rig: each reading is read less its crept part
+        (``model.collision.CreepInverse``, at ``rate_hz`` or 300 Hz).
         Raises ModelError for any other policy.
         """
         params = RezeroParams() if rezero is True else rezero or None
-        return Tracker(self, out_of_range, params, rate_hz)
+        return Tracker(self, out_of_range, params, rate_hz, creep)
 
     def trace(self, z_uT: float, tracer: str = "fast") -> np.ndarray:
         """The tip (2,) mm traced at z (µT) on the stored surface (slow; for checks, not for the

@@ -90,8 +90,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                    on_progress: Callable[[float], None] | None = None,
                    stop_requested: Callable[[], bool] | None = None,
                    mu_kinetic: float = 0.0, mu_static: float | None = None,
-                   nuisances=None, rezero: bool = False,
-                   scale_filter: bool = True) -> ContourRunFile:
+                   nuisances=None, rezero: bool = False, scale_filter: bool = True,
+                   creep: tuple[float, float] | None = None) -> ContourRunFile:
     """Run the loop on the twin against ``shape`` with the calibration ``artifact``; the run,
     in memory.
 
@@ -102,7 +102,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     mu_s = mu_k, the tip sticking inside the cone and sliding on its edge, no stick-slip.
     ``nuisances``: what a real rig adds (``twin.nuisances.Nuisances``; None: off); ``rezero``:
     the tracker re-zeroes its rest out of contact (``runtime.Calibration.tracker``);
-    ``scale_filter``: the tracker's filter is scaled to the loop's rate (the same at 300 Hz).
+    ``scale_filter``: the tracker's filter is scaled to the loop's rate (the same at 300 Hz);
+    ``creep``: the suspension's creep (share, time constant s) the tracker undoes.
     """
     import numpy as np
 
@@ -126,8 +127,9 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
         config = config.replace(total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)  # scales the PID to the build
-    tracker = calibration.tracker(out_of_range="clip", rezero=bool(rezero),
-                                  rate_hz=_loop_rate(config, nuisances) if scale_filter else None)
+    rate = _loop_rate(config, nuisances)
+    tracker = calibration.tracker(out_of_range="clip", rezero=bool(rezero), creep=creep,
+                                  rate_hz=rate if scale_filter or creep else None)
     run = run_contour(shape_outline, sensor, tracker, target, config, duration_s, seed,
                       on_progress, stop_requested, friction, tip_mm_per_uT, nuisances)
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,

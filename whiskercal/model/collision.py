@@ -116,3 +116,28 @@ class RestTracker:
         if in_contact or not quiet[0]:  # the first axis (Y) decides whether the wire is free
             return
         self.rest_uT[quiet] += self._weight * (reading[quiet] - self.rest_uT[quiet])
+
+
+class CreepInverse:
+    """Undo a standard linear solid's creep of the suspension on a reading (µT, each axis): the
+    reading is the elastic one plus a crept part that relaxes toward ``share`` of it with the
+    time constant ``tau_s`` (``twin.nuisances``' viscoelastic model, read at ``rate_hz``), so
+    the elastic one is solved for sample by sample. Needs the creep's share and time constant
+    measured on the rig (a push held still, its reading relaxing)."""
+
+    def __init__(self, share: float, tau_s: float, rate_hz: float, axes: int = 2) -> None:
+        if not (0 <= share <= 1 and 0 < tau_s < math.inf and 0 < rate_hz < math.inf):
+            raise ModelError("the creep's share must lie in 0..1, its time constant and the "
+                             "rate be positive numbers")
+        self.share = float(share)
+        self._relax = 1.0 - math.exp(-1.0 / (tau_s * rate_hz))
+        self.crept_uT = np.zeros(axes)
+
+    def update(self, reading_uT) -> np.ndarray:
+        """The elastic reading (axes,) µT for one crept reading; NaN axes stay NaN."""
+        reading = np.asarray(reading_uT, float)
+        a, held = self._relax, self.crept_uT
+        elastic = (reading - held * (1.0 - a)) / (1.0 + self.share * a)
+        finite = np.isfinite(elastic)
+        held[finite] += (self.share * elastic[finite] - held[finite]) * a
+        return elastic
