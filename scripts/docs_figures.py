@@ -95,6 +95,36 @@ BENCH_TABLES = {
                        ("aligned_mean_error_mm", "aligned mean (mm)", 2),
                        ("coverage", "coverage", 2), ("contacts_lost", "contacts lost", 0),
                        ("time_to_go_round_s", "round in (s)", 4)],
+    "error-budget": [("case", "object", 0), ("nuisance", "nuisance", 0),
+                     ("countermeasure_on", "counter-measure on", 0),
+                     ("countermeasure", "counter-measure", 0),
+                     ("mean_error_mm", "mean error, no alignment (mm)", 3),
+                     ("max_error_mm", "max (mm)", 3), ("coverage", "coverage", 2),
+                     ("contacts_lost", "contacts lost", 0),
+                     ("fluctuation_uT", "in-contact fluctuation (µT)", 3),
+                     ("estimated_latency_ms", "latency estimate (ms)", 2)],
+}
+# more tables from one snapshot: NAME -> (the snapshot, its rows from its result, the columns)
+EXTRA_TABLES = {
+    "error-budget-speed": ("error-budget", lambda result: result["speed_rate_rows"],
+                           [("rate_hz", "loop rate (Hz)", 3), ("speed_mm_s", "speed (mm/s)", 3),
+                            ("mean_error_mm", "mean error, no alignment (mm)", 3),
+                            ("coverage", "coverage", 2), ("contacts_lost", "contacts lost", 0),
+                            ("estimated_latency_ms", "latency estimate (ms)", 2)]),
+    "error-budget-goal": ("error-budget", lambda result: [{"case": case, **verdict} for case, verdict
+                                                          in result["goal"].items()],
+                          [("case", "object", 0), ("all_mean_error_mm", "all nuisances, every "
+                           "counter-measure (mm)", 3), ("goal_mm", "goal (mm)", 2),
+                           ("met", "met", 0), ("set_by", "set by", 0)]),
+    "error-budget-fluctuation": ("error-budget", lambda result: [result["contact_fluctuation"]],
+                                 [("target_z_uT", "deflection target (µT)", 4),
+                                  ("fluctuation_uT", "the twin's in-contact fluctuation (µT)", 3),
+                                  ("measured_uT", "the authors' logs (µT)", 0)]),
+    "error-budget-levels": ("error-budget", lambda result: [
+        {"key": f"{table}.{key}", "value": json.dumps(value), "source": result["sources"][f"{table}.{key}"]}
+        for table, values in result["levels"].items() for key, value in values.items()],
+                            [("key", "parameter", 0), ("value", "realistic level", 0),
+                             ("source", "where it comes from", 0)]),
 }
 # the sensor files' descriptions (`twin describe`, one JSON per file of sensors/): the columns of
 # their table, each a value computed from one description (``_describe_row``)
@@ -199,11 +229,14 @@ def _snapshot(name: str) -> dict:
 
 
 def _bench_figure(name: str) -> str:
-    snap = _snapshot(name)
+    rows_key = SOURCES.get(name, ("", "rows"))[1]
+    source, rows_of, columns = EXTRA_TABLES.get(name, (name, lambda result: result[rows_key],
+                                                       BENCH_TABLES.get(name)))
+    snap = _snapshot(source)
     machine = snap["result"].get("machine", {})
     where = ", ".join(f"{k} {machine[k]}" for k in ("python", "numpy", "cpu_count") if k in machine)
-    rows_key = SOURCES.get(name, ("", "rows"))[1]
-    return (markdown_table(snap["result"][rows_key], BENCH_TABLES[name])
+    name = source
+    return (markdown_table(rows_of(snap["result"]), columns)
             + f"\n\n*From `docs/figures/{name}.json`, written by `{snap['written_by']}`"
             + (f" ({where})" if where else "") + "."
             + (" Times compare only within one run." if name not in SOURCES else "") + "*\n")
@@ -253,7 +286,7 @@ def render(name: str) -> str:
         return _study_figure(name[len("study-"):])
     if name == "twin-describe":
         return _describe_figure()
-    if name in BENCH_TABLES:
+    if name in BENCH_TABLES or name in EXTRA_TABLES:
         return _bench_figure(name)
     raise KeyError(f"unknown figure {name!r}; known: recorded-datasets, study-DATASET, "
                    f"twin-describe, {', '.join(BENCH_TABLES)}")

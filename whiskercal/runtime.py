@@ -56,7 +56,7 @@ previous contact decision and gives no raw tip). ``whiskercal replay`` streams w
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from numbers import Real
 from pathlib import Path
 
@@ -69,9 +69,9 @@ from whiskercal.artifacts.h5io import malformed_is_an_error
 from whiskercal.errors import UsageError
 from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.load_branches import LoadBranches
-from whiskercal.model.collision import CollisionDetector
+from whiskercal.model.collision import CollisionDetector, CreepInverse, RestTracker, RezeroParams
 from whiskercal.model.errors import ExtrapolationLimitError, ZOutOfRangeError
-from whiskercal.model.kalman import ConstantStateKalman
+from whiskercal.model.kalman import FILTER_RATE_HZ, ConstantStateKalman, rate_scaled
 from whiskercal.model.lookup import TipLookup, check_out_of_range
 from whiskercal.model.trace import get_tracer
 
@@ -86,7 +86,9 @@ class TrackerState:
     extrapolated past the grid (only when loaded with ``allow_extrapolated=True``).
     ``out_of_range`` is -1 (below) or +1 (above) when, in contact, z lay outside the range the
     lookup answers (``Calibration.z_range_uT``), or the Z axis beyond every load the (Y, Z)
-    table answers at that z, and a streaming policy handled it; else 0.
+    table answers at that z, and a streaming policy handled it; else 0. ``z_uT``: the
+    deflection the tracker read, less its re-zeroed rest (a tracker made with ``rezero``;
+    NaN otherwise: z as fed).
     """
 
     contact: bool
@@ -94,24 +96,41 @@ class TrackerState:
     filtered_tip_mm: np.ndarray | None
     extrapolated: bool = False
     out_of_range: int = 0
+    z_uT: float = float("nan")
 
 
 class Tracker:
-    """Streaming collision detection, lookup and constant-state Kalman filter, one z at a time."""
+    """Streaming collision detection, lookup and constant-state Kalman filter, one z at a time;
+    with ``rezero``, the rest re-zeroed out of contact (``model.collision.RestTracker``)."""
 
-    def __init__(self, calibration: "Calibration", out_of_range: str = "raise") -> None:
-        """Raises ModelError for an ``out_of_range`` policy other than "raise", "nan", "clip"."""
+    def __init__(self, calibration: "Calibration", out_of_range: str = "raise",
+                 rezero: RezeroParams | None = None, rate_hz: float | None = None,
+                 creep: tuple[float, float] | None = None) -> None:
+        """Raises ModelError for an ``out_of_range`` policy other than "raise", "nan", "clip",
+        or a ``rate_hz`` that is not a positive number."""
         check_out_of_range(out_of_range)
         self._calibration = calibration
         self._out_of_range = out_of_range
         self._detector = CollisionDetector(calibration.collision_params)
-        self._kalman = ConstantStateKalman(calibration.kalman_params)
+        self._kalman = ConstantStateKalman(rate_scaled(calibration.kalman_params, rate_hz))
         branches = calibration.load_branches
         self._follower = None if branches is None else branches.follower()
+        self._rest = None if rezero is None else RestTracker(rezero)
+        self._creep = None if creep is None else CreepInverse(*creep, rate_hz or FILTER_RATE_HZ)
+
+    @property
+    def rest_uT(self) -> np.ndarray:
+        """The rest (Y, Z) µT the tracker subtracts (zeros without ``rezero``)."""
+        return np.zeros(2) if self._rest is None else self._rest.rest_uT.copy()
+
+    def reset_filter(self) -> None:
+        """Forget the filter's state (after a slip: the next raw tip starts it again)."""
+        self._kalman.reset()
 
     def update(self, z_uT: float, axial_uT: float | None = None) -> TrackerState:
         """Feed one deflection sample (µT, relative to static), and optionally the chip's Z axis
-        (µT, relative to its static reading) for the artifact's (Y, Z) table.
+        (µT, relative to its static reading) for the artifact's (Y, Z) table; with ``rezero``,
+        relative to the re-zeroed rest instead (the stream must start out of contact).
 
         Raises
         ------
@@ -122,6 +141,26 @@ class Tracker:
         UsageError
             When z is not one real number; the tracker's state is unchanged.
         """
+        if self._rest is None and self._creep is None:
+            return self._update(z_uT, axial_uT)
+        if type(z_uT) is not float:
+            z_uT = _z_scalar(z_uT)
+        reading = (z_uT, float("nan") if axial_uT is None else float(axial_uT))
+        settling = self._rest is not None and not self._rest.settled
+        if settling:  # the first readings are the rest, before anything is decided on them
+            self._rest.observe(reading, False)
+        rest = np.zeros(2) if self._rest is None else self._rest.rest_uT
+        zeroed = np.array(reading) - rest
+        if self._creep is not None:
+            zeroed = self._creep.update(zeroed)
+        z0, axial0 = float(zeroed[0]), None if axial_uT is None else float(zeroed[1])
+        state = self._update(z0, axial0)
+        if self._rest is not None and not settling:
+            self._rest.observe(reading, state.contact)
+        return replace(state, z_uT=z0)
+
+    def _update(self, z_uT: float, axial_uT: float | None = None) -> TrackerState:
+        """One sample relative to the rest: contact, lookup, filter (raises as ``update``)."""
         if type(z_uT) is not float:  # the per-sample path: plain floats skip the checks
             z_uT = _z_scalar(z_uT)
         was_in_contact = self._detector.contact
@@ -276,13 +315,25 @@ class Calibration:
         trusted = self.trusted_z_range_uT
         return trusted is None or not trusted[0] <= z_uT <= trusted[1]
 
-    def tracker(self, out_of_range: str = "raise") -> Tracker:
+    def tracker(self, out_of_range: str = "raise", rezero: bool | RezeroParams = False,
+                rate_hz: float | None = None,
+                creep: tuple[float, float] | None = None) -> Tracker:
         """A fresh streaming tracker (collision detection + lookup + filter).
 
         ``out_of_range``: "raise" (strict), "clip" or "nan" (streaming, flagged; module docstring).
+        ``rezero``: True (or ``RezeroParams``) re-zeroes the rest out of contact, so a drifting
+        reading is tracked and the collision threshold follows it; the stream must then start
+        out of contact (its first readings are the rest). Off by default.
+        ``rate_hz``: the stream's sample rate; the filter's process noise, set per sample at
+        ``model.kalman.FILTER_RATE_HZ``, is scaled to it (``model.kalman.rate_scaled``), so
+        that the filter follows a moving tip as fast in time at 30 Hz as at 300 Hz. None: as
+        the artifact has it. ``creep``: (share, time constant s) of the suspension's creep,
+        measured on the rig: each reading is read less its crept part
+        (``model.collision.CreepInverse``, at ``rate_hz`` or 300 Hz).
         Raises ModelError for any other policy.
         """
-        return Tracker(self, out_of_range)
+        params = RezeroParams() if rezero is True else rezero or None
+        return Tracker(self, out_of_range, params, rate_hz, creep)
 
     def trace(self, z_uT: float, tracer: str = "fast") -> np.ndarray:
         """The tip (2,) mm traced at z (µT) on the stored surface (slow; for checks, not for the

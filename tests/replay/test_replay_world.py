@@ -252,3 +252,39 @@ def test_the_bag_is_replaced_with_the_other_files_or_not_at_all(world_replay, tm
     assert replaced.exit_code == 0, replaced.output
     assert read_recording(out / "rosbag").y_uT.size == read_recording(folder / "out" / "rosbag").y_uT.size
     assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in (folder / "out").iterdir())
+
+
+def test_the_pose_latency_auto_is_estimated_from_the_data(tmp_path):
+    """A tip held on one world point while the base presses in and out and turns: the poses,
+    written 40 ms late, are placed by the latency estimated from the replay's own data."""
+    calibration = runtime.load(ARTIFACT)
+    low, high = calibration.z_range_uT
+    rng = np.random.default_rng(7)
+    t = np.arange(3000) / RATE_HZ
+    press = (t > 1.0) & (t < 9.0)
+    wobble = np.convolve(rng.normal(0, 1, t.size), np.ones(30) / 30, mode="same")
+    z = np.where(press, 0.5 * (low + high) * (1 + 0.6 * wobble), 0.0)
+    reading = REST_UT + z + rng.normal(0.0, 5.0, t.size)
+    tip = calibration.tip(np.where(press, z, 0.5 * (low + high)), out_of_range="clip")
+    heading = 0.4 + 0.1 * np.sin(t)
+    c, s = np.cos(heading), np.sin(heading)
+    base = np.array([150.0, 40.0]) - np.column_stack([c * tip[:, 0] - s * tip[:, 1],
+                                                      s * tip[:, 0] + c * tip[:, 1]])
+    late = 0.04  # s: the pose stamped t is the robot at t - 40 ms
+    pose = np.column_stack([np.interp(t - late, t, base[:, k]) for k in range(2)]
+                           + [np.interp(t - late, t, heading)])
+    np.savetxt(tmp_path / "log.csv", np.column_stack([t, reading]), fmt="%.9f", delimiter=",",
+               header="t_s,y_uT", comments="")
+    np.savetxt(tmp_path / "poses.csv", np.column_stack([t, pose]), fmt="%.9f", delimiter=",",
+               header="t_s,x_mm,y_mm,heading_rad", comments="")
+    result = _run("replay", tmp_path / "log.csv", "--artifact", ARTIFACT, "--out",
+                  tmp_path / "out", "--rest-uT", REST_UT, "--poses", tmp_path / "poses.csv",
+                  "--pose-latency-ms", "auto", "--json")
+    assert result.exit_code == 0, result.output
+    world = json.loads(result.output)["world"]
+    assert world["pose_latency_estimated"] is True
+    assert world["pose_latency_ms"] == pytest.approx(40.0, abs=1e3 / RATE_HZ)
+    refused = _run("replay", tmp_path / "log.csv", "--artifact", ARTIFACT, "--out",
+                   tmp_path / "out2", "--rest-uT", REST_UT, "--poses", tmp_path / "poses.csv",
+                   "--pose-latency-ms", "soon")
+    assert refused.exit_code != 0 and "must be a number of ms or auto" in refused.output

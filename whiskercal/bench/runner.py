@@ -127,6 +127,10 @@ COMPARISONS = {c.name: c for c in (
                _module_run("whiskercal.bench.fit_speed")),
     Comparison("contour-target", "contour error against the deflection target; the follower's "
                "cost per sample", _module_run("whiskercal.bench.contour_target")),
+    Comparison("error-budget", "contour error with each real-rig nuisance (drift, creep, contact "
+               "fluctuation, the robot's pose and rate) alone and together, with and without its "
+               "counter-measure; against robot speed and loop rate",
+               _module_run("whiskercal.bench.error_budget")),
     Comparison("robot-loop", "contour run --robot through the twin's rosbridge server at 300 and "
                "30 Hz against the in-process loop; the loop's latency",
                _module_run("whiskercal.bench.robot_loop")),
@@ -178,6 +182,10 @@ def _charts(name: str, result: dict, out_dir: Path) -> list[str]:
         from whiskercal.bench.stability_chart import draw_stability
 
         charts.append(draw_stability(result, out_dir / "stability.png").name)
+    if name == "error-budget":
+        from whiskercal.bench.error_budget import draw as draw_budget
+
+        charts.append(draw_budget(result, out_dir / "error-budget.png").name)
     if name == "contour-target":
         from whiskercal.bench.contour_target import draw
 

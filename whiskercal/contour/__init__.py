@@ -92,7 +92,9 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                    on_progress: Callable[[float], None] | None = None,
                    stop_requested: Callable[[], bool] | None = None,
                    mu_kinetic: float = 0.0, mu_static: float | None = None,
-                   mount=None) -> ContourRunFile:
+                   mount=None, nuisances=None, rezero: bool = False,
+                   scale_filter: bool = True,
+                   creep: tuple[float, float] | None = None) -> ContourRunFile:
     """Run the loop on the twin against ``shape`` with the calibration ``artifact``; the run,
     in memory.
 
@@ -104,6 +106,10 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     ``mount``: (nominal ``Mount``, its error (dx mm, dy mm, dyaw deg)) to drive the twin's end
     effector through a mount, the sensor truly at the nominal one moved by the error
     (``contour.mounted``); the run's config records both.
+    ``nuisances``: what a real rig adds (``twin.nuisances.Nuisances``; None: off); ``rezero``:
+    the tracker re-zeroes its rest out of contact (``runtime.Calibration.tracker``);
+    ``scale_filter``: the tracker's filter is scaled to the loop's rate (the same at 300 Hz);
+    ``creep``: the suspension's creep (share, time constant s) the tracker undoes.
     """
     import numpy as np
 
@@ -113,7 +119,8 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
     from whiskercal.twin.params import DEFAULT_SENSOR
 
     shape_outline = outline(shape)  # an unknown shape is refused before the artifact loads
-    mu_kinetic, friction = _friction(shape_outline, mu_kinetic, mu_static)
+    mu_kinetic, friction = _friction(shape_outline,
+                                     *_nuisance_friction(nuisances, mu_kinetic, mu_static))
     sensor = sensor or DEFAULT_SENSOR
     calibration = runtime.load(artifact)
     target = _target(calibration, target_z_uT, artifact)
@@ -124,9 +131,11 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
         config = config.replace(total_speed_mm_s=positive(speed_mm_s, "--speed", unit="mm/s"))
     positive(duration_s, "--duration", unit="s")
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)  # scales the PID to the build
-    run = run_contour(shape_outline, sensor, calibration.tracker(out_of_range="clip"), target,
-                      config, duration_s, seed, on_progress, stop_requested, friction,
-                      tip_mm_per_uT, mount)
+    rate = _loop_rate(config, nuisances)
+    tracker = calibration.tracker(out_of_range="clip", rezero=bool(rezero), creep=creep,
+                                  rate_hz=rate if scale_filter or creep else None)
+    run = run_contour(shape_outline, sensor, tracker, target, config, duration_s, seed,
+                      on_progress, stop_requested, friction, tip_mm_per_uT, mount, nuisances)
     extra = {} if run.mount is None else {"mount": run.mount}
     return ContourRunFile(shape, np.asarray(shape_outline.core_mm), shape_outline.radius_mm,
                           float(target), seed, run.complete, run.wall_s, sensor.sensor_id,
@@ -134,8 +143,29 @@ def contour_record(shape: str, artifact: str | Path, *, sensor=None,
                                         "tip_mm_per_uT": tip_mm_per_uT,
                                         "mu_kinetic": float(mu_kinetic),
                                         "mu_static": None if friction is None else friction.mu_static,
-                                        **extra},
+                                        **extra, **_nuisance_config(nuisances, rezero)},
                           transitions=run.transitions)
+
+
+def _nuisance_friction(nuisances, mu_kinetic: float, mu_static: float | None):
+    """(mu_kinetic, mu_static): the contact nuisance's stick-slip where none was given."""
+    contact = None if nuisances is None else nuisances.contact
+    if contact is not None and contact.mu_static and not mu_kinetic and mu_static is None:
+        return contact.mu_kinetic, contact.mu_static
+    return mu_kinetic, mu_static
+
+
+def _loop_rate(config: FollowConfig, nuisances) -> float:
+    """The loop's rate (Hz): the robot nuisance's when it sets one, else the config's."""
+    robot_rate = 0.0 if nuisances is None else nuisances.robot.rate_hz
+    return robot_rate or config.rate_hz
+
+
+def _nuisance_config(nuisances, rezero: bool) -> dict:
+    """The run config's record of the nuisances and the re-zero (nothing when both are off, so
+    that runs without them are written as before)."""
+    recorded = {} if nuisances is None or nuisances.off else {"nuisances": nuisances.to_dict()}
+    return {**recorded, **({"rezero": True} if rezero else {})}
 
 
 def _friction(shape_outline, mu_kinetic, mu_static):

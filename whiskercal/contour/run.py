@@ -63,17 +63,22 @@ def start_pose(outline: Outline, tilt_deg: float, standoff_mm: float, rng,
 def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: FollowConfig,
                 duration_s: float, seed: int = 0, on_progress: Callable[[float], None] | None = None,
                 stop_requested: Callable[[], bool] | None = None,
-                friction=None, tip_mm_per_uT: float | None = None, mount=None) -> ContourRun:
+                friction=None, tip_mm_per_uT: float | None = None, mount=None,
+                nuisances=None) -> ContourRun:
     """Run the loop for ``duration_s`` s of robot time, or until stopped (a partial run);
     ``friction``: a ``Coulomb``, friction at the tip (``twin.mobile``), None: frictionless;
     ``tip_mm_per_uT``: the calibration's tip motion per µT at the target (scales the PID);
     ``mount``: (nominal ``Mount``, error (dx mm, dy mm, dyaw deg)): the loop drives the end
     effector through the nominal mount, the twin carries the sensor at the nominal one moved
-    by the error (``contour.mounted``); None: the loop drives the sensor's base frame itself."""
+    by the error (``contour.mounted``); None: the loop drives the sensor's base frame itself;
+    ``nuisances``: what a real rig adds (``twin.nuisances``; its robot's ``rate_hz``, when set,
+    is the loop's rate)."""
     rng = np.random.default_rng(seed)
     reach_mm = sensor.whisker.reach_mm
+    if nuisances is not None and nuisances.robot.rate_hz > 0:
+        config = config.replace(rate_hz=nuisances.robot.rate_hz)
     robot = MobileSensor(sensor, outline, start_pose(outline, config.tilt_deg, 5.0, rng, reach_mm),
-                         seed=seed, friction=friction)
+                         seed=seed, friction=friction, nuisances=nuisances)
     run = ContourRun(outline.name, sensor.sensor_id, float(target_z_uT), config.to_dict(), seed)
     if mount is not None:
         robot = MountedTwin.placed(robot, *mount)

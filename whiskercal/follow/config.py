@@ -8,7 +8,7 @@ from pathlib import Path
 from pydantic import model_validator
 
 from whiskercal.tomlconfig import read_toml
-from whiskercal.typedconfig import Table, integer, number, validate
+from whiskercal.typedconfig import Flag, Table, integer, number, validate
 
 Positive = number(gt=0)
 NonNegative = number(ge=0)
@@ -34,6 +34,7 @@ class FollowConfig(Table):
     or the raw tip jumping more than slip_jump_mm between samples; such a fall of |z| made of
     many small steps (none over gradual_step_share of it) with the wire still touching is a tip
     held in a concave corner and pushed along the wire: the sensor stops for good.
+    slip_resets_filter: a slip resets the tracker's filter, whose state is the tip before it.
     press_share: after the first contact the sensor only presses in, until |z| reaches this
     share of the target's.
     lost_after_s: a contact counts as lost only after this long without a tip (the sensor holds
@@ -86,6 +87,7 @@ class FollowConfig(Table):
     slip_window_s: Positive = 0.1
     slip_jump_mm: Positive = 3.0
     gradual_step_share: Positive = 0.25
+    slip_resets_filter: Flag = True
     press_share: Positive = 0.9
     backoff_s: Positive = 6.0
     lost_after_s: NonNegative = 0.05

@@ -102,8 +102,13 @@ class Follower:
         from z alone otherwise (and without ``axial_uT``)."""
         state = (self.tracker.update(float(z_uT)) if axial_uT is None
                  else self.tracker.update(float(z_uT), float(axial_uT)))
+        zeroed = getattr(state, "z_uT", math.nan)  # a re-zeroing tracker's z, less its rest
+        if zeroed == zeroed:
+            z_uT = zeroed
         pose = robot.pose()
         slip, fell_gradually = self._slip(z_uT, state.raw_tip_mm)
+        if slip and self.config.slip_resets_filter and hasattr(self.tracker, "reset_filter"):
+            self.tracker.reset_filter()  # the filter's state is the tip before the slip
         tip = state.filtered_tip_mm if state.filtered_tip_mm is not None else state.raw_tip_mm
         # bent the other way: the object is on the whisker's far side, no tip to trust
         far_side = bool(z_uT * self.target_z_uT < 0 and state.contact)

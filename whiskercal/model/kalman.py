@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -78,6 +78,22 @@ def floored_covariance_2x2(tips: list[tuple[float, float]], floor_mm2: float
     high_f, low_f = max(high, floor_mm2), floor_mm2
     pa, pb, pd = (a - low) / (2 * radius), b / (2 * radius), (d - low) / (2 * radius)
     return (low_f + (high_f - low_f) * pa, (high_f - low_f) * pb, low_f + (high_f - low_f) * pd)
+
+
+FILTER_RATE_HZ = 300.0  # the rate the paper's per-sample Q was set at (its sensor's)
+
+
+def rate_scaled(params: KalmanParams | None, rate_hz: float | None) -> KalmanParams | None:
+    """``params`` for a stream at ``rate_hz``: Q·(FILTER_RATE_HZ/rate)², so that the filter's
+    lag stays the same in seconds (with Q well below R the steady gain goes as √(Q/R), and a
+    sample lasts FILTER_RATE_HZ/rate times longer); ``params`` itself for None or
+    FILTER_RATE_HZ. Raises ModelError for a rate that is not a positive number."""
+    if rate_hz is None or rate_hz == FILTER_RATE_HZ:
+        return params
+    if not 0 < rate_hz < math.inf:
+        raise ModelError(f"the sample rate must be a positive number of Hz, not {rate_hz!r}")
+    params = params or KalmanParams()
+    return replace(params, q_mm2=params.q_mm2 * (FILTER_RATE_HZ / rate_hz) ** 2)
 
 
 class ConstantStateKalman:

@@ -9,7 +9,10 @@ stick-slip at the tip, ``friction``, whose stuck point it carries from period to
 world frame), and the magnet and magnetometer turn the suspension's pose into z (µT from rest,
 with the sensor's noise), and the chip's Z axis likewise (``axial_uT``: a real magnetometer
 streams all three axes, and a calibration with a (Y, Z) table reads the tip from both). The truth (tip, contact, kind) is reported in the world
-frame. Everything runs in-process, as fast as the solver goes.
+frame. Everything runs in-process, as fast as the solver goes. ``nuisances``
+(``twin.nuisances``, off unless given) adds what a real rig does: the field's drift, the
+suspension's creep, the surface's roughness under the tip (convex objects), and a late, noisy
+reported pose with jittered periods.
 
 An open wall (``outlines.WallOutline``) comes as overlapping convex pieces, one a square behind
 each concave corner. Each period the whisker is solved against every piece within its reach +
@@ -30,6 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from whiskercal.errors import UsageError
+from whiskercal.twin.nuisances import Nuisances, PoseChannel, SensorNuisances
 from whiskercal.twin.outlines import Outline
 from whiskercal.twin.physics.coulomb import Coulomb
 from whiskercal.twin.physics.obstacles import Circle, Polygon
@@ -83,10 +87,13 @@ class MobileSensor:
         Coulomb friction at the tip (``physics.shape_friction``: stick-slip, or with mu_s = mu_k
         sticking inside the cone and sliding on its edge), on the convex objects; None:
         frictionless.
+    nuisances
+        What a real rig adds (``twin.nuisances.Nuisances``); None or all off: the ideal twin.
     """
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
-                 limits: RobotLimits = RobotLimits(), friction: Coulomb | None = None) -> None:
+                 limits: RobotLimits = RobotLimits(), friction: Coulomb | None = None,
+                 nuisances: Nuisances | None = None) -> None:
         self.physics, self.sensor = TwinPhysics(sensor), sensor
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
@@ -115,10 +122,23 @@ class MobileSensor:
         self._keep_mm = float(sensor.whisker.reach_mm) + NEAR_MARGIN_MM
         self._near = None  # (base position, first edge, count) of the last near run
         self._runs: dict[tuple[int, int], Polygon] = {}  # near runs met so far, world frame
+        self._t_s = 0.0  # robot time (s), the periods' true lengths summed
+        real = nuisances is not None and not nuisances.off
+        self._nuisances = SensorNuisances(nuisances, seed) if real else None
+        self._channel = PoseChannel(nuisances.robot, seed) if real else None
+        self._touch = None  # (contact, surface normal) of the last sample in contact, world
+        if self._channel is not None:
+            self._channel.record(0.0, self._pose)
+            self._reported = self._channel.reported(0.0)
 
     # -- the Robot interface -----------------------------------------------------------------
     def pose(self) -> np.ndarray:
-        """(x mm, y mm, heading rad) of the sensor's base frame in the world."""
+        """(x mm, y mm, heading rad) of the sensor's base frame in the world, as the robot
+        reports it (late and noisy with the robot's nuisances; the truth is ``true_pose``)."""
+        return (self._pose if self._channel is None else self._reported).copy()
+
+    def true_pose(self) -> np.ndarray:
+        """The base frame's true pose (x mm, y mm, heading rad)."""
         return self._pose.copy()
 
     def command(self, velocity_mm_s, turn_rad_s: float) -> None:
@@ -132,9 +152,16 @@ class MobileSensor:
 
     # -- the world ----------------------------------------------------------------------------
     def step(self, dt_s: float) -> MobileSample:
-        """Move for ``dt_s`` s under the last command, then measure."""
+        """Move for ``dt_s`` s under the last command (jittered with the robot's nuisances),
+        then measure."""
+        if self._channel is not None:
+            dt_s = self._channel.period_s(dt_s)
         self._pose[:2] += self._velocity * dt_s
         self._pose[2] += self._turn * dt_s
+        self._t_s += dt_s
+        if self._channel is not None:
+            self._channel.record(self._t_s, self._pose)
+            self._reported = self._channel.reported(self._t_s)
         if isinstance(self._obstacle, tuple):
             equilibrium = self._solve_pieces()
         else:
@@ -148,9 +175,9 @@ class MobileSensor:
                 # twin models ends there)
                 self.collided, equilibrium = short, self.physics.free()
             elif self.friction is None:
-                equilibrium = self.physics.solve_shape(obstacle, previous)
+                equilibrium = self.physics.solve_shape(self._roughened(obstacle), previous)
             else:
-                equilibrium = self._solve_sticking(obstacle, previous)
+                equilibrium = self._solve_sticking(self._roughened(obstacle), previous)
             equilibrium = _reindexed(equilibrium, first, count)
             if equilibrium.slipped_past and not (self._previous is not None
                                                  and self._previous.in_contact):
@@ -160,12 +187,45 @@ class MobileSensor:
                 equilibrium = replace(equilibrium, slipped_past=False)
         self._previous = equilibrium
         kind = "collision" if self.collided else equilibrium.kind
-        field = self.physics.field_uT(equilibrium)
+        field = self._field_uT(equilibrium, dt_s)
         z = float(field[1]) - self._rest_y + float(self._rng.normal(0.0, self._noise_uT))
         axial = float(field[2]) - self._rest_z + float(self._axial_rng.normal(0.0, self._axial_noise_uT))
         tip = self.to_world(equilibrium.tip_mm)
         return MobileSample(z, kind, tip, self.to_world(equilibrium.contact_mm), axial,
                             equilibrium.slips)
+
+    def _field_uT(self, equilibrium, dt_s: float) -> np.ndarray:
+        """The field at the chip (3,) µT: the magnet's at the suspension's pose, with the
+        nuisances' creep of the root rotation and drift of the reading."""
+        if self._nuisances is None:
+            return self.physics.field_uT(equilibrium)
+        from whiskercal.twin.physics.magnet import field_uT
+
+        rotation = equilibrium.root_rotation_rad
+        rotation += self._nuisances.creep(rotation, dt_s)
+        field = np.asarray(field_uT(self.sensor.magnet, rotation, equilibrium.root_shift_mm), float)
+        moving = bool(np.any(self._velocity) or self._turn)
+        return self._nuisances.field_uT(field, self._t_s, moving)
+
+    def _roughened(self, obstacle):
+        """The object (sensor frame) moved along the surface's normal at the last contact by the
+        height of the surface there (``twin.nuisances``: roughness); as it is without."""
+        if self._nuisances is None or self._nuisances.table.contact.roughness_rms_mm == 0.0:
+            return obstacle
+        previous = self._previous
+        if previous is None or not previous.in_contact:
+            self._touch = None
+            return obstacle
+        turn = rotation(self._pose[2])
+        force = np.asarray(previous.force_n, float)
+        if self._touch is None or np.any(force):
+            normal = turn @ force / max(float(np.hypot(*force)), 1e-12)
+            self._touch = (self.to_world(previous.contact_mm), normal)
+        contact, normal = self._touch
+        shift = turn.T @ normal * self._nuisances.height_mm(contact)
+        if isinstance(obstacle, Circle):
+            return replace(obstacle, center_mm=np.asarray(obstacle.center_mm) + shift)
+        return obstacle.seen_from(np.eye(2), -shift)
 
     def _short_of_the_clamp(self, obstacle) -> bool | None:
         """For a circle (sensor frame) whose centre lies short of the clamp across the wire's

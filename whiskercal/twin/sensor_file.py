@@ -3,7 +3,9 @@
 The file has a top-level ``sensor_id`` and the tables ``[whisker]``, ``[magnet]`` (with an
 optional ``[magnet.grid]``) and ``[magnetometer]``, whose keys are the fields of
 `WhiskerParams`, `MagnetParams` (`FieldGrid`) and `MagnetometerParams`. A key left out takes the
-value of `DEFAULT_SENSOR`. Every table is a typed model (`SensorFile`), so that a typo, a wrong type
+value of `DEFAULT_SENSOR`. An optional ``[nuisances]`` table (``twin.nuisances``: drift, creep,
+roughness, the robot's pose) is checked with the rest and read by
+``twin.nuisances.load_nuisances``. Every table is a typed model (`SensorFile`), so that a typo, a wrong type
 or a non-physical number ends in one line naming the file and the key rather than a traceback
 or a silently different sensor. docs/twin.md ("Describe your sensor in a file") has an example;
 sensors/ at the repository root holds the shipped sensors and a few other builds as files.
@@ -22,6 +24,7 @@ from pydantic import ValidationInfo, field_validator
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import read_toml
 from whiskercal.typedconfig import Table, Text, integer, number, numbers, says_of, shown, validate
+from whiskercal.twin.nuisances import Nuisances
 from whiskercal.twin.params import DEFAULT_SENSOR, SENSORS, SensorParams
 
 __all__ = ["RULES", "SensorFile", "load_sensor", "resolve_sensor", "sensor_from_dict", "sensor_to_dict",
@@ -113,6 +116,9 @@ class SensorFile(Table):
     whisker: WhiskerTable = WhiskerTable()
     magnet: MagnetTable = MagnetTable()
     magnetometer: MagnetometerTable = MagnetometerTable()
+    # what a real rig adds (twin.nuisances): checked here, read by load_nuisances, and no part
+    # of the build (SensorParams), so datasets and goldens do not change with it
+    nuisances: Nuisances = Nuisances()
 
     @field_validator("sensor_id")
     @classmethod

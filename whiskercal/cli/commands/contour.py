@@ -53,6 +53,14 @@ def command() -> None:
                    "static friction equal to it (no stick-slip); 0: frictionless.")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seeds the start pose and the magnetometer noise.")
+@click.option("--nuisances", "nuisances_name", default=None, metavar="LEVEL",
+              help="What a real rig adds (docs/error-budget.md): off, realistic (every nuisance "
+                   "at its realistic level), realistic:NAME (drift, viscoelastic, contact or "
+                   "robot alone) or a .toml file with a [nuisances] table [default: the --sensor "
+                   "file's [nuisances] table, else off].")
+@click.option("--rezero", is_flag=True,
+              help="The tracker re-zeroes its rest whenever it is out of contact (drift); the "
+                   "run starts out of contact.")
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="The run file (HDF5).")
 @click.option("--record", "record_path", type=click.Path(), default=None,
               help="Also write the magnetometer's stream and the sensor base's poses as a ROS 2 "
@@ -67,8 +75,8 @@ def command() -> None:
 @force_option
 @pass_app
 def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, speed_mm_s,
-                duration_s, mu_static, mu_kinetic, seed, out, record_path, mount_error, as_json,
-                force, **robot) -> None:
+                duration_s, mu_static, mu_kinetic, seed, nuisances_name, rezero, out, record_path,
+                mount_error, as_json, force, **robot) -> None:
     """Run the loop around SHAPE on the twin, or on a robot with --robot, and record every
     sample (Ctrl-C keeps a readable partial run)."""
     from whiskercal.atomic import refuse_existing, refuse_input_as_output
@@ -88,6 +96,8 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
         if mount_error is not None:
             raise UsageError("--mount-error places the twin's sensor; a robot's mount is off by "
                              "what it is off by (`whiskercal mount-cal` measures it)")
+        if nuisances_name is not None or rezero:
+            raise UsageError("--nuisances and --rezero are the twin's: a robot brings its own")
         return run_on_robot(app, artifact, sensor_name, config_path, target_uT, speed_mm_s,
                             duration_s, out, as_json, shape=shape, mu_static=mu_static,
                             mu_kinetic=mu_kinetic, seed=seed, record=(record_path, force),
@@ -95,6 +105,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
     refuse_robot_options(shape, robot)
     outline(shape)  # an unknown shape or a parameter out of range: one line, before any work
     sensor = resolve_sensor(sensor_name) if sensor_name else None
+    nuisances = _nuisances(nuisances_name, sensor_name)
     with progress_bar(app, "s", description=f"contour {shape}", as_json=as_json) as bar:
         def shown(t_s: float) -> None:
             bar.update(SimpleNamespace(done=int(t_s), total=int(duration_s), taken_now=int(t_s)))
@@ -104,6 +115,7 @@ def run_command(app: App, shape, artifact, sensor_name, config_path, target_uT, 
                                  duration_s=duration_s, seed=seed, mu_kinetic=mu_kinetic,
                                  mu_static=mu_static, record=record_path, force=force,
                                  mount=_twin_mount(robot["mount_path"], mount_error),
+                                 nuisances=nuisances, rezero=rezero,
                                  on_progress=shown if bar else None)
     summary = summarize(record)
     if record_path is not None:
@@ -125,6 +137,15 @@ def _twin_mount(mount_path, mount_error):
         return None
     nominal = read_mount(mount_path) if mount_path else Mount()
     return nominal, parse_mount_error(mount_error or "0,0,0")
+
+
+def _nuisances(name: str | None, sensor_name: str | None):
+    """The run's nuisances: as named, else a sensor file's [nuisances] table, else off."""
+    from whiskercal.twin.nuisances import load_nuisances, nuisances_named
+
+    if name is None and sensor_name is not None and sensor_name.lower().endswith(".toml"):
+        return load_nuisances(sensor_name)
+    return nuisances_named(name)
 
 
 @command.command("report")

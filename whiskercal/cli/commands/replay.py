@@ -63,8 +63,10 @@ _POSE_OPTIONS = [
                  "(x_mm, y_mm, yaw_deg) [default: the poses are the sensor's base frame]."),
     click.option("--max-pose-gap-ms", type=float, default=100.0, show_default=True,
                  help="A sample farther than this from every pose gets no world point."),
-    click.option("--pose-latency-ms", type=float, default=0.0, show_default=True,
-                 help="A pose stamped t describes the robot at t minus this."),
+    click.option("--pose-latency-ms", default="0", show_default=True, metavar="MS|auto",
+                 help="A pose stamped t describes the robot at t minus this; auto: the latency "
+                 "that places the contacts the smoothest, estimated from the data "
+                 "(docs/error-budget.md)."),
 ]
 _REST_OPTIONS = [
     click.option("--rest", type=click.Choice(["auto", "recorded"]), default=None,
@@ -178,13 +180,25 @@ def _world(log: str, settings: dict):
         return None
     gap_ms = number(settings["max_pose_gap_ms"], "--max-pose-gap-ms", low=0.0, low_open=True,
                     high=60_000.0, unit="ms")
-    latency_ms = number(settings["pose_latency_ms"], "--pose-latency-ms", low=-60_000.0,
-                        high=60_000.0, unit="ms")
+    latency = settings["pose_latency_ms"]
+    latency_ms = None if latency == "auto" else number(
+        _as_float(latency, "--pose-latency-ms"), "--pose-latency-ms", low=-60_000.0,
+        high=60_000.0, unit="ms")
     mount_path = settings["mount_path"]
     mount = read_mount(regular_file(mount_path, "the mount file")) if mount_path else Mount()
     poses = read_poses(settings["poses"], log, _frames(settings["pose_frames"]))
-    return WorldFrame(poses, mount, gap_ms * 1e-3, latency_ms * 1e-3,
+    return WorldFrame(poses, mount, gap_ms * 1e-3, None if latency_ms is None else latency_ms * 1e-3,
                       mount_path or "none (the poses are the sensor's base frame)")
+
+
+def _as_float(text: str, option: str) -> float:
+    """An option's number, or its one-line refusal."""
+    from whiskercal.errors import UsageError
+
+    try:
+        return float(text)
+    except ValueError:
+        raise UsageError(f"{option} must be a number of ms or auto, not {text!r}") from None
 
 
 def _replay_and_write(log, artifact, out_dir, stream, calibration, options, world, started,

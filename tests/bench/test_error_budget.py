@@ -1,0 +1,56 @@
+"""``bench --only error-budget``: contour error with the twin's nuisances, with and without their
+counter-measures; the goal's verdict; the quick form's JSON."""
+
+import json
+import math
+
+import pytest
+from click.testing import CliRunner
+
+from whiskercal.bench.error_budget import GOAL_MM, goal
+from whiskercal.cli import cli
+
+ROW_KEYS = {"nuisance", "level", "countermeasure", "case", "mean_error_mm"}
+
+
+def _row(case, nuisance, on, error, coverage=1.0):
+    return {"case": case, "nuisance": nuisance, "countermeasure_on": on, "mean_error_mm": error,
+            "coverage": coverage}
+
+
+def test_the_goal_names_the_nuisance_that_sets_a_failing_case():
+    rows = [_row("octagon", "all", True, 0.45), _row("octagon", "all", False, 3.0),
+            _row("octagon", "drift", True, 0.02), _row("octagon", "viscoelastic", True, 0.41),
+            _row("octagon", "robot", True, math.nan),  # lost the surface: the worst of all
+            _row("cylinder", "all", True, 0.2), _row("cylinder", "drift", True, 0.05)]
+    verdict = goal(rows)
+    assert verdict["octagon"]["met"] is False and verdict["octagon"]["set_by"] == "robot"
+    assert verdict["cylinder"] == {"all_mean_error_mm": 0.2, "goal_mm": GOAL_MM, "met": True,
+                                   "set_by": None, "alone_mean_error_mm": {"drift": 0.05}}
+
+
+def test_every_realistic_level_says_where_it_comes_from():
+    from whiskercal.twin.nuisances import REALISTIC, SOURCES
+
+    keys = {f"{table}.{key}" for table, values in REALISTIC.to_dict().items() for key in values}
+    assert keys == set(SOURCES) and all(SOURCES.values())
+
+
+@pytest.mark.slow
+def test_the_quick_bench_writes_its_rows_chart_and_verdict(tmp_path):
+    result = CliRunner().invoke(cli, ["bench", "--quick", "--only", "error-budget", "--out",
+                                      str(tmp_path), "--json"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    found = json.loads((tmp_path / "error-budget.json").read_text())
+    rows = found["rows"]
+    assert {(r["nuisance"], r["countermeasure_on"]) for r in rows} == {
+        ("none", False), ("none", True), ("all", False), ("all", True)}
+    for row in rows:
+        assert ROW_KEYS <= set(row) and row["case"] == "cylinder"
+    baseline = next(r for r in rows if r["nuisance"] == "none" and not r["countermeasure_on"])
+    assert 0.0 < baseline["mean_error_mm"] < 1.0  # against the true outline, no alignment
+    assert {(r["speed_mm_s"], r["rate_hz"]) for r in found["speed_rate_rows"]} == {
+        (8.0, 30.0), (8.0, 300.0)}
+    assert set(found["goal"]) == {"cylinder"} and found["goal"]["cylinder"]["goal_mm"] == GOAL_MM
+    assert found["levels"]["robot"]["rate_hz"] == 30.0 and found["sources"]["robot.rate_hz"]
+    assert (tmp_path / "error-budget.png").read_bytes().startswith(b"\x89PNG")
