@@ -134,8 +134,9 @@ class RodStates:
 def rod_poses(suspension: Suspension, rod_center_mm: np.ndarray, rod_radius_mm: float,
               previous: RodStates | None = None) -> RodStates:
     """The root poses under the touch rod at each centre (n, 2) mm: ``rod_equilibria``'s
-    solutions, solved in one compiled loop (``twin.physics.rod_batch``) where a warm start
-    serves and by ``mechanics.solve_rod`` where the rod comes in from first touch."""
+    solutions, solved in one compiled loop (``twin.physics.rod_batch``), warm-started where a
+    start serves and along the rod's path in from first touch where none does; a centre on the
+    rigid stub goes to ``mechanics.solve_rod``, which refuses it."""
     whisker = suspension.whisker()
     centers = np.ascontiguousarray(rod_center_mm, dtype=float)
     n = len(centers)
