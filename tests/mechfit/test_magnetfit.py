@@ -40,6 +40,13 @@ def test_the_yz_table_places_tips_on_planes_with_friction(default_sensor_joint_f
     assert errors["y_only"]["rmse_mm"] > 3 * errors["y_and_z"]["rmse_mm"]
 
 
+@pytest.fixture(autouse=True)
+def _refinements_in_this_process(monkeypatch):
+    """The stand-in refinements below record their calls in this process: no workers."""
+    from whiskercal.mechfit import workers
+    monkeypatch.setattr(workers, "available_cpus", lambda: 1)
+
+
 def _y_fit(rot_compliance: float):
     """A stand-in Y fit: only its suspension is read (as the joint fit's start)."""
     return SimpleNamespace(suspension=SimpleNamespace(
