@@ -155,8 +155,9 @@ def rod_poses(suspension: Suspension, rod_center_mm: np.ndarray, rod_radius_mm: 
 
 
 def _solve_from_rest(whisker, center, rod_radius_mm, k, codes, states, poses, status) -> None:
-    """Point ``k`` solved by ``mechanics.solve_rod`` from first touch, stored as
-    ``rod_batch.run_rods`` stores its own."""
+    """Point ``k``, which ``rod_batch.run_rods`` leaves (a centre on the rigid stub, refused
+    there with the reason), solved by ``mechanics.solve_rod`` from first touch and stored as
+    ``run_rods`` stores its own."""
     equilibrium = mechanics.solve_rod(whisker, center, rod_radius_mm)
     poses[k] = pose_of(equilibrium)
     states[k] = np.nan

@@ -298,7 +298,8 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
             # truncated map may have chosen the basin (a soft root's turns need the richer map),
             # so every start goes again too. Where the best's refinement settles, the starts
             # stop there, as a start group's do (``_best_from_starts``): on the drawn 126 mm
-            # build (k_θ·L/EI 1.74) the eight would have taken most of the fit's time
+            # build (k_θ·L/EI 1.74) the starts found nothing better than the best's refinement
+            # (docs/research/2026-12-02-fit-speed-long-builds.md)
             more += _best_from_starts(groups, *args, richer, sweep)[1]
         candidate = min(more, key=lambda f: f[0].cost)
         fits += more
