@@ -6,6 +6,7 @@ import pytest
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.forward import Suspension, pose_of, rod_equilibria, rod_poses
+from whiskercal.twin.physics import mechanics
 
 RADIUS_MM = 1.5
 
@@ -50,3 +51,21 @@ def test_fresh_points_are_solved_from_rest_and_a_rod_on_the_stub_is_refused():
     np.testing.assert_allclose(again.poses, solved.poses, rtol=0, atol=1e-9)
     with pytest.raises(UsageError, match="beyond the clamp"):
         rod_poses(suspension, np.array([[2.0, -1.0]]), RADIUS_MM)
+
+
+def test_points_without_a_start_follow_the_rods_path_in_as_the_solver_does():
+    """Every point solved from first touch (the tip sweep's way, at every evaluation of a fit)
+    in the compiled loop: the contact solver's path, step for step, on a stiff and a soft root,
+    with tip contacts and a wire that slips past the rod."""
+    centers = np.vstack([_grid(), [(78.5, -1.0), (77.5, -10.0), (78.8, -3.0)]])
+    for suspension in (Suspension(78.0, 3.0, 1 / 15.0, 4e-4), Suspension(78.0, 2.0, 1 / 1.5, 0.05)):
+        fresh = np.ones(len(centers), bool)
+        solved = rod_poses(suspension, centers, RADIUS_MM)
+        again = rod_poses(suspension, centers, RADIUS_MM, solved.warm_starts(fresh))
+        whisker = suspension.whisker()
+        equilibria = [mechanics.solve_rod(whisker, c, RADIUS_MM) for c in centers]
+        expected, contact = _poses(equilibria)
+        kinds = [e.kind for e in equilibria]
+        assert kinds.count("tip") >= 2 and any(e.slipped_past for e in equilibria)
+        np.testing.assert_array_equal(again.in_contact, contact)
+        np.testing.assert_allclose(again.poses, expected, rtol=0, atol=1e-12)

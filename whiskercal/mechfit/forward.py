@@ -134,8 +134,9 @@ class RodStates:
 def rod_poses(suspension: Suspension, rod_center_mm: np.ndarray, rod_radius_mm: float,
               previous: RodStates | None = None) -> RodStates:
     """The root poses under the touch rod at each centre (n, 2) mm: ``rod_equilibria``'s
-    solutions, solved in one compiled loop (``twin.physics.rod_batch``) where a warm start
-    serves and by ``mechanics.solve_rod`` where the rod comes in from first touch."""
+    solutions, solved in one compiled loop (``twin.physics.rod_batch``), warm-started where a
+    start serves and along the rod's path in from first touch where none does; a centre on the
+    rigid stub goes to ``mechanics.solve_rod``, which refuses it."""
     whisker = suspension.whisker()
     centers = np.ascontiguousarray(rod_center_mm, dtype=float)
     n = len(centers)
@@ -154,8 +155,9 @@ def rod_poses(suspension: Suspension, rod_center_mm: np.ndarray, rod_radius_mm: 
 
 
 def _solve_from_rest(whisker, center, rod_radius_mm, k, codes, states, poses, status) -> None:
-    """Point ``k`` solved by ``mechanics.solve_rod`` from first touch, stored as
-    ``rod_batch.run_rods`` stores its own."""
+    """Point ``k``, which ``rod_batch.run_rods`` leaves (a centre on the rigid stub, refused
+    there with the reason), solved by ``mechanics.solve_rod`` from first touch and stored as
+    ``run_rods`` stores its own."""
     equilibrium = mechanics.solve_rod(whisker, center, rod_radius_mm)
     poses[k] = pose_of(equilibrium)
     states[k] = np.nan

@@ -15,6 +15,8 @@ With a tip sweep, where the best still leaves more than the noise, one more mult
 tried from it and kept when it pays for its term (without the stage offset, on the 90 mm x 0.30
 mm build, whose root turns furthest, and on the stiff 60 mm wire, four orders left 2-3x the
 noise; the 4x stiffer root's sweep takes six).
+A group's refinements (and the polish's) are independent, each with its own objective, and run
+side by side on the CPUs there are (``workers``), which leaves the result as it was.
 The rod contacts are solved only when the mechanics or the offset change (a finite-difference
 step in a geometric parameter reuses the last poses), so a refinement costs a few grid solves an
 iteration.
@@ -33,6 +35,7 @@ from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, TRANS_SHARE_START, Mechan
                                     _Objective, _theta_start, fit_mechanics)
 from whiskercal.mechfit.magnetmap import (DEFAULT_ORDERS, MagnetPoseMap, _linear_strengths,
                                           fit_magnet_map, relative_basis)
+from whiskercal.mechfit.workers import run_side_by_side
 
 JOINT_EVALUATIONS = 300
 # residual RMS (in standard errors) above which the fit tries the generic starts too
@@ -290,9 +293,13 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     while _swept(sweep) and max(best[1].orders) < MAX_ORDER and _misfit_left(best, fields.size):
         richer = _one_order_more(best[1].orders)
         more = [_joint_fit(best[0].x[:best[1].solved_count], *args, richer, sweep)]
-        if _unexplained(best[0], fields.size):
-            # no start's minimum explained the grid: the truncated map may have chosen the
-            # basin (a soft root's turns need the richer map), so every start goes again too
+        if _unexplained(best[0], fields.size) and not _settled(more[0], fields.size):
+            # no start's minimum explained the grid, nor does the richer map from the best: the
+            # truncated map may have chosen the basin (a soft root's turns need the richer map),
+            # so every start goes again too. Where the best's refinement settles, the starts
+            # stop there, as a start group's do (``_best_from_starts``): on the drawn 126 mm
+            # build (k_θ·L/EI 1.74) the starts found nothing better than the best's refinement
+            # (docs/research/2026-12-02-fit-speed-long-builds.md)
             more += _best_from_starts(groups, *args, richer, sweep)[1]
         candidate = min(more, key=lambda f: f[0].cost)
         fits += more
@@ -325,11 +332,13 @@ def _polished(best, args, sweep):
     fits = []
     for _ in range(POLISH_PASSES):
         result, joint = best
-        tries = []
+        starts = []
         for factor in POLISH_FACTORS:
             start = result.x[:joint.solved_count].copy()
             start[0] -= np.log(factor)  # log rotational compliance = -log k_θ·L/EI
-            tries.append(_joint_fit(start, *args, joint.orders, sweep, POLISH_EVALUATIONS))
+            starts.append(start)
+        tries = run_side_by_side(_joint_fit, [(start, *args, joint.orders, sweep,
+                                               POLISH_EVALUATIONS) for start in starts])
         fits += tries
         kept = [f for f in tries if not _fit_at_bound(f)]
         candidate = min(kept, key=lambda f: f[0].cost, default=None)
@@ -345,8 +354,9 @@ def _best_from_starts(groups, centers, fields, noise, rod_radius_mm, trace_lengt
     one explains the grid: (the best (result, objective), every fit tried)."""
     fits = []
     for thetas in groups:
-        fits += [_joint_fit(theta, centers, fields, noise, rod_radius_mm, trace_length_mm,
-                            orders, sweep) for theta in thetas]
+        fits += run_side_by_side(_joint_fit, [(theta, centers, fields, noise, rod_radius_mm,
+                                               trace_length_mm, orders, sweep)
+                                              for theta in thetas])
         if _settled(min(fits, key=lambda f: f[0].cost), fields.size):
             break
     return min(fits, key=lambda f: f[0].cost), fits

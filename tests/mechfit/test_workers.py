@@ -1,0 +1,37 @@
+"""``workers.run_side_by_side``: jobs in forked processes give what they give one after the
+other, in the jobs' order, and a worker's error reaches the caller."""
+
+import os
+
+import numpy as np
+import pytest
+
+from whiskercal.errors import UsageError
+from whiskercal.mechfit import workers
+
+
+def _job(seed: int, size: int):
+    """Something a worker computes, and which process computed it."""
+    return np.random.default_rng(seed).normal(size=size), os.getpid()
+
+
+def _refused(value: float):
+    raise UsageError(f"refused {value:g}.")
+
+
+def test_jobs_side_by_side_match_one_after_the_other(monkeypatch):
+    monkeypatch.setattr(workers, "available_cpus", lambda: 2)
+    jobs = [(seed, 5) for seed in (1, 2, 3)]
+    side_by_side = workers.run_side_by_side(_job, jobs)
+    in_turn = [_job(*job) for job in jobs]
+    for (got, pid), (expected, _) in zip(side_by_side, in_turn):
+        np.testing.assert_array_equal(got, expected)
+        assert pid != os.getpid()  # forked: the jobs did run elsewhere
+
+
+def test_one_cpu_runs_the_jobs_here_and_errors_come_back(monkeypatch):
+    monkeypatch.setattr(workers, "available_cpus", lambda: 1)
+    assert all(pid == os.getpid() for _, pid in workers.run_side_by_side(_job, [(1, 2), (2, 2)]))
+    monkeypatch.setattr(workers, "available_cpus", lambda: 2)
+    with pytest.raises(UsageError, match="refused 2"):
+        workers.run_side_by_side(_refused, [(2.0,), (3.0,)])
