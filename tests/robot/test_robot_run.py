@@ -183,7 +183,8 @@ def test_an_error_inside_the_loop_still_sends_the_zero_twist(tmp_path):
         link = RosbridgeLink(server.url, RobotTopics())
         with pytest.raises(RuntimeError, match="a bug"):
             with RosbridgeRobot(link, safety=Safety(watchdog_s=0.5)) as robot:
-                run_on_robot(robot, FieldTopic(link), Failing(calibration.tracker("clip")),
+                run_on_robot(robot, FieldTopic(link),
+                             lambda rate: Failing(calibration.tracker("clip", rate_hz=rate)),
                              calibration.target_z_uT, RobotLoop(20.0))
         assert server.last_twist is not None and _stopped(server)
 

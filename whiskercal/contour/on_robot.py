@@ -66,7 +66,10 @@ def contour_on_robot(setup: RobotSetup, artifact: str | Path, out: str | Path, *
     tip_mm_per_uT = calibration.tip_motion_mm_per_uT(target)
     refuse_existing(record, force)
     recorder = None if record is None else BagRecorder(record, setup.mount, replace=force)
-    run = _run(setup, calibration.tracker(out_of_range="clip"), target, loop, tip_mm_per_uT,
+    def tracker_at(rate_hz: float):  # the filter scaled to the stream's measured rate
+        return calibration.tracker(out_of_range="clip", rate_hz=rate_hz)
+
+    run = _run(setup, tracker_at, target, loop, tip_mm_per_uT,
                echo, on_progress, recorder)
     if record is not None:
         run.config.setdefault("robot", {})["record"] = str(record)
@@ -80,11 +83,11 @@ def contour_on_robot(setup: RobotSetup, artifact: str | Path, out: str | Path, *
     return result
 
 
-def _run(setup: RobotSetup, tracker, target, loop, tip_mm_per_uT, echo, on_progress,
+def _run(setup: RobotSetup, tracker_at, target, loop, tip_mm_per_uT, echo, on_progress,
          recorder) -> RobotRun:
     """Connect, run, and stop the robot (a zero twist) however the run ended."""
     with connected(setup, echo) as (robot, samples):
-        run = run_on_robot(robot, samples, tracker, target, loop, tip_mm_per_uT,
+        run = run_on_robot(robot, samples, tracker_at, target, loop, tip_mm_per_uT,
                            on_progress=on_progress, recorder=recorder)
         run.config["robot"] = {"sent": robot.sent, "clipped": robot.clipped,
                                "zero_twists": robot.zeros + 1}

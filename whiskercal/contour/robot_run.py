@@ -64,13 +64,15 @@ class RobotLoop:
     watchdog_s: float = 0.2
 
 
-def run_on_robot(robot, samples, tracker, target_z_uT: float, loop: RobotLoop,
-                 tip_mm_per_uT: float | None = None, reach_mm: float = 78.0,
+def run_on_robot(robot, samples, tracker_at: Callable[[float], object], target_z_uT: float,
+                 loop: RobotLoop, tip_mm_per_uT: float | None = None, reach_mm: float = 78.0,
                  on_progress: Callable[[float], None] | None = None,
                  recorder: Recorder | None = None) -> RobotRun:
     """Run the loop (see the module's docstring); the run, with ``error`` set when a robot error
-    or Ctrl-C (``KeyboardInterrupt``) stopped it. The robot is not stopped here: its ``close``
-    (the caller's ``with``) sends the zero twist on every way out."""
+    or Ctrl-C (``KeyboardInterrupt``) stopped it. ``tracker_at(rate_hz)``: the runtime tracker
+    for the stream's rate, measured at rest before the run (its filter scaled to it). The robot
+    is not stopped here: its ``close`` (the caller's ``with``) sends the zero twist on every
+    way out."""
     run = RobotRun({})
     rows: dict[str, list] = {name: [] for name in ROBOT_COLUMNS}
     started = time.perf_counter()
@@ -81,7 +83,7 @@ def run_on_robot(robot, samples, tracker, target_z_uT: float, loop: RobotLoop,
         run.rest_uT, run.rate_hz = rest, rate
         config = loop.config.replace(rate_hz=rate)
         run.config = config.to_dict()
-        follower = Follower(tracker, target_z_uT, config, reach_mm, tip_mm_per_uT)
+        follower = Follower(tracker_at(rate), target_z_uT, config, reach_mm, tip_mm_per_uT)
         run.complete = _follow(robot, samples, follower, rest, loop, rows, latencies,
                                on_progress, recorder)
     except (RobotError, KeyboardInterrupt) as error:
