@@ -35,9 +35,9 @@ from pydantic import model_validator
 
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import read_toml
-from whiskercal.typedconfig import Table, number, numbers, validate
+from whiskercal.typedconfig import Table, integer, number, numbers, validate
 
-__all__ = ["ContactTable", "DriftTable", "NUISANCE_NAMES", "Nuisances", "PoseChannel", "REALISTIC",
+__all__ = ["ContactTable", "DriftTable", "DynamicsTable", "load_dynamics", "NUISANCE_NAMES", "Nuisances", "PoseChannel", "REALISTIC",
            "RobotTable", "SOURCES", "SensorNuisances", "ViscoelasticTable", "load_nuisances",
            "nuisances_named", "only"]
 
@@ -88,6 +88,34 @@ class RobotTable(Table):
     heading_noise_rad: NONNEGATIVE = 0.0
     rate_hz: number(ge=0, le=2000) = 0.0
     jitter_s: number(ge=0, le=0.1) = 0.0
+
+
+class DynamicsTable(Table):
+    """``[dynamics]`` of a sensor file: the wire's lowest bending ``modes`` (0: quasi-static, the
+    default; 1 or 2) with the damping ratio ``damping_ratio`` and the wire's density
+    (``physics.dynamics``, docs/twin.md "Dynamics")."""
+
+    modes: integer(ge=0, le=2) = 0
+    damping_ratio: number(gt=0, lt=1) = 0.03
+    density_kg_m3: number(gt=0) = 6450.0
+
+    @property
+    def off(self) -> bool:
+        """True when the whisker is quasi-static (no mode)."""
+        return self.modes == 0
+
+    def modes_of(self, whisker):
+        """The modes this table asks for, of ``whisker`` (``physics.dynamics.Mode``)."""
+        from whiskercal.twin.physics.dynamics import modes
+
+        return modes(whisker, self.modes, self.damping_ratio, self.density_kg_m3)
+
+
+def load_dynamics(path: str | Path) -> DynamicsTable:
+    """The ``[dynamics]`` table of a sensor file (quasi-static without)."""
+    if not Path(path).is_file():
+        raise UsageError(f"{path}: no such file")
+    return validate(DynamicsTable, read_toml(path).get("dynamics", {}), f"{path} [dynamics]")
 
 
 class Nuisances(Table):
