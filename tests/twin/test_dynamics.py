@@ -142,3 +142,30 @@ def test_a_sensor_file_carries_a_dynamics_table(tmp_path):
         load_dynamics(path)
     (tmp_path / "plain.toml").write_text('sensor_id = "plain"\n')
     assert load_dynamics(tmp_path / "plain.toml").off
+
+
+def _mobile_run(dynamics, steps=240):
+    """The robot drives its whisker into the cylinder at 20 mm/s for 0.3 s, then stands: z."""
+    from whiskercal.twin.mobile import MobileSensor
+    from whiskercal.twin.outlines import outline
+    from whiskercal.twin.params import DEFAULT_SENSOR
+
+    robot = MobileSensor(DEFAULT_SENSOR, outline("cylinder"), np.array([0.0, -150.0, math.pi / 2]),
+                         seed=4, dynamics=dynamics)
+    robot.command(np.array([0.0, 20.0]), 0.0)
+    z = []
+    for index in range(steps):
+        if index == 90:
+            robot.command(np.zeros(2), 0.0)
+        z.append(robot.step(1 / 300).z_uT)
+    return np.array(z)
+
+
+def test_the_mobile_twin_rings_while_it_moves_and_settles_at_rest_and_without_modes_is_unchanged():
+    plain = _mobile_run(None)
+    np.testing.assert_array_equal(plain, _mobile_run(DynamicsTable()))
+    ringing = _mobile_run(DynamicsTable(modes=2))
+    difference = np.abs(ringing - plain)  # the same seed: the same noise on both
+    assert np.any(plain[:90] < -100.0)  # the whisker was pressed while the robot moved
+    assert difference[:120].max() > 5.0
+    assert difference[-30:].max() < 0.5 * difference[:120].max()
