@@ -89,8 +89,8 @@ def _rig(dynamics):
 
 
 def _push_and_settle(dynamics):
-    """The rod pushed 5 mm further at 50 mm/s, stopping at once (the stage's own 200 mm/s²
-    stops too gently to ring the wire by more than a few µT), then 0.5 s at rest: the truth of
+    """The rod pushed 5 mm further at 50 mm/s, stopping at once (the stage's own acceleration
+    stops it too gently to ring the wire past the noise), then 0.5 s at rest: the truth of
     the samples after the stage stopped (the quasi-static field from the truth's rotation, the
     dynamic one)."""
     world, stage, sensor = _rig(dynamics)
@@ -169,3 +169,14 @@ def test_the_mobile_twin_rings_while_it_moves_and_settles_at_rest_and_without_mo
     assert np.any(plain[:90] < -100.0)  # the whisker was pressed while the robot moved
     assert difference[:120].max() > 5.0
     assert difference[-30:].max() < 0.5 * difference[:120].max()
+
+
+def test_a_sensor_file_in_a_sim_url_brings_its_dynamics(tmp_path):
+    import serial
+
+    path = tmp_path / "ringing.toml"
+    path.write_text('sensor_id = "ringing"\n\n[dynamics]\nmodes = 1\n')
+    port = serial.serial_for_url(f"sim://dynamics-url-{next(_names)}/stage?sensor={path}")
+    assert port.world.config.dynamics.modes == 1
+    plain = serial.serial_for_url(f"sim://dynamics-url-{next(_names)}/stage")
+    assert plain.world.config.dynamics is None

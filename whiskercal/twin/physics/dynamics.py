@@ -8,8 +8,9 @@ suspension, each a damped second-order response driven by the quasi-static solut
 **Modes.** Euler-Bernoulli beam finite elements (Hermite cubics) of the wire, EI from the build,
 linear density ρ·π·d²/4 (nitinol, 6450 kg/m³), clamped through the rigid stub to the
 suspension, which turns on k_θ and shifts sideways on k_t. The suspension itself is massless:
-the magnet's inertia about the centre of rotation is some 1e-5 of the wire's, and the PLA arms'
-mass is not known. The generalized eigenproblem K·v = ω²·M·v gives the frequencies and shapes.
+a 2 mm magnet a few mm from the axis adds a negligible inertia beside the wire's, and the PLA
+arms' mass is not known. The generalized eigenproblem K·v = ω²·M·v gives the frequencies and
+shapes.
 These are the free wire's modes; in contact the obstacle constrains the wire and raises them, so
 the free modes give the longest ring-down and the largest lag (the safe side for a settle time).
 
