@@ -14,6 +14,8 @@ unless asked (docs/error-budget.md says what each models and where its realistic
   and a random height field (rms ``roughness_rms_mm``, correlation length ``correlation_mm``,
   fixed to the object) that moves the surface along its normal under the tip; together they
   make the sample-to-sample fluctuation real contacts show.
+- ``[dynamics]`` (a table of its own, beside ``[nuisances]``): the wire's bending modes on top
+  of its statics (``physics.dynamics``), off unless it asks for modes.
 - ``[nuisances.robot]``: the pose the robot reports is late (``latency_s``) and noisy
   (``pose_noise_mm``, ``heading_noise_rad``); the loop runs at ``rate_hz`` (0: the follower's
   own rate) and each period lasts its nominal length plus a jitter (``jitter_s`` rms), while the
@@ -37,9 +39,9 @@ from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import read_toml
 from whiskercal.typedconfig import Table, integer, number, numbers, validate
 
-__all__ = ["ContactTable", "DriftTable", "DynamicsTable", "load_dynamics", "NUISANCE_NAMES", "Nuisances", "PoseChannel", "REALISTIC",
-           "RobotTable", "SOURCES", "SensorNuisances", "ViscoelasticTable", "load_nuisances",
-           "nuisances_named", "only"]
+__all__ = ["ContactTable", "DriftTable", "DynamicsTable", "NUISANCE_NAMES", "Nuisances",
+           "PoseChannel", "REALISTIC", "RobotTable", "SOURCES", "SensorNuisances",
+           "ViscoelasticTable", "load_dynamics", "load_nuisances", "nuisances_named", "only"]
 
 UT3 = numbers(3, says="a list of 3 numbers of µT (X, Y, Z)")
 UT3_NONNEGATIVE = numbers(3, ge=0, says="a list of 3 numbers of µT >= 0 (X, Y, Z)")
