@@ -103,6 +103,16 @@ BENCH_TABLES = {
                      ("contacts_lost", "contacts lost", 0),
                      ("fluctuation_uT", "in-contact fluctuation (µT)", 3),
                      ("estimated_latency_ms", "latency estimate (ms)", 2)],
+    "dynamics": [("build", "build", 0), ("first_mode_hz", "first mode (Hz)", 3),
+                 ("second_mode_hz", "second (Hz)", 3), ("damping_ratio", "ζ", 2),
+                 ("release_z_uT", "z held before the release (µT)", 4),
+                 ("ring_down_s", "ring-down to the noise (s)", 3),
+                 ("envelope_s", "first mode's envelope (s)", 3), ("noise_uT", "noise σ (µT)", 2),
+                 ("error_uT.abrupt.10", "slide error at 10 mm/s, at once (µT)", 3),
+                 ("error_uT.abrupt.50", "at 50 mm/s (µT)", 3),
+                 ("error_uT.stage.50", "at 50 mm/s, stage's acceleration (µT)", 3),
+                 ("past_noise_from_mm_s.abrupt", "past the noise from (mm/s), at once", 3),
+                 ("past_noise_from_mm_s.stage", "at the stage's acceleration", 3)],
 }
 # more tables from one snapshot: NAME -> (the snapshot, its rows from its result, the columns)
 EXTRA_TABLES = {

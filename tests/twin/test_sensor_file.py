@@ -73,7 +73,7 @@ _BAD = [
                                           r"than the 3.33 ms period at rate_hz 300$"),
     ("whisker = 3", r"\[whisker\]: must be a table of keys, not 3$"),
     ("[mechanics]\nlength_mm = 75", r"\[mechanics\]: unknown table "
-                                    r"\(known: sensor_id, whisker, magnet, magnetometer, nuisances\)$"),
+                                    r"\(known: sensor_id, whisker, magnet, magnetometer, nuisances, dynamics\)$"),
 ]
 
 

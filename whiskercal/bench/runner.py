@@ -134,6 +134,9 @@ COMPARISONS = {c.name: c for c in (
     Comparison("robot-loop", "contour run --robot through the twin's rosbridge server at 300 and "
                "30 Hz against the in-process loop; the loop's latency",
                _module_run("whiskercal.bench.robot_loop")),
+    Comparison("dynamics", "the wire's bending modes on the twin's statics: ring-down after a "
+               "release, and the quasi-static reading's error while the rod slides, per build",
+               _module_run("whiskercal.bench.dynamics")),
     Comparison("mount-cal", "mount-cal on the twin: the nominal and the fitted mount against the "
                "true one, and the contour's size error through each",
                _module_run("whiskercal.bench.mount_cal")),
@@ -186,6 +189,10 @@ def _charts(name: str, result: dict, out_dir: Path) -> list[str]:
         from whiskercal.bench.error_budget import draw as draw_budget
 
         charts.append(draw_budget(result, out_dir / "error-budget.png").name)
+    if name == "dynamics":
+        from whiskercal.bench.dynamics import draw as draw_dynamics
+
+        charts.append(draw_dynamics(result, out_dir / "dynamics.png").name)
     if name == "contour-target":
         from whiskercal.bench.contour_target import draw
 

@@ -12,7 +12,9 @@ streams all three axes, and a calibration with a (Y, Z) table reads the tip from
 frame. Everything runs in-process, as fast as the solver goes. ``nuisances``
 (``twin.nuisances``, off unless given) adds what a real rig does: the field's drift, the
 suspension's creep, the surface's roughness under the tip (convex objects), and a late, noisy
-reported pose with jittered periods.
+reported pose with jittered periods. ``dynamics`` (``twin.nuisances.DynamicsTable``, off
+unless it has modes) lets the reading follow the wire's bending modes on top of the statics
+(``physics.dynamics``): a release or a slip rings, a slide lags.
 
 An open wall (``outlines.WallOutline``) comes as overlapping convex pieces, one a square behind
 each concave corner. Each period the whisker is solved against every piece within its reach +
@@ -36,6 +38,7 @@ from whiskercal.errors import UsageError
 from whiskercal.twin.nuisances import Nuisances, PoseChannel, SensorNuisances
 from whiskercal.twin.outlines import Outline
 from whiskercal.twin.physics.coulomb import Coulomb
+from whiskercal.twin.physics.dynamics import RingingRoot
 from whiskercal.twin.physics.obstacles import Circle, Polygon
 from whiskercal.twin.physics.polygon import entry_side, solve_at_vertex
 from whiskercal.twin.physics.shape_friction import Stick
@@ -89,11 +92,14 @@ class MobileSensor:
         frictionless.
     nuisances
         What a real rig adds (``twin.nuisances.Nuisances``); None or all off: the ideal twin.
+    dynamics
+        The wire's bending modes (``twin.nuisances.DynamicsTable``); None or no modes:
+        quasi-static.
     """
 
     def __init__(self, sensor, outline: Outline, pose, seed: int = 0,
                  limits: RobotLimits = RobotLimits(), friction: Coulomb | None = None,
-                 nuisances: Nuisances | None = None) -> None:
+                 nuisances: Nuisances | None = None, dynamics=None) -> None:
         self.physics, self.sensor = TwinPhysics(sensor), sensor
         self.outline, self.limits = outline, limits
         self._obstacle = outline.obstacle()
@@ -127,6 +133,9 @@ class MobileSensor:
         self._nuisances = SensorNuisances(nuisances, seed) if real else None
         self._channel = PoseChannel(nuisances.robot, seed) if real else None
         self._touch = None  # (contact, surface normal) of the last sample in contact, world
+        # the wire's modes; their response starts at rest in the first period's equilibrium
+        self._modes = None if dynamics is None or dynamics.off else dynamics.modes_of(sensor.whisker)
+        self._ringing = None
         if self._channel is not None:
             self._channel.record(0.0, self._pose)
             self._reported = self._channel.reported(0.0)
@@ -195,15 +204,22 @@ class MobileSensor:
                             equilibrium.slips)
 
     def _field_uT(self, equilibrium, dt_s: float) -> np.ndarray:
-        """The field at the chip (3,) µT: the magnet's at the suspension's pose, with the
-        nuisances' creep of the root rotation and drift of the reading."""
-        if self._nuisances is None:
+        """The field at the chip (3,) µT: the magnet's at the suspension's pose (ringing with
+        the dynamics' modes), with the nuisances' creep of the root rotation and drift of the
+        reading."""
+        if self._nuisances is None and self._modes is None:
             return self.physics.field_uT(equilibrium)
         from whiskercal.twin.physics.magnet import field_uT
 
-        rotation = equilibrium.root_rotation_rad
+        rotation, shift = equilibrium.root_rotation_rad, equilibrium.root_shift_mm
+        if self._modes is not None:
+            if self._ringing is None:
+                self._ringing = RingingRoot(self._modes, rotation, shift, self._t_s)
+            rotation, shift = self._ringing.at(self._t_s, rotation, shift)
+        if self._nuisances is None:
+            return np.asarray(field_uT(self.sensor.magnet, rotation, shift), float)
         rotation += self._nuisances.creep(rotation, dt_s)
-        field = np.asarray(field_uT(self.sensor.magnet, rotation, equilibrium.root_shift_mm), float)
+        field = np.asarray(field_uT(self.sensor.magnet, rotation, shift), float)
         moving = bool(np.any(self._velocity) or self._turn)
         return self._nuisances.field_uT(field, self._t_s, moving)
 

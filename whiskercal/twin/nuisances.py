@@ -14,6 +14,8 @@ unless asked (docs/error-budget.md says what each models and where its realistic
   and a random height field (rms ``roughness_rms_mm``, correlation length ``correlation_mm``,
   fixed to the object) that moves the surface along its normal under the tip; together they
   make the sample-to-sample fluctuation real contacts show.
+- ``[dynamics]`` (a table of its own, beside ``[nuisances]``): the wire's bending modes on top
+  of its statics (``physics.dynamics``), off unless it asks for modes.
 - ``[nuisances.robot]``: the pose the robot reports is late (``latency_s``) and noisy
   (``pose_noise_mm``, ``heading_noise_rad``); the loop runs at ``rate_hz`` (0: the follower's
   own rate) and each period lasts its nominal length plus a jitter (``jitter_s`` rms), while the
@@ -35,11 +37,11 @@ from pydantic import model_validator
 
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import read_toml
-from whiskercal.typedconfig import Table, number, numbers, validate
+from whiskercal.typedconfig import Table, integer, number, numbers, validate
 
-__all__ = ["ContactTable", "DriftTable", "NUISANCE_NAMES", "Nuisances", "PoseChannel", "REALISTIC",
-           "RobotTable", "SOURCES", "SensorNuisances", "ViscoelasticTable", "load_nuisances",
-           "nuisances_named", "only"]
+__all__ = ["ContactTable", "DriftTable", "DynamicsTable", "NUISANCE_NAMES", "Nuisances",
+           "PoseChannel", "REALISTIC", "RobotTable", "SOURCES", "SensorNuisances",
+           "ViscoelasticTable", "load_dynamics", "load_nuisances", "nuisances_named", "only"]
 
 UT3 = numbers(3, says="a list of 3 numbers of µT (X, Y, Z)")
 UT3_NONNEGATIVE = numbers(3, ge=0, says="a list of 3 numbers of µT >= 0 (X, Y, Z)")
@@ -88,6 +90,34 @@ class RobotTable(Table):
     heading_noise_rad: NONNEGATIVE = 0.0
     rate_hz: number(ge=0, le=2000) = 0.0
     jitter_s: number(ge=0, le=0.1) = 0.0
+
+
+class DynamicsTable(Table):
+    """``[dynamics]`` of a sensor file: the wire's lowest bending ``modes`` (0: quasi-static, the
+    default; 1 or 2) with the damping ratio ``damping_ratio`` and the wire's density
+    (``physics.dynamics``, docs/twin.md "Dynamics")."""
+
+    modes: integer(ge=0, le=2) = 0
+    damping_ratio: number(gt=0, lt=1) = 0.03
+    density_kg_m3: number(gt=0) = 6450.0
+
+    @property
+    def off(self) -> bool:
+        """True when the whisker is quasi-static (no mode)."""
+        return self.modes == 0
+
+    def modes_of(self, whisker):
+        """The modes this table asks for, of ``whisker`` (``physics.dynamics.Mode``)."""
+        from whiskercal.twin.physics.dynamics import modes
+
+        return modes(whisker, self.modes, self.damping_ratio, self.density_kg_m3)
+
+
+def load_dynamics(path: str | Path) -> DynamicsTable:
+    """The ``[dynamics]`` table of a sensor file (quasi-static without)."""
+    if not Path(path).is_file():
+        raise UsageError(f"{path}: no such file")
+    return validate(DynamicsTable, read_toml(path).get("dynamics", {}), f"{path} [dynamics]")
 
 
 class Nuisances(Table):

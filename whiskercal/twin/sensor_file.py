@@ -5,7 +5,8 @@ optional ``[magnet.grid]``) and ``[magnetometer]``, whose keys are the fields of
 `WhiskerParams`, `MagnetParams` (`FieldGrid`) and `MagnetometerParams`. A key left out takes the
 value of `DEFAULT_SENSOR`. An optional ``[nuisances]`` table (``twin.nuisances``: drift, creep,
 roughness, the robot's pose) is checked with the rest and read by
-``twin.nuisances.load_nuisances``. Every table is a typed model (`SensorFile`), so that a typo, a wrong type
+``twin.nuisances.load_nuisances``, and a ``[dynamics]`` table (the wire's bending modes, off
+unless given) by ``twin.nuisances.load_dynamics``. Every table is a typed model (`SensorFile`), so that a typo, a wrong type
 or a non-physical number ends in one line naming the file and the key rather than a traceback
 or a silently different sensor. docs/twin.md ("Describe your sensor in a file") has an example;
 sensors/ at the repository root holds the shipped sensors and a few other builds as files.
@@ -24,7 +25,7 @@ from pydantic import ValidationInfo, field_validator
 from whiskercal.errors import UsageError
 from whiskercal.tomlconfig import read_toml
 from whiskercal.typedconfig import Table, Text, integer, number, numbers, says_of, shown, validate
-from whiskercal.twin.nuisances import Nuisances
+from whiskercal.twin.nuisances import DynamicsTable, Nuisances
 from whiskercal.twin.params import DEFAULT_SENSOR, SENSORS, SensorParams
 
 __all__ = ["RULES", "SensorFile", "load_sensor", "resolve_sensor", "sensor_from_dict", "sensor_to_dict",
@@ -119,6 +120,9 @@ class SensorFile(Table):
     # what a real rig adds (twin.nuisances): checked here, read by load_nuisances, and no part
     # of the build (SensorParams), so datasets and goldens do not change with it
     nuisances: Nuisances = Nuisances()
+    # the whisker's bending modes (twin.physics.dynamics), read by load_dynamics; off by default
+    # and likewise no part of the build
+    dynamics: DynamicsTable = DynamicsTable()
 
     @field_validator("sensor_id")
     @classmethod

@@ -15,7 +15,7 @@ world NAME. :func:`create_world` configures one in code before its ports are ope
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -41,6 +41,8 @@ class WorldConfig:
     ``fresh()`` copy); ``speed`` is simulated seconds per real second (0: as fast as the CPU
     allows); ``max_step_mm`` the longest move of the end effector between two warm-started
     solves; ``clock_drift_ppm`` the sensor board's clock error; ``stock`` a plain grbl stage;
+    ``dynamics`` a ``twin.nuisances.DynamicsTable`` (None or no modes: the quasi-static
+    whisker; with modes the field follows the suspension's ringing, ``physics.dynamics``);
     ``homing`` its homing cycle: ``"xy"`` (X and Y together, whiskercal's firmware always), or
     ``""`` for the board's default, which on stock grbl 1.1 homes Z first (ALARM:9 on a two-axis
     stage, which has no Z switch); ``origin`` ``"set"`` for a stock build with
@@ -61,6 +63,7 @@ class WorldConfig:
     speed: float = 0.0
     max_step_mm: float = 0.05
     clock_drift_ppm: float = 0.0
+    dynamics: object = None
 
 
 class World:
@@ -86,6 +89,18 @@ class World:
         self._static_uT = self.physics.field_uT(self.contact.equilibrium)
         self._field_of = (self.contact.equilibrium, self._static_uT)
         self._magnetometers: dict[SensorConfig, object] = {}
+        self._ringing = self._ringing_root()
+
+    def _ringing_root(self):
+        """The suspension's modal response when the config asks for modes, else None."""
+        dynamics = self.config.dynamics
+        if dynamics is None or dynamics.off:
+            return None
+        from whiskercal.twin.physics.dynamics import RingingRoot
+
+        rest = self.contact.equilibrium
+        return RingingRoot(dynamics.modes_of(self.sensor.whisker), rest.root_rotation_rad,
+                           getattr(rest, "root_shift_mm", (0.0, 0.0)))
 
     def _wire_devices(self) -> None:
         """The stage, both boards and the clock; seeds: magnetometer noise, then link faults."""
@@ -195,12 +210,24 @@ class World:
         stage_mm = self.stage_true_mm(t)
         tool_mm = self.config.geometry.to_whisker(stage_mm)
         equilibrium = self.contact.at(t, tool_mm)
-        if self._field_of[0] is not equilibrium:  # standing still: the field is the same
+        if self._ringing is not None:
+            self._field_of = (None, self._ringing_field(t, equilibrium))
+        elif self._field_of[0] is not equilibrium:  # standing still: the field is the same
             self._field_of = (equilibrium, self.physics.field_uT(equilibrium))
         field_out[:] = self._field_of[1]
         TruthRecord.fill_row(row_out, t, stage_mm, tool_mm, equilibrium, field_out,
                              field_out[1] - self._static_uT[1], self.contact.take_slips())
         return "failed" if self.contact.last_solve_failed else equilibrium.kind
+
+    def _ringing_field(self, t: float, equilibrium) -> np.ndarray:
+        """The field at the suspension's dynamic pose at ``t`` (the modes' response to the
+        quasi-static ``equilibrium``), µT (3,)."""
+        shift = getattr(equilibrium, "root_shift_mm", None)
+        rotation, moved = self._ringing.at(t, equilibrium.root_rotation_rad,
+                                           (0.0, 0.0) if shift is None else shift)
+        pose = {"root_rotation_rad": rotation} if shift is None else \
+            {"root_rotation_rad": rotation, "root_shift_mm": moved}
+        return self.physics.field_uT(replace(equilibrium, **pose))
 
     def _magnetometer(self, config: SensorConfig):
         """The sensor's magnetometer with the board's settings (made once per setting)."""

@@ -87,11 +87,15 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         setattr(stage_faults, _STAGE_FAULTS[fault], when)
         if fault == "missed_steps" and argument:
             stage_faults.missed_steps_mm = number(argument, "the missed_steps fault's size", unit="mm")
-    sensor = None
+    sensor, dynamics = None, None
     if "sensor" in options:  # a shipped id or the path of a .toml sensor file (percent-decoded)
+        from whiskercal.twin.nuisances import load_dynamics
+        from whiskercal.twin.params import SENSORS
         from whiskercal.twin.sensor_file import resolve_sensor
 
         sensor = resolve_sensor(value("sensor", ""))
+        # a file's [dynamics] table: the wire's bending modes (off without one)
+        dynamics = None if value("sensor", "") in SENSORS else load_dynamics(value("sensor", ""))
     world = create_world(
         name, scene=value("scene", "rod"), sensor=sensor,
         seed=seed_value(value("seed", 0), "sim:// option seed"),
@@ -101,7 +105,7 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         speed=number(value("speed", 0), "sim:// option speed (0: as fast as the host allows)", low=0),
         backlash_mm=number(value("backlash", 0.02), "sim:// option backlash", low=0, unit="mm"),
         clock_drift_ppm=number(value("drift_ppm", 0), "sim:// option drift_ppm", low=-1e4, high=1e4),
-        stage_faults=stage_faults, sensor_faults=sensor_faults)
+        stage_faults=stage_faults, sensor_faults=sensor_faults, dynamics=dynamics)
     world.url_options = _world_level(options)
     return world
 
