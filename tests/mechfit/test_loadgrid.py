@@ -7,6 +7,7 @@ axis; the twin holds the wire bent toward -y there (the contact the (Y, Z) table
 import math
 
 import numpy as np
+import pytest
 
 from whiskercal.testing.fields import true_suspension
 from whiskercal.mechfit.loadgrid import load_grid, past_axis_loads
@@ -39,3 +40,20 @@ def test_the_load_grid_starts_at_rest_and_turns_both_ways():
     grid = load_grid(true_suspension(DEFAULT_SENSOR), magnitudes=(0.1, 0.2), alphas_deg=(0, 45, 90))
     assert set(np.round(np.degrees(grid.alpha_rad))) == {0.0, 45.0, 90.0}
     assert np.all(grid.tip_mm[:, 0] < 78.0) and np.all(grid.pose[:, 0] < 0)
+
+
+def test_a_model_with_no_tip_load_family_gets_a_usage_error_not_a_traceback(monkeypatch):
+    """A fitted suspension whose tip loads cannot be solved at any tilt (a drawn long build's
+    session met one) is refused as a usage error, which ``fit`` turns into a withheld table."""
+    from types import SimpleNamespace
+
+    from whiskercal.errors import UsageError
+    from whiskercal.mechfit import tables
+
+    def no_family(*args, **kwargs):
+        raise UsageError("no tip family")
+
+    monkeypatch.setattr(tables, "tip_family", no_family)
+    fit = SimpleNamespace(suspension=None, pose_map=SimpleNamespace(coefficients=np.zeros((3, 2))))
+    with pytest.raises(UsageError, match="no tip-load family at any tilt"):
+        tables.table_load_points(fit, (-100.0, 0.0), space_fixed=False)

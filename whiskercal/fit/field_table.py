@@ -209,7 +209,10 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     on_grid = c.fields_uT[~c.sweep, 0]
     y_range = (float(on_grid.min()), float(on_grid.max()))
     with times.stage("table"):
-        load_fields, load_tips = table_load_points(fit, y_range)
+        try:
+            load_fields, load_tips = table_load_points(fit, y_range)
+        except UsageError as error:  # a model with no tip loads to tabulate
+            return _withheld(f"the (Y, Z) table cannot be made ({str(error).rstrip('.')})")
         table = tabulate(load_fields, load_tips, y_range)
         lookup = _joint_lookup(fit, c, length_mm, y_range, samples)
         error = estimated_tip_error_mm(load_fields, load_tips, table, c.sample_noise_uT,

@@ -154,14 +154,20 @@ def _family_points(fit: MechanicsFit, betas_deg):
             continue
         fields.append(fit.pose_map(family.pose)[:, :2])
         tips.append(family.tip_mm)
+    if not fields:
+        raise UsageError("the fitted model has no tip-load family at any tilt from the tip's "
+                         "normal, so no (Y, Z) table can be made from it.")
     return np.concatenate(fields), np.concatenate(tips)
 
 
 def _load_grid_points(fit: MechanicsFit):
     """(Y, Z) µT and tips mm of space-fixed tip loads, kept within the grid's pose envelope."""
-    grids = (load_grid(fit.suspension), past_axis_loads(fit.suspension))
-    pose = np.concatenate([g.pose for g in grids if len(g.pose)])
-    tips = np.concatenate([g.tip_mm for g in grids if len(g.pose)])
+    grids = [g for g in (load_grid(fit.suspension), past_axis_loads(fit.suspension))
+             if len(g.pose)]
+    if not grids:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    pose = np.concatenate([g.pose for g in grids])
+    tips = np.concatenate([g.tip_mm for g in grids])
     limit = POSE_ENVELOPE * np.max(np.abs(fit.poses), axis=0)
     inside = np.all(np.abs(pose) <= limit, axis=1)
     return fit.pose_map(pose[inside])[:, :2], tips[inside]
