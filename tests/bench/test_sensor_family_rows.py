@@ -24,15 +24,14 @@ ROWS = {  # by build: what measure() would have returned for it
               "field_table": _table(0.5, 0.4, held_mm=0.25)},
     "unwarned": {"label": "unwarned", "silent_failure": True, "meets_goal": False,
                  "field_table": _table(0.6, 0.1, silent=True)},
-    "refused": {"build": "refused", "refused": "FitError: no", "warned": True,
+    "refused": {"build": "refused", "refused": "UsageError: no", "warned": True,
                 "silent_failure": False},
 }
 
 
 @pytest.fixture
 def result(monkeypatch):
-    builds = [replace(family.DEFAULT_SENSOR, sensor_id=b)
-              for b in ROWS]
+    builds = [replace(family.DEFAULT_SENSOR, sensor_id=build) for build in ROWS]
     monkeypatch.setattr(family, "FAMILY", tuple(builds))
     monkeypatch.setattr(family, "measure", lambda sensor, seed, swept, with_table: ROWS[sensor.sensor_id])
     monkeypatch.setattr(family.sessions, "draw_builds", lambda n, seed: [])
