@@ -164,27 +164,6 @@ def test_a_richer_order_tries_every_start_again_when_none_explained_the_grid(mon
     assert soft in richer and len(richer) > 1  # every start again, not the best's alone
 
 
-def test_a_richer_order_that_explains_the_grid_from_the_best_tries_no_start_again(monkeypatch):
-    # the drawn 126 mm build on k_theta*L/EI 1.74: no start explained the grid at four orders,
-    # the fifth from the best one did
-    from whiskercal.mechfit import magnetfit
-
-    n = 200
-    costs = {(1, 2, 3, 4): 6.0 * n / 2, (1, 2, 3, 4, 5): 1.0 * n / 2, (1, 2, 3, 4, 5, 6): n}
-    joint_fit, tried = _fake_joint_fit(lambda _first, orders: costs[orders])
-    monkeypatch.setattr(magnetfit, "_joint_fit", joint_fit)
-    monkeypatch.setattr(magnetfit, "POLISH_PASSES", 0)
-    monkeypatch.setattr(magnetfit, "fit_mechanics", lambda *a, **k: _y_fit(1.0))
-    result, joint, _ = _best(magnetfit, np.arange(100) >= 90)
-    assert joint.orders == (1, 2, 3, 4, 5) and result.cost == n / 2
-    assert [t[1] for t in tried].count((1, 2, 3, 4, 5)) == 1
-    # left above twice the noise, the richer map goes to every start again
-    tried.clear()
-    costs[(1, 2, 3, 4, 5)] = 5.0 * n / 2
-    _best(magnetfit, np.arange(100) >= 90)
-    assert [t[1] for t in tried].count((1, 2, 3, 4, 5)) > 1
-
-
 def test_a_swept_fit_left_above_the_noise_is_polished_from_a_lower_ratio_while_it_pays(monkeypatch):
     # the 4x stiffer root's collected grid: its start groups settled at k_theta*L/EI 52 (chi2
     # 755) and a refinement from 0.8 of that reached 61.3 (chi2 636; docs/calibration.md)

@@ -293,13 +293,9 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     while _swept(sweep) and max(best[1].orders) < MAX_ORDER and _misfit_left(best, fields.size):
         richer = _one_order_more(best[1].orders)
         more = [_joint_fit(best[0].x[:best[1].solved_count], *args, richer, sweep)]
-        if _unexplained(best[0], fields.size) and not _settled(more[0], fields.size):
-            # no start's minimum explained the grid, nor does the richer map from the best: the
-            # truncated map may have chosen the basin (a soft root's turns need the richer map),
-            # so every start goes again too. Where the best's refinement settles, the starts
-            # stop there, as a start group's do (``_best_from_starts``): on the drawn 126 mm
-            # build (k_θ·L/EI 1.74) the starts found nothing better than the best's refinement
-            # (docs/research/2026-12-02-fit-speed-long-builds.md)
+        if _unexplained(best[0], fields.size):
+            # no start's minimum explained the grid: the truncated map may have chosen the
+            # basin (a soft root's turns need the richer map), so every start goes again too
             more += _best_from_starts(groups, *args, richer, sweep)[1]
         candidate = min(more, key=lambda f: f[0].cost)
         fits += more
