@@ -34,12 +34,13 @@ WATCHDOG_S = 1.0
 def run(quick: bool = False, progress=None, artifact: str | Path | None = None,
         duration_s: float | None = None, seed: int = 1) -> dict:
     """Rows for each shape and rate (``quick``: the octagon only, 10 s); ``artifact``: a calibration
-    with a target (default: the recorded default grid fitted as ``contour-target`` does)."""
+    with a target (default: the recorded default grid fitted as ``fit`` ships it, with its
+    (Y, Z) table, its target chosen as ``contour-target`` does)."""
     folder = Path(tempfile.mkdtemp(prefix="whiskercal-robot-loop-"))
     if artifact is None:
         from whiskercal.bench.contour_target import calibrations_with_target
 
-        artifact = calibrations_with_target(folder, field_table=False)["z-lookup"]
+        artifact = calibrations_with_target(folder)["yz-table"]
     duration_s = duration_s or (10.0 if quick else 140.0)  # the octagon goes round, with time to spare
     rows = []
     for shape in SHAPES[:1] if quick else SHAPES:
