@@ -53,10 +53,7 @@ def snapshot(path: Path) -> Path:
     rows = _rows(path)
     payload = {"written_by": "python scripts/sessions.py run", "comparison": "sensor-sessions",
                "snapshot_by": "python scripts/sessions.py snapshot",
-               "result": {"rows": rows, "per_build": sessions.per_build(rows),
-                          "machine": machine_info(),
-                          "missing_goal": [f"{r['build']} seed {r['seed']}" for r in rows
-                                           if not sessions.meets_goal(r)]}}
+               "result": {**sessions.summary(rows), "machine": machine_info()}}
     SNAPSHOT.write_text(json.dumps(payload, indent=1, allow_nan=True, default=str) + "\n",
                         encoding="utf-8")
     return SNAPSHOT

@@ -15,6 +15,7 @@ Builds are drawn (``draw_builds``) over length 45-130 mm, diameter 0.15-0.40 mm 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import tempfile
@@ -142,10 +143,6 @@ def meets_goal(row: dict) -> bool:
             and row["realistic_held"]["rmse_mm"] <= GOAL_REALISTIC_MM and row["honest"])
 
 
-def _session_args(builds: list[SensorParams], seeds: tuple[int, ...]):
-    return [(sensor, seed) for sensor in builds for seed in seeds]
-
-
 def _one(args) -> dict:
     return session_row(*args)
 
@@ -155,21 +152,22 @@ def run_sessions(builds: list[SensorParams], seeds: tuple[int, ...], workers: in
     """Every build on every seed, in ``workers`` processes (the CPUs by default); rows in the
     order given, each told to ``progress`` as it ends."""
     say = progress or (lambda _row: None)
-    jobs = _session_args(builds, seeds)
+    jobs = [(sensor, seed) for sensor in builds for seed in seeds]
     workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
-    if workers == 1:
+    with ProcessPoolExecutor(workers) if workers > 1 else contextlib.nullcontext() as pool:
         rows = []
-        for job in jobs:
-            rows.append(_one(job))
-            say(rows[-1])
-        return rows
-    with ProcessPoolExecutor(workers) as pool:
-        futures = [pool.submit(_one, job) for job in jobs]
-        rows = []
-        for future in futures:
-            rows.append(future.result())
-            say(rows[-1])
+        for row in (pool.map(_one, jobs) if pool is not None else map(_one, jobs)):
+            rows.append(row)
+            say(row)
     return rows
+
+
+def summary(rows: list[dict]) -> dict:
+    """The sessions' rows with each build's worst seed and spread (``per_build``) and the
+    sessions that miss a goal."""
+    return {"rows": rows, "per_build": per_build(rows),
+            "missing_goal": [f"{r['build']} seed {r['seed']}" for r in rows
+                             if not meets_goal(r)]}
 
 
 def per_build(rows: list[dict]) -> list[dict]:
