@@ -35,3 +35,22 @@ def test_one_cpu_runs_the_jobs_here_and_errors_come_back(monkeypatch):
     monkeypatch.setattr(workers, "available_cpus", lambda: 2)
     with pytest.raises(UsageError, match="refused 2"):
         workers.run_side_by_side(_refused, [(2.0,), (3.0,)])
+
+
+def test_different_functions_side_by_side_come_back_in_their_order(monkeypatch):
+    monkeypatch.setattr(workers, "available_cpus", lambda: 2)
+    found = workers.run_calls_side_by_side([(_job, (4, 3)), (divmod, (7, 2)), (_job, (5, 1))])
+    np.testing.assert_array_equal(found[0][0], _job(4, 3)[0])
+    assert found[1] == (3, 1)
+    np.testing.assert_array_equal(found[2][0], _job(5, 1)[0])
+
+
+@pytest.mark.parametrize("cpus", [1, 2])
+def test_a_background_job_gives_its_result_later_forked_or_not(monkeypatch, cpus):
+    monkeypatch.setattr(workers, "available_cpus", lambda: cpus)
+    background = workers.InBackground(_job, 6, 4)
+    values, pid = background.result()
+    np.testing.assert_array_equal(values, _job(6, 4)[0])
+    assert (pid != os.getpid()) == (cpus > 1)
+    with pytest.raises(UsageError, match="refused 1"):
+        workers.InBackground(_refused, 1.0).result()
