@@ -23,6 +23,7 @@ from scipy.special import expit
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fieldmap import DEFAULT_DEGREE, MAX_SHIFT_ORDER, PoseMap, fit_pose_map
 from whiskercal.mechfit.forward import Suspension, rod_poses
+from whiskercal.mechfit.workers import run_side_by_side
 
 STUB_FRACTION_START = 0.04
 ROT_COMPLIANCE_STARTS = (0.01, 0.1, 1.0)
@@ -143,17 +144,23 @@ def fit_mechanics(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_m
     return _RECENT_FITS[key]
 
 
+def _scout(centers, fields, noise, rod_radius_mm, trace_length_mm, rot, sweep):
+    """One scouting start at rotational compliance ``rot`` with a rigid (linear) pose map,
+    which leaves the mechanics less to hide: (cost, rot, theta, evaluations)."""
+    objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields,
+                           noise, 1, sweep)
+    result = least_squares(objective, _theta_start(trace_length_mm, rot), diff_step=1e-4,
+                           max_nfev=SCOUT_EVALUATIONS)
+    return float(result.cost), rot, result.x, objective.evaluations
+
+
 def _fit(centers, fields, noise, rod_radius_mm, trace_length_mm, degree, starts, sweep
          ) -> MechanicsFit:
     """``fit_mechanics`` on checked arrays."""
     started = time.perf_counter()
-    tried = []
-    for rot in starts:  # a rigid (linear) pose map first: it leaves the mechanics less to hide
-        objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields,
-                               noise, 1, sweep)
-        result = least_squares(objective, _theta_start(trace_length_mm, rot), diff_step=1e-4,
-                               max_nfev=SCOUT_EVALUATIONS)
-        tried.append((float(result.cost), rot, result.x, objective.evaluations))
+    # each start its own objective and warm starts: side by side, the same results
+    tried = run_side_by_side(_scout, [(centers, fields, noise, rod_radius_mm, trace_length_mm,
+                                       rot, sweep) for rot in starts])
     _, _, theta, _ = min(tried, key=lambda t: t[0])
     objective = _Objective(float(trace_length_mm), centers, float(rod_radius_mm), fields, noise,
                            degree, sweep)

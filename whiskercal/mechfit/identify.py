@@ -39,6 +39,7 @@ from whiskercal.mechfit.fit import (MAX_STUB_FRACTION, TRANS_SHARE_START, Mechan
 from whiskercal.mechfit.tables import (DEFAULT_KIND, DEFAULT_SAMPLES, monotone_z_range,
                                       with_interpolation_error, z_lookup)
 from whiskercal.mechfit.tipcurve import tip_family
+from whiskercal.mechfit.workers import run_side_by_side
 from whiskercal.model.lookup import TipLookup
 
 PROFILE_RATIOS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 10000.0)
@@ -372,7 +373,9 @@ def calibrate_mechanics(rod_center_mm, z_uT, rod_radius_mm: float, trace_length_
     fit, chi2 = problem.as_fit(problem.objective(), theta)
     fit, chi2, theta = _revive_collapsed_shift(problem, fit, chi2, theta)
     problem, fit, chi2, theta = _richer_map(problem, fit, chi2, theta)
-    profile = [_profile_point(problem, theta, ratio) for ratio in PROFILE_RATIOS]
+    # each point its own objective and warm starts: side by side, the same points
+    profile = run_side_by_side(_profile_point, [(problem, theta, ratio)
+                                                for ratio in PROFILE_RATIOS])
     best_profile = min(profile, key=lambda p: p.chi2)
     if best_profile.chi2 < chi2:
         start = best_profile.theta.copy()  # its own stub and translational compliance too
