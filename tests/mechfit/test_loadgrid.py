@@ -57,3 +57,25 @@ def test_a_model_with_no_tip_load_family_gets_a_usage_error_not_a_traceback(monk
     fit = SimpleNamespace(suspension=None, pose_map=SimpleNamespace(coefficients=np.zeros((3, 2))))
     with pytest.raises(UsageError, match="no tip-load family at any tilt"):
         tables.table_load_points(fit, (-100.0, 0.0), space_fixed=False)
+
+
+def test_the_tables_loads_solved_side_by_side_are_those_solved_in_turn(monkeypatch):
+    from functools import partial
+
+    from whiskercal.mechfit import tables, workers
+    from whiskercal.mechfit.tipcurve import tip_family
+
+    suspension = true_suspension(DEFAULT_SENSOR)
+    alphas = (88.0, 90.0, 92.0, 95.0, 100.0, 105.0)
+    few_sizes = partial(load_grid, magnitudes=(0.5, 1.0, 2.0))  # the test's time, not its point
+    monkeypatch.setattr(tables, "PAST_AXIS_ALPHAS_DEG", alphas)
+    monkeypatch.setattr(tables, "load_grid", few_sizes)
+    monkeypatch.setattr(workers, "available_cpus", lambda: 2)
+    families, grids = tables._solved_loads(suspension, (-20, 30), True)
+    for family, beta in zip(families, (-20, 30)):
+        expected = tip_family(suspension, math.radians(beta))
+        np.testing.assert_array_equal(family.tip_mm, expected.tip_mm)
+    np.testing.assert_array_equal(grids[0].tip_mm, few_sizes(suspension).tip_mm)
+    parts = np.concatenate([g.tip_mm for g in grids[1:] if len(g.pose)])
+    np.testing.assert_array_equal(parts, past_axis_loads(suspension, alphas).tip_mm)
+    assert len(grids) == 1 + tables.PAST_AXIS_PARTS

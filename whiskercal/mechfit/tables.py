@@ -15,8 +15,9 @@ from scipy.interpolate import LinearNDInterpolator
 
 from whiskercal.errors import UsageError
 from whiskercal.mechfit.fit import MechanicsFit
-from whiskercal.mechfit.loadgrid import load_grid, past_axis_loads
+from whiskercal.mechfit.loadgrid import PAST_AXIS_ALPHAS_DEG, load_grid, past_axis_loads
 from whiskercal.mechfit.tipcurve import TipFamily, tip_family
+from whiskercal.mechfit.workers import run_calls_side_by_side
 from whiskercal.model.field_table import FieldTipTable
 from whiskercal.model.lookup import TipLookup
 from whiskercal.twin.truth import first_branch
@@ -144,13 +145,36 @@ def _followed_low(curve: _TipCurve, low: float, high: float, samples: int, kind:
     return followed
 
 
-def _family_points(fit: MechanicsFit, betas_deg):
+# the past-axis loads, a third of the table's solves, in this many parts by direction: the
+# parts and the rest run side by side (``workers``) and come back in order, the same rows
+PAST_AXIS_PARTS = 4
+
+
+def _family_or_none(suspension, beta_deg: float) -> TipFamily | None:
+    """The tip-load family tilted ``beta_deg`` from the tip's normal; None where there is none."""
+    try:
+        return tip_family(suspension, math.radians(beta_deg))
+    except UsageError:
+        return None
+
+
+def _solved_loads(suspension, betas_deg, space_fixed: bool):
+    """The table's tip loads solved side by side: (the families by tilt, None where there is
+    none; the space-fixed load grids, the past-axis loads in ``PAST_AXIS_PARTS`` parts)."""
+    calls = [(_family_or_none, (suspension, beta)) for beta in betas_deg]
+    if space_fixed:
+        calls.append((load_grid, (suspension,)))
+        calls += [(past_axis_loads, (suspension, tuple(part)))
+                  for part in np.array_split(PAST_AXIS_ALPHAS_DEG, PAST_AXIS_PARTS)]
+    solved = run_calls_side_by_side(calls)
+    return solved[:len(betas_deg)], solved[len(betas_deg):]
+
+
+def _family_points(fit: MechanicsFit, families):
     """(Y, Z) µT and tips mm of the tip-load families tilted from the tip's normal."""
     fields, tips = [], []
-    for beta in betas_deg:
-        try:
-            family = tip_family(fit.suspension, math.radians(beta))
-        except UsageError:
+    for family in families:
+        if family is None:
             continue
         fields.append(fit.pose_map(family.pose)[:, :2])
         tips.append(family.tip_mm)
@@ -160,10 +184,9 @@ def _family_points(fit: MechanicsFit, betas_deg):
     return np.concatenate(fields), np.concatenate(tips)
 
 
-def _load_grid_points(fit: MechanicsFit):
+def _load_grid_points(fit: MechanicsFit, load_grids):
     """(Y, Z) µT and tips mm of space-fixed tip loads, kept within the grid's pose envelope."""
-    grids = [g for g in (load_grid(fit.suspension), past_axis_loads(fit.suspension))
-             if len(g.pose)]
+    grids = [g for g in load_grids if len(g.pose)]
     if not grids:
         return np.zeros((0, 2)), np.zeros((0, 2))
     pose = np.concatenate([g.pose for g in grids])
@@ -192,9 +215,10 @@ def table_load_points(fit: MechanicsFit, y_range_uT: tuple[float, float],
     """The model's tip loads the table is made from: (Y, Z) µT (n, 2) and tips mm (n, 2)."""
     if fit.pose_map.coefficients.shape[1] < 2:
         raise UsageError("a (Y, Z) table needs a fit of both axes.")
-    fields, tips = _family_points(fit, betas_deg)
+    families, load_grids = _solved_loads(fit.suspension, betas_deg, space_fixed)
+    fields, tips = _family_points(fit, families)
     if space_fixed:
-        more = _load_grid_points(fit)
+        more = _load_grid_points(fit, load_grids)
         fields, tips = np.concatenate([fields, more[0]]), np.concatenate([tips, more[1]])
     inside = (fields[:, 0] >= y_range_uT[0] - 0.05 * np.ptp(y_range_uT)) & (fields[:, 0] <= 0.0)
     return fields[inside], tips[inside]
