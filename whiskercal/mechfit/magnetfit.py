@@ -24,6 +24,7 @@ iteration.
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import replace
 
@@ -403,18 +404,25 @@ def ratio_profile(result, joint: _JointObjective, factors=PROFILE_FACTORS) -> li
     ``delta_chi2`` is twice the cost increase (residuals in standard errors): below about 9 the
     grid cannot tell that ratio from the best one; ``params``, the held fit's outer parameters.
     """
-    out = []
-    for factor in factors:
-        fixed = result.x[0] - np.log(factor)  # log rotational compliance = -log ratio
+    # each held fit warm-started from the best fit's poses (its own copy of the objective), so
+    # they run side by side (``workers``) and give the same in a process that runs them in turn
+    return run_side_by_side(_held_fit, [(result.x, result.cost, joint, factor)
+                                        for factor in factors])
 
-        def residual(rest, fixed=fixed):
-            return joint(np.insert(rest, 0, fixed))
 
-        low, high = joint.bounds(result.x.size)
-        held = least_squares(residual, np.delete(result.x, 0),
-                             bounds=(np.delete(low, 0), np.delete(high, 0)), diff_step=1e-5,
-                             x_scale=0.1, xtol=1e-8, ftol=1e-8, max_nfev=PROFILE_EVALUATIONS)
-        out.append({"stiffness_ratio": float(np.exp(-fixed)),
-                    "delta_chi2": float(2.0 * (held.cost - result.cost)),
-                    "params": np.insert(held.x, 0, fixed)})
-    return out
+def _held_fit(best_x: np.ndarray, best_cost: float, joint: _JointObjective, factor: float
+              ) -> dict:
+    """One point of :func:`ratio_profile`: k_θ·L/EI held at ``factor`` times the best's."""
+    fixed = best_x[0] - np.log(factor)  # log rotational compliance = -log ratio
+    joint = copy.deepcopy(joint)
+
+    def residual(rest):
+        return joint(np.insert(rest, 0, fixed))
+
+    low, high = joint.bounds(best_x.size)
+    held = least_squares(residual, np.delete(best_x, 0),
+                         bounds=(np.delete(low, 0), np.delete(high, 0)), diff_step=1e-5,
+                         x_scale=0.1, xtol=1e-8, ftol=1e-8, max_nfev=PROFILE_EVALUATIONS)
+    return {"stiffness_ratio": float(np.exp(-fixed)),
+            "delta_chi2": float(2.0 * (held.cost - best_cost)),
+            "params": np.insert(held.x, 0, fixed)}
