@@ -19,9 +19,11 @@ from whiskercal.fit.timings import StageTimes
 from whiskercal.fit.tip_model import (adopt_joint_lookup, choose_tip_model,
                                       refuse_unless_resolved)
 from whiskercal.fit.trace_length import resolve_trace_length
-from whiskercal.fit.truth import compare_with_twin_truth, refuse_z_against_truth
+from whiskercal.fit.truth import (compare_with_twin_truth, refuse_z_against_truth,
+                                  true_tip_curve, truth_sensor)
 from whiskercal.model.calibrate import (Calibration, CalibrationOptions, calibrate,
                                         calibrate_surface, trace_lookup)
+from whiskercal.mechfit.workers import InBackground
 from whiskercal.model.errors import ExtrapolationLimitError, FitError, ModelError
 
 if TYPE_CHECKING:
@@ -66,6 +68,10 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
     times = StageTimes(progress)
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
     model_options = options.calibration_options(length_mm)
+    grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
+    # the twin's true tip curve depends on the sensor alone: made on another CPU meanwhile
+    sensor = truth_sensor(grid)
+    truth_curve = None if sensor is None else InBackground(true_tip_curve, sensor)
     with times.stage("level_set"):
         calibration, untraceable = calibrate_grid(raw, model_options, progress)
     with times.stage("mechanics", "mechanics-informed tip model and the error estimate"):
@@ -77,9 +83,9 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
                                                     options.tip_model)
     tip_model = refuse_unless_resolved(tip_model, options.tip_model,
                                        table is not None and table.trusted)
-    grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
     with times.stage("truth"):
-        truth = compare_with_twin_truth(grid, calibration)
+        truth = compare_with_twin_truth(grid, calibration,
+                                        None if truth_curve is None else truth_curve.result())
     with times.stage("shaft_surface"):
         shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
     threshold = contact_threshold(options.threshold_uT, tip_model.mechanics,

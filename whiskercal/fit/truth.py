@@ -67,16 +67,22 @@ class TruthComparison:
                 "lookup_tip_mm": self.lookup_tip_mm, "error_mm": self.error_mm}
 
 
-def true_tips_in_range(sensor, z_low_uT: float, z_high_uT: float,
-                       n: int = TRUTH_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
-    """The twin sensor's tip-curve samples with z in [low, high] µT: z (m,), true tips (m, 2) mm.
+def true_tip_curve(sensor, n: int = TRUTH_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """The twin sensor's tip curve, its first branch only: z (m,) µT, true tips (m, 2) mm.
 
-    Only the curve's first branch: on a soft suspension z folds back, and the tips past the fold
-    (tens of mm from the first branch's at the same z) are not what a z -> tip lookup is for.
+    On a soft suspension z folds back, and the tips past the fold (tens of mm from the first
+    branch's at the same z) are not what a z -> tip lookup is for.
     """
     from whiskercal.twin import truth
 
-    z, tips = truth.first_branch(*truth.tip_curve(sensor, n))
+    return truth.first_branch(*truth.tip_curve(sensor, n))
+
+
+def true_tips_in_range(sensor, z_low_uT: float, z_high_uT: float,
+                       n: int = TRUTH_SAMPLES, curve=None) -> tuple[np.ndarray, np.ndarray]:
+    """The twin sensor's tip-curve samples (``true_tip_curve``, or ``curve`` made by it
+    already) with z in [low, high] µT: z (m,), true tips (m, 2) mm."""
+    z, tips = true_tip_curve(sensor, n) if curve is None else curve
     inside = (z >= z_low_uT) & (z <= z_high_uT)
     return z[inside], tips[inside]
 
@@ -87,22 +93,31 @@ def compare_lookup(lookup, z_uT: np.ndarray, true_tip_mm: np.ndarray) -> TruthCo
                            lookup(np.asarray(z_uT, float)))
 
 
-def lookup_vs_twin_truth(raw, lookup) -> TruthComparison | None:
+def truth_sensor(raw):
+    """The twin's sensor a raw grid came from, or None unless it has /truth and a twin
+    sensor's description or id (a real rig's grid)."""
+    return None if raw.truth is None else twin_sensor(raw)
+
+
+def lookup_vs_twin_truth(raw, lookup, curve=None) -> TruthComparison | None:
     """A lookup (a :class:`~whiskercal.model.lookup.TipLookup`) over its z range against the
-    twin's true tips, or None unless the raw grid came from a twin sensor."""
-    sensor = twin_sensor(raw)
-    if raw.truth is None or sensor is None:
+    twin's true tips, or None unless the raw grid came from a twin sensor. ``curve``: the
+    sensor's ``true_tip_curve``, where it was made already."""
+    sensor = truth_sensor(raw)
+    if sensor is None:
         return None
-    return compare_lookup(lookup, *true_tips_in_range(sensor, lookup.z_min_uT, lookup.z_max_uT))
+    return compare_lookup(lookup, *true_tips_in_range(sensor, lookup.z_min_uT, lookup.z_max_uT,
+                                                      curve=curve))
 
 
-def compare_with_twin_truth(raw, calibration) -> TruthComparison | None:
+def compare_with_twin_truth(raw, calibration, curve=None) -> TruthComparison | None:
     """A :class:`~whiskercal.model.calibrate.Calibration` of the raw grid against the twin's
     truth: its lookup against the true tips, its rod correction against the true contacts.
 
     None unless the raw grid came from a twin sensor (it has /truth and a twin sensor's id).
+    ``curve``: the sensor's ``true_tip_curve``, where it was made already.
     """
-    comparison = lookup_vs_twin_truth(raw, calibration.lookup)
+    comparison = lookup_vs_twin_truth(raw, calibration.lookup, curve)
     contact = raw.truth.get("contact_mm") if comparison is not None else None
     if contact is None:
         return comparison
