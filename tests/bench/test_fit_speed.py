@@ -2,6 +2,7 @@
 
 import json
 import math
+import time
 from pathlib import Path
 
 import pytest
@@ -58,3 +59,22 @@ def test_the_quick_comparison_fits_each_tip_model_and_draws_the_chart(tmp_path):
     assert "joint_fit" in rows["auto"]["timings_s"]
     assert "joint_fit" not in rows["level-set"]["timings_s"]
     assert (tmp_path / "fit-speed.png").read_bytes().startswith(b"\x89PNG")
+
+
+def _busy(seconds: float) -> float:
+    """Burn this much CPU time (s) in the worker."""
+    start = time.process_time()
+    while time.process_time() - start < seconds:
+        pass
+    return time.process_time() - start
+
+
+def test_the_cpu_time_counts_the_fits_worker_processes(monkeypatch):
+    from whiskercal.bench.fit_speed import _cpu_s
+    from whiskercal.mechfit import workers
+
+    monkeypatch.setattr(workers, "available_cpus", lambda: 2)
+    before = _cpu_s()
+    spent = workers.run_side_by_side(_busy, [(0.2,), (0.2,)])
+    # the workers' own time, none of it this process's (0.9: the kernel's microsecond rounding)
+    assert _cpu_s() - before >= 0.9 * sum(spent) and sum(spent) >= 0.4
