@@ -77,6 +77,9 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
     with times.stage("mechanics", "mechanics-informed tip model and the error estimate"):
         calibration, tip_model = choose_tip_model(raw, calibration, options.tip_model,
                                                   length_mm, options.samples, untraceable)
+    # the shaft localizer's surface needs the grid and the mechanics alone: fitted on another
+    # CPU while the joint fit runs (its stage's time is then the wait for it)
+    shaft_surface = InBackground(shaft_surface_for, grid, length_mm, tip_model.mechanics)
     table = _field_table(raw, length_mm, options, times, tip_model.mechanics)
     if table is not None:
         calibration, tip_model = adopt_joint_lookup(calibration, tip_model, table.z_lookup,
@@ -87,7 +90,7 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
         truth = compare_with_twin_truth(grid, calibration,
                                         None if truth_curve is None else truth_curve.result())
     with times.stage("shaft_surface"):
-        shaft = shaft_surface_for(grid, length_mm, tip_model.mechanics)
+        shaft = shaft_surface.result()
     threshold = contact_threshold(options.threshold_uT, tip_model.mechanics,
                                   float(np.median(raw.z_std_uT)))
     metrics = {**surface_and_lookup_metrics(calibration), **evidence_metrics(calibration),
