@@ -260,3 +260,34 @@ def test_a_refinement_whose_offset_stays_at_its_bound_is_ended_and_not_settled()
         callback(SimpleNamespace(x=at_bound))
     assert magnetfit._settled((SimpleNamespace(cost=0.5, x=inside), joint), 2)
     assert not magnetfit._settled((SimpleNamespace(cost=0.5, x=at_bound), joint), 2)
+
+
+class _WarmStarted:
+    """A stand-in joint objective whose residual depends on where its last call was, as the
+    warm starts of the real one make it: a held fit run after another would start elsewhere."""
+
+    def __init__(self):
+        self.last = 0.0
+
+    def __call__(self, params):
+        residual = params - np.array([1.0, 2.0, 3.0]) + 0.1 * self.last
+        self.last = float(params[1])
+        return residual
+
+    def bounds(self, count):
+        return np.full(count, -np.inf), np.full(count, np.inf)
+
+
+@pytest.mark.parametrize("cpus", [1, 2])
+def test_each_held_fit_starts_from_the_best_fit_whether_side_by_side_or_not(monkeypatch, cpus):
+    from whiskercal.mechfit import magnetfit, workers
+
+    monkeypatch.setattr(workers, "available_cpus", lambda: cpus)
+    best = SimpleNamespace(x=np.array([0.5, 1.0, 2.0]), cost=0.0)
+    joint = _WarmStarted()
+    profile = magnetfit.ratio_profile(best, joint, factors=(0.25, 4.0))
+    assert joint.last == 0.0  # each held fit had its own copy
+    for point, factor in zip(profile, (0.25, 4.0)):
+        alone = magnetfit._held_fit(best.x, best.cost, _WarmStarted(), factor)
+        np.testing.assert_array_equal(point["params"], alone["params"])
+        assert point["delta_chi2"] == alone["delta_chi2"]
