@@ -13,8 +13,9 @@ in this process, one after the other, with each tip model:
 
 Each row gives the fit's wall and CPU time (s; the CPU time includes the fit's worker
 processes), its stages' wall times (``timings_s``), the tip model shipped and its lookup
-against the twin's true tips (RMS and max, mm, world frame, no fitted alignment). `run()` returns JSON-able results with a Pareto chart of time against the
-RMS tip error, one panel per dataset; `whiskercal bench --only fit-speed` collects them.
+against the twin's true tips (RMS and max, mm, world frame, no fitted alignment). `run()`
+returns JSON-able results with a Pareto chart of time against the RMS tip error, one panel per
+dataset; `whiskercal bench --only fit-speed` collects them.
 """
 
 from __future__ import annotations

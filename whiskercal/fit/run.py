@@ -21,9 +21,9 @@ from whiskercal.fit.tip_model import (adopt_joint_lookup, choose_tip_model,
 from whiskercal.fit.trace_length import resolve_trace_length
 from whiskercal.fit.truth import (compare_with_twin_truth, refuse_z_against_truth,
                                   true_tip_curve, truth_sensor)
+from whiskercal.mechfit.workers import InBackground
 from whiskercal.model.calibrate import (Calibration, CalibrationOptions, calibrate,
                                         calibrate_surface, trace_lookup)
-from whiskercal.mechfit.workers import InBackground
 from whiskercal.model.errors import ExtrapolationLimitError, FitError, ModelError
 
 if TYPE_CHECKING:
