@@ -216,6 +216,12 @@ class WallOutline:
         """Length of the outline from end to end, mm."""
         return float(np.sum(np.linalg.norm(np.diff(self.points(), axis=0), axis=1)))
 
+    def past_end(self, point_mm: np.ndarray) -> bool:
+        """Does ``point_mm`` (world) lie beyond the outline's far end, along its last side (where
+        the solid goes on only so that no false edge stands at the end)?"""
+        last, end = self.core_mm[-2], self.core_mm[-1]
+        return bool((np.asarray(point_mm, float) - end) @ (end - last) > 0.0)
+
 
 def _outward(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Unit outward normal (to the right walking from a to b: the solid is on the left)."""
