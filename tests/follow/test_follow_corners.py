@@ -360,16 +360,21 @@ def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_bac
         assert steps[-1].phase == "follow" and scene.follower.phase.value == "enter-corner"
         return
     assert _allowed(scene)[-2:] == ["rise ahead", "corner too narrow"]
+    base = scene.robot.pose()[:2]  # (one sample on from the rule's: 0.03 mm)
     # out of the corner, away from both surfaces: out of the one left (+y) and back along it
     # (+x); backing off along the whisker (-110°) would push the tip into the next surface
     step = scene.step(TARGET_UT)
     assert step.phase == "back-off" and not scene.follower.gave_up
     np.testing.assert_allclose(step.velocity_mm_s, config.approach_speed_mm_s * unit(math.radians(45.0)))
-    # the next surface guessed square to the one left, and met corner_pass_mm along it
+    # the next surface guessed square to the one left, and met where the base, trailing the tip
+    # along it as far as it trails it now (52 mm, +x of the corner), clears the one left by
+    # corner_clearance_mm
     assert angle_deg(scene.follower.tangent) == pytest.approx(90.0, abs=1e-6)
     (key,) = scene.follower.keys  # (the corner: where the rise rule fired, the tip slowed along -x)
-    assert key[1] == pytest.approx(corner[1] + config.corner_pass_mm, abs=1e-9)
     assert abs(key[0] - corner[0]) < 1.0
+    trailing = base[0] - key[0]
+    assert trailing == pytest.approx(52.1, abs=0.5)
+    assert key[1] == pytest.approx(corner[1] + trailing + config.corner_clearance_mm, abs=0.1)
 
 
 def test_past_a_concave_corner_too_narrow_to_turn_about_it_comes_in_on_the_next_wall():
@@ -386,10 +391,10 @@ def test_past_a_concave_corner_too_narrow_to_turn_about_it_comes_in_on_the_next_
             break
     assert [t.rule for t in scene.transitions()][-4:] == ["corner too narrow", "backed off", "touched",
                                                           "target reached"]
-    # on the second wall, from about corner_pass_mm along it, and along it (+y)
+    # on the second wall, about 62 mm along it (52 + 10: the test above), and along it (+y)
     came_in = next(step.contact_mm for step in steps if step.phase == "press")
     assert came_in[0] == pytest.approx(corner[0], abs=1e-6)
-    assert 0.8 * scene.config.corner_pass_mm < came_in[1] - corner[1] < 1.2 * scene.config.corner_pass_mm
+    assert 55.0 < came_in[1] - corner[1] < 70.0
     scene.run(3.0)
     assert scene.follower.phase.value == "follow"
     assert angle_deg(scene.follower.tangent) == pytest.approx(90.0, abs=2.0)
@@ -418,6 +423,6 @@ def test_a_deflection_that_falls_by_half_step_by_step_while_touching_backs_out_o
         velocity = steps[-1].velocity_mm_s
         assert np.linalg.norm(velocity) == pytest.approx(config.approach_speed_mm_s)
         assert angle_deg(velocity) == pytest.approx(45.0, abs=5.0)
-        (key,) = scene.follower.keys
-        assert np.linalg.norm(key - corner) == pytest.approx(config.corner_pass_mm)
+        (key,) = scene.follower.keys  # (the base trails the tip by 78 sin 20° = 27 mm)
+        assert np.linalg.norm(key - corner) == pytest.approx(26.7 + config.corner_clearance_mm, abs=2.0)
         assert angle_deg(key - corner) == pytest.approx(90.0, abs=5.0)

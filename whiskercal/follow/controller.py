@@ -250,7 +250,7 @@ class Follower:
             # the sensor moves on. Turning about the corner kept pushing it until z read no
             # contact, the tip still caught, and backing off along the whisker drove the wire
             # into both walls: back out of the corner instead, away from both
-            self._pass_corner("held in a corner", np.array([self.tangent[1], -self.tangent[0]]))
+            self._pass_corner("held in a corner", np.array([self.tangent[1], -self.tangent[0]]), pose)
             return self._back_off(pose)
         if label is Phase.PRESS and self._reached(z_uT):
             self._to("target reached")
@@ -305,22 +305,25 @@ class Follower:
         would bring the base to the surface it leaves (a concave corner narrower than the bent
         whisker's reach): then stop for good rather than crash."""
         if self._swings_into_left(pose, contact):
-            self._pass_corner("corner too narrow", self._left_outward)
+            self._pass_corner("corner too narrow", self._left_outward, pose)
             return self._back_off(pose)
         velocity, turn = self._turn_about(self.keys[-1], z_uT, pose)
         return velocity, turn, contact, label
 
-    def _pass_corner(self, rule: str, outward: np.ndarray) -> None:
+    def _pass_corner(self, rule: str, outward: np.ndarray, pose: np.ndarray) -> None:
         """A tip held in a concave corner (the last key point) that the sensor cannot turn
         about: back off out of it, away from both surfaces (out of the one left, whose outward
         normal is ``outward``, and back along it: backing off along the whisker, the tip held in
-        the corner, drove it into the next surface), then come in on the next surface
-        ``corner_pass_mm`` along it, where the bent whisker's base clears the one left. Its
-        direction is not known yet; a square corner's is guessed (``outward``), and the key
-        points then find the true one."""
+        the corner, drove it into the next surface), then come in on the next surface where the
+        base, trailing the tip along it as far as it trails it now, stays
+        ``corner_clearance_mm`` clear of the one left. The next surface's direction is not
+        known yet; a square corner's is guessed (``outward``), and the key points then find the
+        true one."""
         corner = self.keys[-1]
+        followed = np.array([-outward[1], outward[0]])  # the direction of the surface left
+        trailing = max(float((corner - pose[:2]) @ followed), 0.0)  # mm: the base behind the tip
         self.tangent = outward.copy()
-        self._restart_keys(corner + self.config.corner_pass_mm * outward)
+        self._restart_keys(corner + (trailing + self.config.corner_clearance_mm) * outward)
         self._start_back_off(rule)
         self._retreat = _unit(_angle(outward) - math.pi / 4)
 

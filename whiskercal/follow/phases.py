@@ -85,11 +85,11 @@ RULES: dict[str, Rule] = {
     "held in a corner": Rule(frozenset({_P.FOLLOW}), _P.BACK_OFF,
                              "|z| fell by half in many small steps with the wire touching: a tip "
                              "held in a concave corner, pushed along the wire; back off out of the "
-                             "corner and come in on the next surface corner_pass_mm along it"),
+                             "corner and come in on the next surface where the base clears the one left"),
     "corner too narrow": Rule(frozenset({_P.ENTER_CORNER}), _P.BACK_OFF,
                               "turning about the corner would bring the base within "
                               "corner_clearance_mm of the surface it leaves: back off out of the "
-                              "corner and come in on the next surface corner_pass_mm along it"),
+                              "corner and come in on the next surface where the base clears the one left"),
     "not found": Rule(frozenset({_P.SEARCH}), _P.STOPPED,
                       "the search passed the last key point search_turns + 1 times without a contact"),
 }
