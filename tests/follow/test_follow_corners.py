@@ -377,6 +377,20 @@ def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_bac
     assert key[1] == pytest.approx(corner[1] + trailing + config.corner_clearance_mm, abs=0.1)
 
 
+def test_backing_out_of_a_concave_corner_never_brings_the_base_to_the_wall_left():
+    scene, corner, _ = _at_a_corner_bent(True)
+    scene.tracker.inner = NoContact()
+    assert scene.step().phase == "back-off"
+    pose = scene.robot.pose()
+    clearance = scene.config.corner_clearance_mm
+    scene.robot.place([pose[0], corner[1] + clearance + 0.5, pose[2]])  # (a guess gone wrong)
+    assert scene.step().phase == "back-off"
+    scene.robot.place([pose[0], corner[1] + clearance - 0.5, pose[2]])
+    step = scene.step()
+    assert step.phase == "stopped" and scene.follower.gave_up and not np.any(step.velocity_mm_s)
+    assert _allowed(scene)[-1] == "near the surface left"
+
+
 def test_past_a_concave_corner_too_narrow_to_turn_about_it_comes_in_on_the_next_wall():
     scene, corner, _ = _at_a_corner_bent(True)
     # the next wall: x = corner's, walked toward +y, the object on its left (-x)

@@ -90,6 +90,7 @@ class Follower:
         self._search_turned = 0  # turns of the search line about the last key point so far
         self._dwell = 0  # samples following since the last key point
         self._left_outward: np.ndarray | None = None  # the surface left at a concave corner
+        self._left_corner: np.ndarray | None = None  # that corner (world, mm)
 
     @property
     def gave_up(self) -> bool:
@@ -136,6 +137,11 @@ class Follower:
     def _handle(self, z_uT, tip, far_side, fell_gradually, pose):
         """The current phase's handler, after the rules checked at a sample's start."""
         if self.phase is Phase.STOPPED:
+            return self._stopped()
+        if self.phase in (Phase.BACK_OFF, Phase.SEARCH) and self._near_the_surface_left(pose):
+            # the next surface's direction was only guessed: rather than drive the base into
+            # the surface the whisker felt up to the corner, stop
+            self._to("near the surface left")
             return self._stopped()
         if self.phase is Phase.BACK_OFF and self._backing == 0:  # backed off
             if tip is None:
@@ -320,6 +326,7 @@ class Follower:
         known yet; a square corner's is guessed (``outward``), and the key points then find the
         true one."""
         corner = self.keys[-1]
+        self._left_outward, self._left_corner = outward.copy(), np.asarray(corner, float).copy()
         followed = np.array([-outward[1], outward[0]])  # the direction of the surface left
         trailing = max(float((corner - pose[:2]) @ followed), 0.0)  # mm: the base behind the tip
         self.tangent = outward.copy()
@@ -419,6 +426,7 @@ class Follower:
         self._last_turn = Phase.ROUND_EDGE if toward_object else Phase.ENTER_CORNER
         if not toward_object and self._left_outward is None:  # the surface followed up to here
             self._left_outward = np.array([self.tangent[1], -self.tangent[0]])
+            self._left_corner = np.asarray(contact, float).copy()
         self.tangent = _unit(_angle(self.tangent) + math.radians(turn))
         self._restart_keys(contact)
 
@@ -433,6 +441,13 @@ class Follower:
         bend = _wrap(_angle(contact - pose[:2]) - pose[2])  # the chord to the tip from the heading
         base = corner - arm * _unit(self._target_heading() + bend)
         return float((base - corner) @ self._left_outward) < self.config.corner_clearance_mm
+
+    def _near_the_surface_left(self, pose: np.ndarray) -> bool:
+        """Past a concave corner, off the surface: is the base within ``corner_clearance_mm``
+        of the surface left there (its line through the corner)?"""
+        if self._left_outward is None or self._left_corner is None:
+            return False
+        return float((pose[:2] - self._left_corner) @ self._left_outward) < self.config.corner_clearance_mm
 
     def _restart_keys(self, point: np.ndarray) -> None:
         """The key points start afresh from ``point`` (mm, world)."""

@@ -90,6 +90,9 @@ RULES: dict[str, Rule] = {
                               "turning about the corner would bring the base within "
                               "corner_clearance_mm of the surface it leaves: back off out of the "
                               "corner and come in on the next surface where the base clears the one left"),
+    "near the surface left": Rule(frozenset({_P.BACK_OFF, _P.SEARCH}), _P.STOPPED,
+                                  "off the surface past a concave corner, the base came within "
+                                  "corner_clearance_mm of the surface left there"),
     "not found": Rule(frozenset({_P.SEARCH}), _P.STOPPED,
                       "the search passed the last key point search_turns + 1 times without a contact"),
 }
