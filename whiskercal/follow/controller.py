@@ -90,7 +90,9 @@ class Follower:
         self._search_turned = 0  # turns of the search line about the last key point so far
         self._dwell = 0  # samples following since the last key point
         self._left_outward: np.ndarray | None = None  # the surface left at a concave corner
-        self._left_corner: np.ndarray | None = None  # that corner (world, mm)
+        # (the corner, world mm; the outward normal of the surface left) while backing out of a
+        # concave corner and coming in on the next surface, until it is touched
+        self._passing: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def gave_up(self) -> bool:
@@ -230,6 +232,7 @@ class Follower:
         and the sensor turns about it; the estimates of a tip held there wander (its axial push
         read as a bend), so they add no key point and fire no rule."""
         self._missing, self._search_turned = 0, 0
+        self._passing = None  # a surface touched: the corner passed, if one was
         contact = _rotation(pose[2]) @ tip + pose[:2]
         if self.phase in TURNING:
             lag = abs(_wrap(self._target_heading() - pose[2]))
@@ -325,8 +328,8 @@ class Follower:
         ``corner_clearance_mm`` clear of the one left. The next surface's direction is not
         known yet; a square corner's is guessed (``outward``), and the key points then find the
         true one."""
-        corner = self.keys[-1]
-        self._left_outward, self._left_corner = outward.copy(), np.asarray(corner, float).copy()
+        corner = np.asarray(self.keys[-1], float).copy()
+        self._passing = (corner, outward.copy())
         followed = np.array([-outward[1], outward[0]])  # the direction of the surface left
         trailing = max(float((corner - pose[:2]) @ followed), 0.0)  # mm: the base behind the tip
         self.tangent = outward.copy()
@@ -426,7 +429,6 @@ class Follower:
         self._last_turn = Phase.ROUND_EDGE if toward_object else Phase.ENTER_CORNER
         if not toward_object and self._left_outward is None:  # the surface followed up to here
             self._left_outward = np.array([self.tangent[1], -self.tangent[0]])
-            self._left_corner = np.asarray(contact, float).copy()
         self.tangent = _unit(_angle(self.tangent) + math.radians(turn))
         self._restart_keys(contact)
 
@@ -445,9 +447,10 @@ class Follower:
     def _near_the_surface_left(self, pose: np.ndarray) -> bool:
         """Past a concave corner, off the surface: is the base within ``corner_clearance_mm``
         of the surface left there (its line through the corner)?"""
-        if self._left_outward is None or self._left_corner is None:
+        if self._passing is None:
             return False
-        return float((pose[:2] - self._left_corner) @ self._left_outward) < self.config.corner_clearance_mm
+        corner, outward = self._passing
+        return float((pose[:2] - corner) @ outward) < self.config.corner_clearance_mm
 
     def _restart_keys(self, point: np.ndarray) -> None:
         """The key points start afresh from ``point`` (mm, world)."""
