@@ -189,6 +189,23 @@ def test_a_tip_held_while_the_sensor_moves_along_turns_the_surface(z_uT, turned_
     assert _allowed(scene)[-1] == rule and scene.follower.phase in TURNING
 
 
+@pytest.mark.parametrize("out_mm, turned_deg, rule", [(1.5, 135.0, "pushed out"),
+                                                     (0.5, -160.0, "edge held")])
+def test_a_held_contact_pushed_out_of_the_surfaces_line_is_a_concave_corner_not_an_edge(
+        out_mm, turned_deg, rule):
+    scene = following_along_x(toward=-1)  # along -x, the object below (y < 0)
+    last_key = np.array(scene.follower.keys[-1])
+    # held with |z| kept at the target, as on an edge; but 1.5 mm out of the surface's line, on
+    # the whisker's side (+y): no convex surface puts the contact there, a tip held in a
+    # concave corner and pushed along the wire does (its push read as a bend toward the base)
+    held = scene.steps[-1].contact_mm + np.array([0.0, out_mm])
+    _held(scene, HeldAt(scene.robot, held), TARGET_UT)
+    assert _allowed(scene)[-1] == rule and scene.follower.phase in TURNING
+    assert angle_deg(scene.follower.tangent) == pytest.approx(turned_deg, abs=1e-6)
+    if rule == "pushed out":  # the corner: the last key point on the surface, not the estimate
+        np.testing.assert_allclose(np.array(scene.follower.keys), [last_key])
+
+
 def test_a_tip_that_moves_along_with_the_sensor_is_not_held():
     scene = following_along_x(toward=-1)
     x = scene.robot.pose()[0]
@@ -316,12 +333,14 @@ def test_a_search_meeting_the_object_on_the_far_side_comes_in_further_along(past
     np.testing.assert_allclose(np.array(scene.follower.keys), [expected], atol=1e-9)
 
 
-@pytest.mark.parametrize("bent, stops", [(True, True), (False, False)])
-def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_stops_the_sensor(bent, stops):
-    # bent: the tip 70 mm along the whisker and 30 mm to its right (the chord 23° clockwise of
-    # the heading, as a whisker pressed at the target is); turning about the corner to the
-    # heading the 45° turn asks for (-155°) would put the base 2.7 mm above the wall it leaves
-    # (y = 0 through the corner). Straight (the tip on the whisker's axis): 33 mm above it.
+def _at_a_corner_bent(bent: bool):
+    """Following along -x (the object below), the whisker placed as pressed at the target or
+    straight, and the tip then held (``SlowedAlong`` at half the motion, |z| 1.12 times the
+    target's: the rise rule) at the last contact, the corner; (the scene, the corner, the steps).
+    bent: the tip 70 mm along the whisker and 30 mm to its right (the chord 23° clockwise of
+    the heading, as a whisker pressed at the target is); turning about the corner to the
+    heading the 45° turn asks for (-155°) would put the base 2.7 mm above the wall it leaves
+    (y = 0 through the corner). Straight (the tip on the whisker's axis): 33 mm above it."""
     scene = following_along_x(toward=-1)
     corner, heading = scene.steps[-1].contact_mm, scene.robot.pose()[2]
     assert math.degrees(heading) == pytest.approx(-110.0, abs=0.5)
@@ -329,31 +348,95 @@ def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_sto
     turn = np.array([[math.cos(heading), -math.sin(heading)], [math.sin(heading), math.cos(heading)]])
     scene.robot.place([*(corner - turn @ tip_mm), heading])
     steps = _held(scene, SlowedAlong(scene.robot, corner, np.array([-1.0, 0.0]), 0.5), -5600.0)
-    assert angle_deg(scene.follower.tangent) == pytest.approx(135.0, abs=1.0)  # the rise rule
-    assert scene.follower.gave_up == stops
-    if stops:  # stopped for good rather than driven into the wall
-        step = steps[-1]
-        assert step.phase == "stopped" and not np.any(step.velocity_mm_s) and step.turn_rad_s == 0.0
-        assert _allowed(scene)[-2:] == ["rise ahead", "corner too narrow"]
-        assert scene.step(TARGET_UT).phase == "stopped"
-    else:
+    return scene, corner, steps
+
+
+@pytest.mark.parametrize("bent", [True, False])
+def test_a_concave_corner_whose_turn_would_swing_the_base_onto_the_wall_left_backs_out_of_it(bent):
+    scene, corner, steps = _at_a_corner_bent(bent)
+    config = scene.config
+    if not bent:  # turning about the corner
+        assert angle_deg(scene.follower.tangent) == pytest.approx(135.0, abs=1.0)  # the rise rule
         assert steps[-1].phase == "follow" and scene.follower.phase.value == "enter-corner"
+        return
+    assert _allowed(scene)[-2:] == ["rise ahead", "corner too narrow"]
+    base = scene.robot.pose()[:2]  # (one sample on from the rule's: 0.03 mm)
+    # out of the corner, away from both surfaces: out of the one left (+y) and back along it
+    # (+x); backing off along the whisker (-110°) would push the tip into the next surface
+    step = scene.step(TARGET_UT)
+    assert step.phase == "back-off" and not scene.follower.gave_up
+    np.testing.assert_allclose(step.velocity_mm_s, config.approach_speed_mm_s * unit(math.radians(45.0)))
+    # the next surface guessed square to the one left, and met where the base, trailing the tip
+    # along it as far as it trails it now (52 mm, +x of the corner), clears the one left by
+    # corner_clearance_mm
+    assert angle_deg(scene.follower.tangent) == pytest.approx(90.0, abs=1e-6)
+    (key,) = scene.follower.keys  # (the corner: where the rise rule fired, the tip slowed along -x)
+    assert abs(key[0] - corner[0]) < 1.0
+    trailing = base[0] - key[0]
+    assert trailing == pytest.approx(52.1, abs=0.5)
+    assert key[1] == pytest.approx(corner[1] + trailing + config.corner_clearance_mm, abs=0.1)
 
 
-@pytest.mark.parametrize("gradual, stops", [(True, True), (False, False)])
-def test_a_deflection_that_falls_by_half_step_by_step_while_touching_stops_the_sensor(gradual, stops):
+def test_backing_out_of_a_concave_corner_never_brings_the_base_to_the_wall_left():
+    scene, corner, _ = _at_a_corner_bent(True)
+    scene.tracker.inner = NoContact()
+    assert scene.step().phase == "back-off"
+    pose = scene.robot.pose()
+    clearance = scene.config.corner_clearance_mm
+    scene.robot.place([pose[0], corner[1] + clearance + 0.5, pose[2]])  # (a guess gone wrong)
+    assert scene.step().phase == "back-off"
+    scene.robot.place([pose[0], corner[1] + clearance - 0.5, pose[2]])
+    step = scene.step()
+    assert step.phase == "stopped" and scene.follower.gave_up and not np.any(step.velocity_mm_s)
+    assert _allowed(scene)[-1] == "near the surface left"
+
+
+def test_past_a_concave_corner_too_narrow_to_turn_about_it_comes_in_on_the_next_wall():
+    scene, corner, _ = _at_a_corner_bent(True)
+    # the next wall: x = corner's, walked toward +y, the object on its left (-x)
+    scene.world.segments = [np.array([[60.0, 0.0], [corner[0], 0.0]]),
+                            np.array([[corner[0], -50.0], [corner[0], 400.0]])]
+    scene.tracker.inner = scene.world
+    steps, base_y = [], []
+    for _ in range(int(60.0 * scene.config.rate_hz)):
+        steps.append(scene.step())
+        base_y.append(scene.robot.pose()[1])
+        if steps[-1].phase == "follow":
+            break
+    assert [t.rule for t in scene.transitions()][-4:] == ["corner too narrow", "backed off", "touched",
+                                                          "target reached"]
+    # on the second wall, about 62 mm along it (52 + 10: the test above), and along it (+y)
+    came_in = next(step.contact_mm for step in steps if step.phase == "press")
+    assert came_in[0] == pytest.approx(corner[0], abs=1e-6)
+    assert 55.0 < came_in[1] - corner[1] < 70.0
+    scene.run(3.0)
+    assert scene.follower.phase.value == "follow"
+    assert angle_deg(scene.follower.tangent) == pytest.approx(90.0, abs=2.0)
+    # the base never went below the wall it left (y = 0) on the way round
+    assert min(base_y) > corner[1]
+
+
+@pytest.mark.parametrize("gradual", [True, False])
+def test_a_deflection_that_falls_by_half_step_by_step_while_touching_backs_out_of_the_corner(gradual):
     # a tip held in a concave corner and pushed along the wire as the sensor moves on: |z| falls
     # over tens of samples, the wire still touching (turning about the corner, or backing off
-    # with the tip caught between both walls, drove the wire into the solid); a slip falls in
-    # one snap and is not that
-    scene = following_along_x(toward=-1)
+    # along the whisker with the tip caught between both walls, drove the wire into the solid);
+    # a slip falls in one snap and is not that
+    config = FollowConfig()
+    scene = following_along_x(config, toward=-1)  # along -x, the object below
     scene.tracker.inner = MovesWith(scene.robot, scene.steps[-1].contact_mm)
     scene.run(0.2, z_uT=TARGET_UT)  # following at the target
+    corner = np.array(scene.follower.keys[-1])
     falls = np.linspace(TARGET_UT, -2000.0, 25) if gradual else np.array([-2000.0])
     steps = [scene.step(z_uT) for z_uT in falls]
     assert any(step.slip for step in steps)  # either way a slip's fall (|z| under half its most)
-    assert scene.follower.gave_up == stops
-    assert (steps[-1].phase == "stopped") == stops
-    if stops:
-        assert not np.any(steps[-1].velocity_mm_s) and steps[-1].turn_rad_s == 0.0
+    assert (steps[-1].phase == "back-off") == gradual and not scene.follower.gave_up
+    if gradual:  # out of the corner away from both walls (+y out of the one left, +x back along it)
         assert _allowed(scene)[-1] == "held in a corner"
+        # (the direction followed is the key points' spline's, within a few degrees of -x)
+        velocity = steps[-1].velocity_mm_s
+        assert np.linalg.norm(velocity) == pytest.approx(config.approach_speed_mm_s)
+        assert angle_deg(velocity) == pytest.approx(45.0, abs=5.0)
+        (key,) = scene.follower.keys  # (the base trails the tip by 78 sin 20° = 27 mm)
+        assert np.linalg.norm(key - corner) == pytest.approx(26.7 + config.corner_clearance_mm, abs=2.0)
+        assert angle_deg(key - corner) == pytest.approx(90.0, abs=5.0)

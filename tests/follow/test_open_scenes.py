@@ -81,3 +81,13 @@ def test_an_open_scenes_coverage_counts_from_where_the_run_first_touched_it():
     part = reachable(run, dense)
     assert part[0] == pytest.approx([250.0, 0.0], abs=0.05)
     assert len(part) / len(dense) == pytest.approx((250.0 + 150.0) / 450.0, abs=0.01)
+
+
+@pytest.mark.parametrize("name, inside, beyond", [("corner:deg=90", (0.0, 149.0), (0.0, 151.0)),
+                                                  ("step:mm=20", (-149.0, 0.0), (-151.0, 0.0)),
+                                                  ("wall", (-5.0, 149.5), (-5.0, 150.5))])
+def test_an_open_scene_ends_past_its_last_side(name, inside, beyond):
+    # a run ends once the twin's tip passes it: the solid goes on there only so that no
+    # false edge stands at the end
+    scene = outline(name)
+    assert not scene.past_end(np.array(inside)) and scene.past_end(np.array(beyond))

@@ -5,6 +5,7 @@ duration of robot time (or until stopped), recording every sample: time, z and t
 axis (fed to the tracker, which uses it when the calibration carries a (Y, Z) table), the
 estimated contact (world frame), the twin's true tip and contact, the pose, the contact kind,
 the slips the follower detected and the twin's true slip events (with stick-slip friction).
+A run on an open scene ends once the twin's tip passes the scene's far end.
 Each change of the follower's phase is recorded too (:data:`TRANSITION_COLUMNS`: the sample,
 its time, the two phases and the rule). The estimate is never aligned to the truth;
 docs/contour.md has the metrics.
@@ -97,6 +98,9 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
             _record_transitions(changes, index, index * dt, step)
             if sample.kind == "collision":  # driven into the wall: a real run would end here
                 break
+            if _past_the_end(outline, sample):  # an open scene followed to its end: done
+                run.complete = True
+                break
             if stop_requested is not None and stop_requested():  # after a sample: never empty
                 break
             sample = robot.step(dt)
@@ -113,6 +117,14 @@ def run_contour(outline: Outline, sensor, tracker, target_z_uT: float, config: F
     kept = transitions["sample"] < whole
     run.transitions = {name: values[kept] for name, values in transitions.items()}
     return run
+
+
+def _past_the_end(outline: Outline, sample) -> bool:
+    """Has the twin's tip passed an open scene's far end? Past it the solid goes on only so
+    that no false edge stands there; what is followed there is not the scene."""
+    contact = sample.contact_mm
+    return (not outline.closed and contact is not None and bool(np.all(np.isfinite(contact)))
+            and outline.past_end(contact))
 
 
 def _record(rows, t_s: float, sample, step, pose, control_s: float) -> None:

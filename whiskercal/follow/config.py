@@ -33,7 +33,8 @@ class FollowConfig(Table):
     slip_drop: a slip is |z| falling below this share of the target's |z| within slip_window_s,
     or the raw tip jumping more than slip_jump_mm between samples; such a fall of |z| made of
     many small steps (none over gradual_step_share of it) with the wire still touching is a tip
-    held in a concave corner and pushed along the wire: the sensor stops for good.
+    held in a concave corner and pushed along the wire: the sensor backs out of the corner and
+    comes in on the next surface (as past a corner too narrow, ``corner_clearance_mm``).
     slip_resets_filter: a slip resets the tracker's filter, whose state is the tip before it.
     press_share: after the first contact the sensor only presses in, until |z| reaches this
     share of the target's.
@@ -66,7 +67,13 @@ class FollowConfig(Table):
     than ``rise_progress_share`` of the last ``stall_travel_mm`` commanded (a tip that goes on,
     pressed harder by a direction not yet the surface's, is not held). corner_clearance_mm: the
     least distance (mm) from the sensor's base to the surface left at a concave corner: when
-    turning about the corner would bring the base nearer, the sensor stops for good (gave up).
+    turning about the corner would bring the base nearer, the sensor backs out of the corner
+    and comes in on the next surface where its base, trailing the tip as far as it did at the
+    corner, stays that far from the surface left.
+    corner_out_mm: following, a contact this far (mm) outside the surface's line through the
+    last key point, on the whisker's side, is a tip held in a concave corner (its axial push
+    read as a bend toward the base; a convex surface only bends toward the object, and the key
+    points scatter about a tenth of this).
     """
 
     rate_hz: Positive = 300.0
@@ -109,6 +116,7 @@ class FollowConfig(Table):
     rise_share: Positive = 1.1
     rise_progress_share: Positive = 0.7
     corner_clearance_mm: Positive = 10.0
+    corner_out_mm: Positive = 1.0
 
     @model_validator(mode="after")
     def _stop_past_slow(self) -> "FollowConfig":

@@ -82,6 +82,7 @@ class Follower:
         self._recent_z: deque = deque(maxlen=max(2, int(config.slip_window_s * config.rate_hz)))
         self._last_raw: np.ndarray | None = None
         self._backing, self._lined_up = 0, False  # back-off samples left; the search's first leg done
+        self._retreat: np.ndarray | None = None  # the back-off's direction (None: along the whisker)
         self._bend_mm = math.inf  # radius of the bend through the key points (new at each one)
         self._missing, self._grace = 0, int(round(config.lost_after_s * config.rate_hz))
         # (tangential travel commanded so far, mm; the contact then; |z|): for a tip held ahead
@@ -89,6 +90,9 @@ class Follower:
         self._search_turned = 0  # turns of the search line about the last key point so far
         self._dwell = 0  # samples following since the last key point
         self._left_outward: np.ndarray | None = None  # the surface left at a concave corner
+        # (the corner, world mm; the outward normal of the surface left) while backing out of a
+        # concave corner and coming in on the next surface, until it is touched
+        self._passing: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def gave_up(self) -> bool:
@@ -136,6 +140,11 @@ class Follower:
         """The current phase's handler, after the rules checked at a sample's start."""
         if self.phase is Phase.STOPPED:
             return self._stopped()
+        if self.phase in (Phase.BACK_OFF, Phase.SEARCH) and self._near_the_surface_left(pose):
+            # the next surface's direction was only guessed: rather than drive the base into
+            # the surface the whisker felt up to the corner, stop
+            self._to("near the surface left")
+            return self._stopped()
         if self.phase is Phase.BACK_OFF and self._backing == 0:  # backed off
             if tip is None:
                 self._to("backed off" if self.keys else "backed off, no key point")
@@ -158,10 +167,6 @@ class Follower:
     def _stopped(self):
         """Stand still from now on: a person must look at why."""
         return np.zeros(2), 0.0, _NO_CONTACT, Phase.STOPPED
-
-    def _stop(self, rule: str):
-        self._to(rule)
-        return self._stopped()
 
     def _without_tip(self, z_uT: float, far_side: bool, pose: np.ndarray):
         """Touching, no tip this sample. A sample or two without one (the collision detector's
@@ -190,14 +195,15 @@ class Follower:
     def _start_back_off(self, rule: str) -> None:
         self._to(rule)
         self._backing = int(self.config.backoff_s * self.config.rate_hz)
-        self._lined_up = False
+        self._lined_up, self._retreat = False, None
         self._progress.clear()
 
     def _back_off(self, pose: np.ndarray):
         """Straight back along the whisker: the wire leaves the object."""
         self._integral = 0.0
         self._backing -= 1
-        velocity = -self.config.approach_speed_mm_s * _unit(pose[2])
+        away = -_unit(pose[2]) if self._retreat is None else self._retreat
+        velocity = self.config.approach_speed_mm_s * away
         return velocity, 0.0, _NO_CONTACT, Phase.BACK_OFF
 
     def _searching(self, far_side: bool, pose: np.ndarray):
@@ -226,6 +232,7 @@ class Follower:
         and the sensor turns about it; the estimates of a tip held there wander (its axial push
         read as a bend), so they add no key point and fire no rule."""
         self._missing, self._search_turned = 0, 0
+        self._passing = None  # a surface touched: the corner passed, if one was
         contact = _rotation(pose[2]) @ tip + pose[:2]
         if self.phase in TURNING:
             lag = abs(_wrap(self._target_heading() - pose[2]))
@@ -250,8 +257,10 @@ class Follower:
             # |z| halved within the slip window, step by small step, the wire still touching:
             # not a slip (one snap) but a tip held in a concave corner, pushed along the wire as
             # the sensor moves on. Turning about the corner kept pushing it until z read no
-            # contact, the tip still caught, and backing off drove the wire into both walls
-            return self._stop("held in a corner")
+            # contact, the tip still caught, and backing off along the whisker drove the wire
+            # into both walls: back out of the corner instead, away from both
+            self._pass_corner("held in a corner", np.array([self.tangent[1], -self.tangent[0]]), pose)
+            return self._back_off(pose)
         if label is Phase.PRESS and self._reached(z_uT):
             self._to("target reached")
         self._key_point(contact, pose)
@@ -274,7 +283,14 @@ class Follower:
         lag = abs(_wrap(self._target_heading() - pose[2]))
         self._dwell = self._dwell + 1 if following and lag < math.radians(config.stop_heading_deg) else 0
         held, rising = self._held_ahead(contact, tangential_mm_s, z_uT) if following else (False, False)
-        if following and held:
+        if following and self._pushed_out(contact):
+            # the estimate left the surface's line on the free side: a tip held in a concave
+            # corner, its axial push read as a bend toward the base. No convex surface puts the
+            # contact there (it bends toward the object), so this is not an edge, though the tip
+            # is held as on one (read as an edge, the turn toward the object drove the base into
+            # the next wall)
+            self._turn_at_corner(self.keys[-1], "pushed out")
+        elif following and held:
             # held with the deflection kept, not rising: on an edge (the surface bends toward
             # the object); held as the deflection falls, or rises (the base comes nearer a tip
             # that cannot go on): against a surface ahead (a concave corner)
@@ -298,9 +314,28 @@ class Follower:
         would bring the base to the surface it leaves (a concave corner narrower than the bent
         whisker's reach): then stop for good rather than crash."""
         if self._swings_into_left(pose, contact):
-            return self._stop("corner too narrow")
+            self._pass_corner("corner too narrow", self._left_outward, pose)
+            return self._back_off(pose)
         velocity, turn = self._turn_about(self.keys[-1], z_uT, pose)
         return velocity, turn, contact, label
+
+    def _pass_corner(self, rule: str, outward: np.ndarray, pose: np.ndarray) -> None:
+        """A tip held in a concave corner (the last key point) that the sensor cannot turn
+        about: back off out of it, away from both surfaces (out of the one left, whose outward
+        normal is ``outward``, and back along it: backing off along the whisker, the tip held in
+        the corner, drove it into the next surface), then come in on the next surface where the
+        base, trailing the tip along it as far as it trails it now, stays
+        ``corner_clearance_mm`` clear of the one left. The next surface's direction is not
+        known yet; a square corner's is guessed (``outward``), and the key points then find the
+        true one."""
+        corner = np.asarray(self.keys[-1], float).copy()
+        self._passing = (corner, outward.copy())
+        followed = np.array([-outward[1], outward[0]])  # the direction of the surface left
+        trailing = max(float((corner - pose[:2]) @ followed), 0.0)  # mm: the base behind the tip
+        self.tangent = outward.copy()
+        self._restart_keys(corner + (trailing + self.config.corner_clearance_mm) * outward)
+        self._start_back_off(rule)
+        self._retreat = _unit(_angle(outward) - math.pi / 4)
 
     def _turn_about(self, pivot: np.ndarray, z_uT: float, pose: np.ndarray) -> tuple[np.ndarray, float]:
         """Turn about ``pivot`` (world, mm: the corner) toward the heading the surface asks
@@ -342,8 +377,11 @@ class Follower:
         offset = start - free_tip
         distance = float(np.linalg.norm(offset))
         tip_velocity = offset * min(config.approach_speed_mm_s / max(distance, 1e-9), config.rate_hz)
-        turn = float(np.clip(3.0 * config.heading_gain_per_s * error_heading,
-                             -config.search_turn_rad_s, config.search_turn_rad_s))
+        # turn in step with the free tip closing in (the heading error falls as the square of the
+        # distance left, so the line is exact when the tip arrives): the whisker turns about the
+        # tip, and turned early (past a concave corner) the base swung into the surface left
+        rate = min(3.0 * config.heading_gain_per_s, 2.0 * config.approach_speed_mm_s / max(distance, 1e-9))
+        turn = float(np.clip(rate * error_heading, -config.search_turn_rad_s, config.search_turn_rad_s))
         arm = pose[:2] - free_tip  # turn about the free tip
         return tip_velocity + turn * np.array([-arm[1], arm[0]]), turn
 
@@ -359,6 +397,14 @@ class Follower:
         while len(self._progress) > 1 and self._travel - self._progress[1][0] >= config.stall_travel_mm:
             self._progress.popleft()
         return self._lags(contact, config.stall_share), abs(z_uT) > self._progress[0][2]
+
+    def _pushed_out(self, contact: np.ndarray) -> bool:
+        """Is the contact more than ``corner_out_mm`` outside the surface's line through the last
+        key point (on the whisker's side, away from the object)?"""
+        if len(self.keys) < 2:  # (the first direction is only the approach's)
+            return False
+        outward = np.array([self.tangent[1], -self.tangent[0]])
+        return float((contact - self.keys[-1]) @ outward) > self.config.corner_out_mm
 
     def _lags(self, contact: np.ndarray, share: float) -> bool:
         """Has the contact gone less than ``share`` of the tangential travel commanded over the
@@ -397,6 +443,14 @@ class Follower:
         bend = _wrap(_angle(contact - pose[:2]) - pose[2])  # the chord to the tip from the heading
         base = corner - arm * _unit(self._target_heading() + bend)
         return float((base - corner) @ self._left_outward) < self.config.corner_clearance_mm
+
+    def _near_the_surface_left(self, pose: np.ndarray) -> bool:
+        """Past a concave corner, off the surface: is the base within ``corner_clearance_mm``
+        of the surface left there (its line through the corner)?"""
+        if self._passing is None:
+            return False
+        corner, outward = self._passing
+        return float((pose[:2] - corner) @ outward) < self.config.corner_clearance_mm
 
     def _restart_keys(self, point: np.ndarray) -> None:
         """The key points start afresh from ``point`` (mm, world)."""

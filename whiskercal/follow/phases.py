@@ -74,17 +74,25 @@ RULES: dict[str, Rule] = {
                        "the tip held while moving along, |z| fallen or rising: a surface ahead"),
     "rise ahead": Rule(frozenset({_P.FOLLOW}), _P.ENTER_CORNER,
                        "|z| past rise_share of the target's with the tip lagging the motion"),
+    "pushed out": Rule(frozenset({_P.FOLLOW}), _P.ENTER_CORNER,
+                       "the contact more than corner_out_mm outside the surface's line, on the "
+                       "whisker's side: a tip held in a concave corner, its axial push read as a bend"),
     "step back": Rule(MOVING_ALONG, _P.ENTER_CORNER,
                       "a key point stepped back against the surface's direction: a tip held in a "
                       "concave corner, its axial push read as a bend"),
     "heading round": Rule(TURNING, None,
                           "the heading is within slow_heading_deg of the new direction"),
-    "held in a corner": Rule(frozenset({_P.FOLLOW}), _P.STOPPED,
+    "held in a corner": Rule(frozenset({_P.FOLLOW}), _P.BACK_OFF,
                              "|z| fell by half in many small steps with the wire touching: a tip "
-                             "held in a concave corner, pushed along the wire"),
-    "corner too narrow": Rule(frozenset({_P.ENTER_CORNER}), _P.STOPPED,
+                             "held in a concave corner, pushed along the wire; back off out of the "
+                             "corner and come in on the next surface where the base clears the one left"),
+    "corner too narrow": Rule(frozenset({_P.ENTER_CORNER}), _P.BACK_OFF,
                               "turning about the corner would bring the base within "
-                              "corner_clearance_mm of the surface it leaves"),
+                              "corner_clearance_mm of the surface it leaves: back off out of the "
+                              "corner and come in on the next surface where the base clears the one left"),
+    "near the surface left": Rule(frozenset({_P.BACK_OFF, _P.SEARCH}), _P.STOPPED,
+                                  "off the surface past a concave corner, the base came within "
+                                  "corner_clearance_mm of the surface left there"),
     "not found": Rule(frozenset({_P.SEARCH}), _P.STOPPED,
                       "the search passed the last key point search_turns + 1 times without a contact"),
 }

@@ -175,7 +175,10 @@ class WallOutline:
         edge = np.array([x_step + radius, y_step - radius]) + radius * np.column_stack(
             [np.cos(angles), np.sin(angles)])
         step = np.vstack([[[x_step, -depth], [x_end + beyond, -depth], [x_end + beyond, y_step]], edge])
-        low = np.array([[0.0, -depth], [x_step, -depth], [x_step, 0.0], [0.0, 0.0]])
+        # the wall before the step goes on under the corner at the origin, as a corner scene's
+        # first wall does: ended there, its vertex stood at the corner, and a tip backed out of
+        # the corner along it found no solution that kept the wire out of the solid
+        low = np.array([[-depth, -depth], [x_step, -depth], [x_step, 0.0], [-depth, 0.0]])
         side = np.array([[-depth, -depth], [0.0, -depth], [0.0, y_end + beyond], [-depth, y_end + beyond]])
         foot = np.array([[x_step, -depth], [x_step + depth, -depth], [x_step + depth, 0.0], [x_step, 0.0]])
         corner = np.array([[-depth, -depth], [0.0, -depth], [0.0, 0.0], [-depth, 0.0]])
@@ -215,6 +218,12 @@ class WallOutline:
     def perimeter_mm(self) -> float:
         """Length of the outline from end to end, mm."""
         return float(np.sum(np.linalg.norm(np.diff(self.points(), axis=0), axis=1)))
+
+    def past_end(self, point_mm: np.ndarray) -> bool:
+        """Does ``point_mm`` (world) lie beyond the outline's far end, along its last side (where
+        the solid goes on only so that no false edge stands at the end)?"""
+        last, end = self.core_mm[-2], self.core_mm[-1]
+        return bool((np.asarray(point_mm, float) - end) @ (end - last) > 0.0)
 
 
 def _outward(a: np.ndarray, b: np.ndarray) -> np.ndarray:
