@@ -1,7 +1,7 @@
 """Named collection plans: the default ``full`` plan and shorter ones chosen on the twin.
 
 A named plan is a layer of settings between the defaults (default_grid.toml) and a user's file:
-the lattice step, the tip sweep's positions, the settle time and the approach feed. Its lengths
+the lattice step, the tip sweep's positions, the settle time and the feeds. Its lengths
 are stated for the default 78 mm trace and scale with a build's trace length as the reach band
 does (``config.follow_trace_length``), so a plan keeps about the same point count, and stage
 time per millimetre of wire, on every build. A key the user's file gives still wins.
@@ -10,17 +10,16 @@ time per millimetre of wire, on every build. A key the user's file gives still w
 
 - a 7 mm lattice in the same bands: the mechanics-informed fit has a handful of parameters,
   and a coarser lattice over the same reaches and angles still spans what pins them; its
-  outermost column stays within 2 mm of the band's far edge, as the 3 mm lattice's does, which
-  the level-set trace to the tip needs (a 7.5 mm lattice stops 4 mm short and ``fit`` refuses
-  to extrapolate that far);
+  outermost column ends no further from the band's far edge than the 3 mm lattice's (1.75 mm
+  against 2.75 mm short of it for a 78 mm trace), which the level-set trace to the tip needs (a 7.5 mm lattice stops over 4 mm short, further than
+  ``fit`` extrapolates);
 - five tip-sweep positions at the trace length itself, on rays from -5 to -30 deg: a sweep
   point costs a long approach from above the whisker where the grid's points cost a short step
-  down their column, and the sweep is what pins the tip: on the twin the 7 mm lattice with
-  four positions 1.5 mm short of the tip shipped a tip curve 0.1 mm off where the same lattice
-  with the whole sweep came within 0.01 mm; at the tip itself the load tilts toward the root,
-  and past -30 deg the drawn-back tip slips past the rod there;
+  down their column, and the sweep is what pins the tip (the bench's ``coarse-lattice`` plan,
+  this lattice with the whole sweep, tells the two apart); at the tip itself the load tilts
+  toward the root, and past -30 deg the drawn-back tip slips past the rod there;
 - a 0.1 s settle: after a stop at the stage's acceleration the wire's modes leave the averaged
-  reading within its own noise at once on the family's builds (the bench's ``settle`` rows);
+  reading within its own noise (the bench's ``settle`` rows, from the twin's ring-down);
 - the approach at the default travel feed (1500 mm/min) and the moves clear of the whisker at
   the stage's rate (3000 mm/min): on the twin's modes a slide at the stage's acceleration up
   to 50 mm/s stays below one sample's noise (``bench --only dynamics``).
