@@ -57,6 +57,10 @@ def test_the_underestimate_counts_only_an_estimate_below_the_truth():
     assert bench.underestimate_mm(_session("quick", rmse=0.02, estimate=0.05)) == 0.0
     assert math.isclose(bench.underestimate_mm(_session("quick", rmse=0.05, estimate=0.02)), 0.03)
     assert bench.underestimate_mm({"refused": "no"}) == math.inf
+    # a fit that could not estimate its error is not honest whatever its truth
+    unestimated = _session("quick", estimate=math.nan)
+    assert bench.underestimate_mm(unestimated) == math.inf
+    assert bench.truth_over_estimate(unestimated) == math.inf
 
 
 @pytest.mark.slow

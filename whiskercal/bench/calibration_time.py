@@ -88,15 +88,17 @@ def _realistic_mm(row: dict) -> float:
 
 
 def underestimate_mm(row: dict) -> float:
-    """How far the session's estimate falls below its true tip-curve RMS (mm, 0 when not)."""
-    if "refused" in row:
+    """How far the session's estimate falls below its true tip-curve RMS (mm, 0 when not; inf
+    when refused or not estimated)."""
+    if "refused" in row or not math.isfinite(row["estimated_tip_error_mm"]):
         return math.inf
     return max(0.0, row["tip_curve_rmse_mm"] - row["estimated_tip_error_mm"])
 
 
 def truth_over_estimate(row: dict) -> float:
     """The session's true tip-curve RMS over its estimate (inf when refused or estimated 0)."""
-    if "refused" in row or not row["estimated_tip_error_mm"] > 0:
+    if "refused" in row or not math.isfinite(row["estimated_tip_error_mm"]) \
+            or not row["estimated_tip_error_mm"] > 0:
         return math.inf
     return row["tip_curve_rmse_mm"] / row["estimated_tip_error_mm"]
 
