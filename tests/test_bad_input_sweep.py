@@ -234,6 +234,8 @@ CASES = [
     ("--out c.h5 --config unknown.toml", 2, "[nosuch]: unknown table"),
     ("--out c.h5 --config inverted.toml", 2, "reach_min_mm < reach_max_mm"),
     ("--out c.h5 --config loss.toml", 2, "max_frame_loss"),
+    ("--out c.h5 --plan nonsense", 2, "unknown plan 'nonsense'; choose from full, quick"),
+    ("--dry-run --plan QUICK", 2, "unknown plan 'QUICK'; choose from full, quick"),
     ("--out raw.h5", 2, "already exists: pass --force to replace it, or --resume"),
     ("--out raw.h5 --force --resume", 2, "--force replaces it: give one"),
     ("--out left.h5 --force", 2, "journal of an interrupted run"),  # a partial run is resumed

@@ -137,6 +137,9 @@ COMPARISONS = {c.name: c for c in (
     Comparison("dynamics", "the wire's bending modes on the twin's statics: ring-down after a "
                "release, and the quasi-static reading's error while the rod slides, per build",
                _module_run("whiskercal.bench.dynamics")),
+    Comparison("calibration-time", "each collect plan's stage time against its shipped tip error "
+               "on the family, through collect and fit with the twin's dynamics on",
+               _module_run("whiskercal.bench.calibration_time")),
     Comparison("mount-cal", "mount-cal on the twin: the nominal and the fitted mount against the "
                "true one, and the contour's size error through each",
                _module_run("whiskercal.bench.mount_cal")),

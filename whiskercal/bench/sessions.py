@@ -58,24 +58,27 @@ def draw_builds(count: int, seed: int = 0) -> list[SensorParams]:
     return builds
 
 
-def _collect_grid(sensor: SensorParams, seed: int, folder: Path) -> Path:
-    """One ``collect`` of the default plan, scaled to the build's trace length, on a new twin
-    world of ``sensor``; the raw grid's path."""
+def _collect_grid(sensor: SensorParams, seed: int, folder: Path, plan="full",
+                  dynamics_modes: int = 0):
+    """One ``collect`` of the named ``plan`` (``collect.plans``), scaled to the build's trace
+    length, on a new twin world of ``sensor`` (its wire's lowest ``dynamics_modes`` bending
+    modes on, 0: quasi-static); the raw grid's path and the run's summary."""
     from whiskercal.collect.config import load_config
     from whiskercal.collect.plan import build_plan
     from whiskercal.collect.run import collect
     from whiskercal.twin.sensor_file import sensor_to_toml
 
     build_file = folder / "sensor.toml"
-    build_file.write_text(sensor_to_toml(sensor))
+    dynamics = f"\n[dynamics]\nmodes = {int(dynamics_modes)}\n" if dynamics_modes else ""
+    build_file.write_text(sensor_to_toml(sensor) + dynamics)
     config = folder / "collect.toml"
     config.write_text(f"[rig]\ntrace_length_mm = {sensor.whisker.reach_mm!r}\n")
     world = f"session{uuid.uuid4().hex[:10]}"
     query = urllib.parse.urlencode({"seed": seed, "sensor": str(build_file)})
     raw = folder / "raw.h5"
-    collect(f"sim://{world}/stage?{query}", f"sim://{world}/sensor", raw,
-            build_plan(load_config(config)))
-    return raw
+    run = collect(f"sim://{world}/stage?{query}", f"sim://{world}/sensor", raw,
+                  build_plan(load_config(config, plan)))
+    return raw, run
 
 
 def _realistic_held(sensor: SensorParams, result, z_range) -> dict:
@@ -101,9 +104,10 @@ def _realistic_held(sensor: SensorParams, result, z_range) -> dict:
     return {**errors["y_and_z_held"], "read": "(Y, Z) table"}
 
 
-def session_row(sensor: SensorParams, seed: int) -> dict:
-    """One session of ``sensor``: collect, fit, and the shipped model against the twin's truth;
-    a fit that refuses gives its reason (``refused``)."""
+def session_row(sensor: SensorParams, seed: int, plan="full", dynamics_modes: int = 0) -> dict:
+    """One session of ``sensor``: collect (the named ``plan``, the wire's ``dynamics_modes``),
+    fit, and the shipped model against the twin's truth; a fit that refuses gives its reason
+    (``refused``). The collect's points and stage times (s) are in the row."""
     from whiskercal.artifacts.raw_grid import read_raw_grid
     from whiskercal.errors import WhiskercalError
     from whiskercal.fit.options import FitOptions
@@ -114,9 +118,12 @@ def session_row(sensor: SensorParams, seed: int) -> dict:
            "stiffness_ratio": twin_data.stiffness_ratio(sensor.whisker)}
     with tempfile.TemporaryDirectory(prefix="whiskercal-session-") as folder:
         try:
-            raw = read_raw_grid(_collect_grid(sensor, seed, Path(folder)))
+            path, run = _collect_grid(sensor, seed, Path(folder), plan, dynamics_modes)
+            raw = read_raw_grid(path)
         except WhiskercalError as error:  # the plan cannot be collected on this build
             return {**row, "refused": f"collect: {type(error).__name__}: {error}"}
+        row.update(points=run.points, points_time_s=run.points_time_s,
+                   stage_time_s=run.stage_time_s)
         try:
             result = fit(raw, FitOptions())
         except WhiskercalError as error:
@@ -151,8 +158,15 @@ def run_sessions(builds: list[SensorParams], seeds: tuple[int, ...], workers: in
                  progress: Callable[[dict], None] | None = None) -> list[dict]:
     """Every build on every seed, in ``workers`` processes (the CPUs by default); rows in the
     order given, each told to ``progress`` as it ends."""
+    return run_jobs([(sensor, seed) for sensor in builds for seed in seeds], workers, progress)
+
+
+def run_jobs(jobs: list[tuple], workers: int | None = None,
+             progress: Callable[[dict], None] | None = None) -> list[dict]:
+    """Sessions of ``session_row``'s arguments (build, seed[, plan, dynamics modes]), in
+    ``workers`` processes (the CPUs by default); rows in the order given, each told to
+    ``progress`` as it ends."""
     say = progress or (lambda _row: None)
-    jobs = [(sensor, seed) for sensor in builds for seed in seeds]
     workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
     with ProcessPoolExecutor(workers) if workers > 1 else contextlib.nullcontext() as pool:
         rows = []

@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import model_validator
 
+from whiskercal.collect.plans import DEFAULT_PLAN, NamedPlan, named_plan
 from whiskercal.tomlconfig import merge_overrides, read_toml
 from whiskercal.typedconfig import Flag, Table, Text, choice, integer, number, numbers, validate
 
@@ -203,21 +204,35 @@ def follow_trace_length(defaults: dict[str, Any], given: dict[str, Any]) -> dict
     return {**defaults, "grid": grid, "rig": rig, "sweep": sweep}
 
 
-def load_config(path: str | Path | None = None) -> CollectConfig:
-    """The defaults, overridden by the TOML file at ``path`` when given.
+def _trace_length_given(given: dict[str, Any]) -> float:
+    """The trace length (mm) a user's file gives, the default's where it gives none usable
+    (its own validation then names a bad one)."""
+    rig = given.get("rig") if isinstance(given.get("rig"), dict) else {}
+    length = rig.get("trace_length_mm")
+    return float(length) if _is_real(length) and 0 < length <= MAX_REACH_MM \
+        else DEFAULT_TRACE_LENGTH_MM
+
+
+def load_config(path: str | Path | None = None,
+                plan: str | NamedPlan = DEFAULT_PLAN) -> CollectConfig:
+    """The defaults, changed by the named ``plan`` (``collect.plans``), overridden by the TOML
+    file at ``path`` when given.
 
     A file that gives ``[rig] trace_length_mm`` for another build gets defaults that follow it
-    (``follow_trace_length``).
+    (``follow_trace_length``), and the plan's lengths scaled to it.
 
     Raises
     ------
     UsageError
-        When the file is missing, not TOML, has unknown keys, values of the wrong type, a
-        non-finite number (NaN, inf) or a number out of range; one line naming file and key.
+        When the plan has no such name; when the file is missing, not TOML, has unknown keys,
+        values of the wrong type, a non-finite number (NaN, inf) or a number out of range; one
+        line naming file and key.
     """
-    values = read_toml(DEFAULT_CONFIG_PATH)
+    chosen = named_plan(plan) if isinstance(plan, str) else plan
+    given = {} if path is None else read_toml(path)
+    values = follow_trace_length(read_toml(DEFAULT_CONFIG_PATH), given)
+    values = merge_overrides(values, chosen.overrides(_trace_length_given(given)))
     if path is None:
-        return config_from_dict(values)
-    given = read_toml(path)
-    values = merge_overrides(follow_trace_length(values, given), given)
-    return config_from_dict(values, str(path))
+        return config_from_dict(values, "config" if chosen.name == DEFAULT_PLAN
+                                else f"plan {chosen.name}")
+    return config_from_dict(merge_overrides(values, given), str(path))

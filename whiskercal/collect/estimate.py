@@ -40,6 +40,23 @@ def dwell_time_s(plan: GridPlan, n_points: int) -> float:
     return n_points * per_point_s + 2 * (acq.settle_s + acq.baseline_samples / rate_hz)
 
 
+def points_time_s(plan: GridPlan, accel_mm_s2: float | None = None,
+                  max_rate_mm_min: float | None = None, start_index: int = 0) -> float:
+    """Estimated stage time from the first point to the last, s: every move from the park
+    position onto each point and every point's settle and samples; homing, the baselines and
+    the way back to the park position aside."""
+    config = plan.config
+    accel = config.motion.accel_mm_s2 if accel_mm_s2 is None else accel_mm_s2
+    rate = config.motion.max_rate_mm_min if max_rate_mm_min is None else max_rate_mm_min
+    moves, here = [], plan.park_mm
+    for target in plan.rod_center_mm[start_index:]:
+        moves += plan.moves_to(here, target)
+        here = target
+    acq = config.acquisition
+    per_point_s = acq.settle_s + acq.samples_per_point / config.sensor.rate_hz
+    return moves_time_s(moves, accel, rate) + (len(plan) - start_index) * per_point_s
+
+
 def limit_problems(plan: GridPlan, travel_mm, margin_mm: float) -> list[str]:
     """Every waypoint outside the stage travel (less the margin), as readable lines."""
     problems = []
@@ -91,6 +108,7 @@ def plan_summary(plan: GridPlan, travel_mm=None, accel_mm_s2: float | None = Non
         "moves": len(moves),
         "estimated_move_time_s": move_s,
         "estimated_stage_time_s": move_s + dwell_time_s(plan, len(plan) - start_index),
+        "estimated_points_time_s": points_time_s(plan, accel, rate, start_index),
         "travel_mm": [float(v) for v in travel_mm],
         "limits_ok": not problems,
         "problems": problems,

@@ -89,6 +89,18 @@ class Collector:
         self.stopped = False
         # plan indices skipped because the guard tripped at or above them in their column
         self.beyond_guard: set[int] = set()
+        # sensor-clock times (s) bounding this run's points: the rod leaving the park position
+        # after the baseline (or the first point's first sample on a resume), the last sample
+        self.points_from_s: float | None = None
+        self.points_to_s: float | None = None
+
+    @property
+    def points_time_s(self) -> float | None:
+        """Sensor-clock time from the rod leaving the baseline to the last point's last sample
+        (s), this run; None before a point is taken."""
+        if self.points_from_s is None or self.points_to_s is None:
+            return None
+        return self.points_to_s - self.points_from_s
 
     @property
     def devices(self) -> Devices:
@@ -141,6 +153,7 @@ class Collector:
             self._park()
             before = self._static_reading()
             self.checkpoint.set_baseline("before", before)
+            self.points_from_s = self._baseline_end_s
         self.recorder.static_y_uT = float(before.field_uT[1])
 
     def _baseline_after(self) -> None:
@@ -158,6 +171,7 @@ class Collector:
                               f"GAIN_SEL {settings.gain}, RES {settings.res}: choose settings with a "
                               "wider range in [sensor] (docs/firmware.md)")
         mean, std, _ = field_stats(block)
+        self._baseline_end_s = float(block.t_s[-1])
         return Baseline(mean, std, float(np.mean(block.t_s)))
 
     def _park(self) -> None:
@@ -179,6 +193,9 @@ class Collector:
             self._retract()
             raise
         self._confirm_still(encoder, index)
+        if self.points_from_s is None:  # resumed: the baseline was measured before
+            self.points_from_s = float(samples.t_s[0])
+        self.points_to_s = float(samples.t_s[-1])
         truth = None
         if self.truth is not None:
             truth = self.truth(float(samples.t_s[0]), float(samples.t_s[-1]))

@@ -26,7 +26,12 @@ from whiskercal.session import RigSession, SessionConfig
 
 @dataclass
 class RunSummary:
-    """What ``--json`` prints: counts, times (s), frame errors, baseline drift (µT), the file."""
+    """What ``--json`` prints: counts, times (s), frame errors, baseline drift (µT), the file.
+
+    ``stage_time_s`` runs on the stage's clock from the session's opening (homing and both
+    baselines in it); ``points_time_s`` on the sensor's clock from the rod leaving the first
+    baseline to the last point's last sample (None before a point is taken).
+    """
 
     points: int
     planned: int
@@ -41,6 +46,8 @@ class RunSummary:
     output: str
     frame_loss: float = 0.0  # (dropped + corrupt) / frames sent, this session
     beyond_guard: int = 0    # planned points skipped past an overload, this session
+    # sensor clock from the rod leaving the baseline to the last point's last sample, this session
+    points_time_s: float | None = None
     warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -242,6 +249,7 @@ def _summary(collector: Collector, checkpoint: Checkpoint, out: Path) -> RunSumm
                       corrupt=session.corrupt, baseline_drift_uT=drift, output=str(out),
                       frame_loss=frame_loss(kept, dropped, corrupt),
                       beyond_guard=len(collector.beyond_guard),
+                      points_time_s=collector.points_time_s,
                       warnings=[w for w in warnings if w])
 
 

@@ -46,6 +46,8 @@ def _print_plan(summary: dict, as_json: bool) -> None:
     click.echo(f"path             {summary['path_length_mm']:.0f} mm in {summary['moves']} moves")
     click.echo(f"stage time       {summary['estimated_stage_time_s']:.0f} s (estimated, "
                "without the homing cycle)")
+    click.echo(f"points time      {summary['estimated_points_time_s']:.0f} s (estimated, first "
+               "point to last)")
     click.echo(f"limits           {'ok' if summary['limits_ok'] else 'VIOLATED'} "
                f"(travel {summary['travel_mm'][0]:g} x {summary['travel_mm'][1]:g} mm)")
     for problem in summary["problems"]:
@@ -62,6 +64,9 @@ def _print_run(summary, as_json: bool) -> None:
     click.echo(f"points           {summary.points}/{summary.planned} "
                f"({'complete' if summary.complete else 'partial'})")
     click.echo(f"stage time       {summary.stage_time_s:.1f} s (wall {summary.wall_time_s:.1f} s)")
+    if summary.points_time_s is not None:
+        click.echo(f"points time      {summary.points_time_s:.1f} s (first point to last, "
+                   "sensor clock)")
     click.echo(f"frames           {summary.dropped} dropped, {summary.corrupt} corrupt")
     click.echo(f"baseline drift   {drift}")
     click.echo(f"output           {summary.output}")
@@ -90,6 +95,10 @@ def _dry_run(plan, stage: str | None, as_json: bool) -> None:
                    "--force).")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), metavar="FILE",
               help="TOML file overriding the defaults in whiskercal/collect/default_grid.toml.")
+@click.option("--plan", "plan_name", default="full", show_default=True, metavar="NAME",
+              help="The named plan: full (the paper's 180-point lattice and the 28-point tip "
+                   "sweep) or quick (a coarser lattice, 4 tip-sweep points, a shorter settle; "
+                   "docs/calibration.md). A --config file's keys override the plan's.")
 @click.option("--resume", is_flag=True,
               help="Continue the partial run in --out (same plan and config) without "
                    "re-taking or losing any point.")
@@ -102,7 +111,8 @@ def _dry_run(plan, stage: str | None, as_json: bool) -> None:
                    "once its header is written); a partial run is continued with --resume, "
                    "never replaced.")
 @pass_app
-def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json, force) -> None:
+def command(app: App, stage, sensor, out, config_path, plan_name, resume, dry_run, as_json,
+            force) -> None:
     """Collect the calibration grid: touch the whisker at every planned point.
 
     Homes the stage (or requires it homed), measures the static baseline with the rod parked,
@@ -116,7 +126,7 @@ def command(app: App, stage, sensor, out, config_path, resume, dry_run, as_json,
 
     if out:
         refuse_input_as_output(out, [config_path], "the raw dataset")
-    plan = build_plan(load_config(config_path))
+    plan = build_plan(load_config(config_path, plan_name))
     if dry_run:
         _dry_run(plan, stage, as_json)
         return
