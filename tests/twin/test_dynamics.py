@@ -34,13 +34,16 @@ def test_a_compliant_root_lowers_the_first_mode_toward_the_rigid_wire_on_its_spr
     whisker = WhiskerParams()
     (first,) = modes(whisker, 1)
     assert first.frequency_hz < clamped_free_hz(whisker, 1)
-    # a wire a million times stiffer turns as a rigid rod on k_θ (the shift held): √(k_θ/I)
-    rod = WhiskerParams(youngs_modulus_n_per_mm2=7.5e10, root_translational_stiffness_n_per_mm=1e7)
+    # a wire 10⁴ times stiffer turns as a rigid rod on k_θ (the shift held): √(k_θ/I), from
+    # below (its own bending lowers it by about 1.6e-4, ten times inside the bound). Not 10⁶:
+    # there the stiffness matrix's conditioning, not the physics, moves the eigenvalue by 1e-3
+    # with the BLAS
+    rod = WhiskerParams(youngs_modulus_n_per_mm2=7.5e8, root_translational_stiffness_n_per_mm=1e5)
     mu = 6450e-12 * math.pi * rod.diameter_mm ** 2 / 4
     a, length = rod.root_offset_mm, rod.length_mm
     inertia = mu * ((a + length) ** 3 - a ** 3) / 3
     expected = math.sqrt(rod.root_rotational_stiffness_n_mm_per_rad / inertia) / (2 * math.pi)
-    assert modes(rod, 1)[0].frequency_hz == pytest.approx(expected, rel=1e-3)
+    assert expected * (1 - 1e-3) < modes(rod, 1)[0].frequency_hz < expected
 
 
 def _one_mode(share=0.8, zeta=0.05, hz=20.0):

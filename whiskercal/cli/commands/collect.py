@@ -97,8 +97,10 @@ def _dry_run(plan, stage: str | None, as_json: bool) -> None:
               help="TOML file overriding the defaults in whiskercal/collect/default_grid.toml.")
 @click.option("--plan", "plan_name", default="full", show_default=True, metavar="NAME",
               help="The named plan: full (the paper's 180-point lattice and the 28-point tip "
-                   "sweep) or quick (a coarser lattice, 4 tip-sweep points, a shorter settle; "
-                   "docs/calibration.md). A --config file's keys override the plan's.")
+                   "sweep) or quick (a coarser lattice, 5 tip-sweep points at the tip, a shorter "
+                   "settle: about a minute of stage time, as accurate as full only where "
+                   "bench --only calibration-time says so, docs/calibration.md). A --config "
+                   "file's keys override the plan's.")
 @click.option("--resume", is_flag=True,
               help="Continue the partial run in --out (same plan and config) without "
                    "re-taking or losing any point.")
