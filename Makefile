@@ -24,6 +24,9 @@ $(INSTALLED): pyproject.toml $(LOCK)
 # The fast tier (what a contributor runs many times a day): every test not marked slow, with
 # line coverage of whiskercal/ against the floor in pyproject.toml ([tool.coverage.report]).
 # worksteal: an idle worker takes queued tests from a busy one.
+# One OpenBLAS kernel on every x86-64 CPU: the default fit's goldens (data/) are computed with
+# Haswell's, and its joint fit stops elsewhere under another's (data/README.md).
+export OPENBLAS_CORETYPE ?= Haswell
 PYTEST := $(PY) -m pytest -n 2 --dist worksteal -q
 test: $(INSTALLED)
 	$(PYTEST) -m "not slow" --cov=whiskercal --cov-report=
