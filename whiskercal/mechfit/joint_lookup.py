@@ -16,9 +16,11 @@ least squares): the larger of
 with the lookup's interpolation error against its own model's tip curve added in quadrature
 (``tables.with_interpolation_error``).
 
-Both assume the model explains the grid: where its χ² per degree of freedom lies significantly
-above 1 (``magnetfit.significant_misfit``) the estimate is not made (infinite; the tip model
-then stays the Y fit's).
+Both assume the model explains the grid with the stage where the fit put it: where its χ² per
+degree of freedom lies significantly above 1 (``magnetfit.significant_misfit``), or its stage
+offset sits at its bound (``magnetfit.offset_at_bound``: the stage making up for a suspension
+in the wrong basin), the estimate is not made (infinite; the tip model then stays the Y
+fit's).
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from whiskercal.mechfit.fit import MechanicsFit
 from whiskercal.mechfit.identify import (ProfilePoint, linearized_tip_change_mm,
                                          profile_estimate, tip_change_mm)
 from whiskercal.mechfit.magnetfit import (degrees_of_freedom, fit_at, joint_objective,
-                                          significant_misfit)
+                                          offset_at_bound, significant_misfit)
 from whiskercal.mechfit.tables import (DEFAULT_KIND, DEFAULT_SAMPLES, with_interpolation_error,
                                       z_lookup)
 from whiskercal.model.lookup import TipLookup
@@ -79,7 +81,7 @@ def joint_z_lookup(fit: MechanicsFit, rod_center_mm, fields_uT, noise_uT, rod_ra
     params = np.asarray(fit.starts[-1]["params"], float)
     chi2 = float(np.sum(joint(params) ** 2))
     counts = (fields.size, len(fit.pose_map.orders), len(joint.offset_axes))
-    if significant_misfit(chi2, *counts):
+    if significant_misfit(chi2, *counts) or offset_at_bound(fit.starts[-1]["stage_offset_mm"]):
         return JointLookup(lookup, math.inf, math.inf, math.inf)
     variance = max(chi2 / degrees_of_freedom(*counts), 1.0)
 

@@ -298,7 +298,7 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
             # no start's minimum explained the grid: the truncated map may have chosen the
             # basin (a soft root's turns need the richer map), so every start goes again too
             more += _best_from_starts(groups, *args, richer, sweep)[1]
-        candidate = min(more, key=lambda f: f[0].cost)
+        candidate = _best_of(more)
         fits += more
         if _better_by_akaike(best, candidate) is best:
             break
@@ -354,9 +354,19 @@ def _best_from_starts(groups, centers, fields, noise, rod_radius_mm, trace_lengt
         fits += run_side_by_side(_joint_fit, [(theta, centers, fields, noise, rod_radius_mm,
                                                trace_length_mm, orders, sweep)
                                               for theta in thetas])
-        if _settled(min(fits, key=lambda f: f[0].cost), fields.size):
+        if _settled(_best_of(fits), fields.size):
             break
-    return min(fits, key=lambda f: f[0].cost), fits
+    return _best_of(fits), fits
+
+
+def _best_of(fits):
+    """The lowest-cost joint refinement (result, objective) whose stage offset stayed inside
+    its bounds, else the lowest of all. One at a bound makes up with the stage for a suspension
+    in the wrong basin (``_settled``), so a lower χ² there is no better fit, and the
+    parameters' spread does not bound its error: which start stops lower moves with the BLAS
+    kernel (docs/research/2026-12-02-kernels.md)."""
+    inside = [f for f in fits if not _fit_at_bound(f)]
+    return min(inside or fits, key=lambda f: f[0].cost)
 
 
 def fit_mechanics_magnet(rod_center_mm: np.ndarray, fields_uT: np.ndarray, rod_radius_mm: float,
