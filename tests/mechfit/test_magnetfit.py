@@ -43,8 +43,9 @@ def test_the_yz_table_places_tips_on_planes_with_friction(default_sensor_joint_f
 @pytest.fixture(autouse=True)
 def _refinements_in_this_process(monkeypatch):
     """The stand-in refinements below record their calls in this process: no workers."""
-    from whiskercal.mechfit import workers
+    from whiskercal.mechfit import magnetfit, workers
     monkeypatch.setattr(workers, "available_cpus", lambda: 1)
+    monkeypatch.setattr(magnetfit, "RESTART_PASSES", magnetfit.RESTART_PASSES)  # restored
 
 
 def _y_fit(rot_compliance: float):
@@ -71,6 +72,7 @@ def _fake_joint_fit(cost_of, offset_of=lambda first: np.zeros(2)):
 
 
 def _best(magnetfit, sweep, orders=(1, 2, 3, 4)):
+    magnetfit.RESTART_PASSES = 0  # the stand-ins have no objective to restart: tested below
     return magnetfit._best_joint_fit(_y_fit(1.0), np.zeros((100, 2)), np.zeros((100, 2)),
                                      np.ones(2), 1.5, 78.0, orders, sweep)
 
@@ -291,3 +293,35 @@ def test_each_held_fit_starts_from_the_best_fit_whether_side_by_side_or_not(monk
         alone = magnetfit._held_fit(best.x, best.cost, _WarmStarted(), factor)
         np.testing.assert_array_equal(point["params"], alone["params"])
         assert point["delta_chi2"] == alone["delta_chi2"]
+
+
+def _restarts(monkeypatch, costs, offset_x_mm=0.0):
+    """``magnetfit._restarted`` over stand-in refinements that end at ``costs`` in turn, from a
+    first stop at cost 100: (the kept cost, how many restarts ran)."""
+    from whiskercal.mechfit import magnetfit
+
+    ends = iter(costs)
+    ran = []
+
+    def refined(joint, params, evaluations):
+        ran.append(params)
+        return SimpleNamespace(cost=next(ends), x=np.asarray(params, float) + 1.0)
+    monkeypatch.setattr(magnetfit, "_refined", refined)
+    joint = SimpleNamespace(stage_offset_mm=lambda x: np.array([offset_x_mm * (x[0] > 0), 0.0]))
+    result, _ = magnetfit._restarted((SimpleNamespace(cost=100.0, x=np.zeros(1)), joint))
+    return result.cost, len(ran)
+
+
+def test_a_stalled_refinement_is_started_again_while_it_pays(monkeypatch):
+    # each restart from where the last stopped; the first that gains no more than
+    # RESTART_GAIN in chi2 (twice the cost) ends it, and is not kept
+    from whiskercal.mechfit import magnetfit
+
+    gain = magnetfit.RESTART_GAIN / 2.0
+    assert _restarts(monkeypatch, [99.0, 98.5, 98.5 - 0.5 * gain]) == (98.5, 3)
+    assert _restarts(monkeypatch, [100.0 + gain]) == (100.0, 1)  # worse: not kept
+    many = [100.0 - k for k in range(1, 10)]
+    assert _restarts(monkeypatch, many) == (100.0 - magnetfit.RESTART_PASSES,
+                                            magnetfit.RESTART_PASSES)
+    # a restart that carries the stage offset to its bound is not kept
+    assert _restarts(monkeypatch, [90.0], offset_x_mm=magnetfit.MAX_STAGE_OFFSET_MM) == (100.0, 1)
