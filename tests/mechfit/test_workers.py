@@ -54,3 +54,16 @@ def test_a_background_job_gives_its_result_later_forked_or_not(monkeypatch, cpus
     assert (pid != os.getpid()) == (cpus > 1)
     with pytest.raises(UsageError, match="refused 1"):
         workers.InBackground(_refused, 1.0).result()
+
+
+def test_leaving_a_background_job_unasked_ends_it_at_once(monkeypatch):
+    # a fit that raises before it asks for its background job's result neither waits for it
+    # nor leaves it running
+    import time
+
+    monkeypatch.setattr(workers, "available_cpus", lambda: 2)
+    started = time.monotonic()
+    with pytest.raises(UsageError, match="refused 3"):
+        with workers.InBackground(time.sleep, 60.0):
+            _refused(3.0)
+    assert time.monotonic() - started < 30.0  # not the job's 60 s

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import platform
+from contextlib import ExitStack
 from dataclasses import asdict, replace
 from typing import TYPE_CHECKING, Callable
 
@@ -57,13 +58,14 @@ def fit(raw: RawGrid, options: FitOptions = FitOptions(),
     # The fit's linear algebra is on matrices of a few hundred rows at most, and it is called
     # thousands of times: waking BLAS threads for each costs more than they save (most in the
     # table's interpolant, a small solve per triangle), the more so on a busy machine.
-    with threadpool_limits(limits=1, user_api="blas"):
-        return _fit(raw, options, progress)
+    with threadpool_limits(limits=1, user_api="blas"), ExitStack() as background:
+        return _fit(raw, options, progress, background)
 
 
-def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | None
-         ) -> FitResult:
-    """``fit``'s stages, on one BLAS thread."""
+def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | None,
+         background: ExitStack) -> FitResult:
+    """``fit``'s stages, on one BLAS thread; the jobs it starts on other CPUs end with
+    ``background``, whether it returns or raises."""
     refuse_z_against_truth(raw)
     times = StageTimes(progress)
     length_mm, length_warnings = resolve_trace_length(raw, options.trace_length_mm)
@@ -71,7 +73,8 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
     grid = level_set_points(raw)  # the shaft contacts; the tip sweep is the mechanics' alone
     # the twin's true tip curve depends on the sensor alone: made on another CPU meanwhile
     sensor = truth_sensor(grid)
-    truth_curve = None if sensor is None else InBackground(true_tip_curve, sensor)
+    truth_curve = (None if sensor is None
+                   else background.enter_context(InBackground(true_tip_curve, sensor)))
     with times.stage("level_set"):
         calibration, untraceable = calibrate_grid(raw, model_options, progress)
     with times.stage("mechanics", "mechanics-informed tip model and the error estimate"):
@@ -79,7 +82,8 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
                                                   length_mm, options.samples, untraceable)
     # the shaft localizer's surface needs the grid and the mechanics alone: fitted on another
     # CPU while the joint fit runs (its stage's time is then the wait for it)
-    shaft_surface = InBackground(shaft_surface_for, grid, length_mm, tip_model.mechanics)
+    shaft_surface = background.enter_context(
+        InBackground(shaft_surface_for, grid, length_mm, tip_model.mechanics))
     table = _field_table(raw, length_mm, options, times, tip_model.mechanics)
     if table is not None:
         calibration, tip_model = adopt_joint_lookup(calibration, tip_model, table.z_lookup,

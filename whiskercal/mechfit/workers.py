@@ -59,20 +59,33 @@ def run_calls_side_by_side(calls: Sequence[tuple[Callable, tuple]]) -> list:
 class InBackground:
     """``function(*args)`` started in a forked process, where :func:`run_side_by_side` would
     fork, for a result wanted later (:meth:`result`); computed then, in this process,
-    otherwise."""
+    otherwise. As a context manager it ends the process on leaving, so a caller that raises
+    before it asks for the result neither waits for the job nor leaves it running."""
 
     def __init__(self, function: Callable, *args):
-        self._call, self._pool, self._future = (function, args), None, None
+        self._call, self._pool, self._pending = (function, args), None, None
         if _may_fork(min(2, available_cpus())):
-            self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
-            self._future = self._pool.submit(function, *args)
+            self._pool = multiprocessing.get_context("fork").Pool(1)
+            self._pending = self._pool.apply_async(function, args)
 
     def result(self):
         """What ``function(*args)`` returned (its exception raised here)."""
-        if self._future is None:
+        if self._pending is None:
             function, args = self._call
             return function(*args)
         try:
-            return self._future.result()
+            return self._pending.get()
         finally:
-            self._pool.shutdown()
+            self._end()
+
+    def _end(self) -> None:
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self) -> InBackground:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._end()
