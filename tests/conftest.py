@@ -1,5 +1,7 @@
 """Fixtures shared across the test directories."""
 
+import os
+
 import pytest
 
 
@@ -16,3 +18,13 @@ def default_sensor_joint_fit():
     fit = fit_mechanics_magnet(grid.rod_center_mm, grid.fields_uT, ROD_RADIUS_MM,
                                DEFAULT_SENSOR.whisker.reach_mm, NOISE_UT)
     return grid, fit
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _files_shared_by_the_run(tmp_path_factory):
+    """The folder of tests/run_shared.py: under pytest-xdist the base temporary folder's parent,
+    which every worker of the run shares; this process's own otherwise."""
+    from run_shared import share_in
+
+    base = tmp_path_factory.getbasetemp()
+    share_in((base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "shared")

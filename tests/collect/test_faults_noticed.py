@@ -117,11 +117,9 @@ def test_a_torn_dataset_says_truncated_with_its_journal_and_resumes(tmp_path):
     assert resumed.complete and grid.complete and sorted(grid.plan_index) == list(range(len(plan)))
 
 
-def test_a_torn_dataset_without_journal_says_so(tmp_path):
-    stage, sensor = _world_urls("seed=4")
+def test_a_torn_dataset_without_journal_says_so(tmp_path, small_twin_grid):
     out = tmp_path / "raw.h5"
-    collect(stage, sensor, out, _plan(tmp_path))
-    out.write_bytes(out.read_bytes()[:5000])
+    out.write_bytes(small_twin_grid[0].read_bytes()[:5000])  # a complete run's file, torn
     with pytest.raises(ArtifactError, match="truncated: 5000 of .* no collection journal"):
         read_raw_grid(out)
 

@@ -107,15 +107,12 @@ def test_stock_grbl_twin_collects_with_commanded_positions(tmp_path):
     assert_matches_truth(grid)
 
 
-def test_the_rod_is_placed_by_the_step_count_the_encoder_confirms(tmp_path):
+def test_the_rod_is_placed_by_the_step_count_the_encoder_confirms(small_twin_grid):
     """The step count resolves the carriage far finer than the encoder's quantum (40/4096 mm):
     the recorded rod centres sit on the true ones but for the belt's constant backlash offset
     (the plan approaches every point from one side), spread far below the quantum's 0.0028 mm
     RMS that recording the encoder gave."""
-    stage, sensor = urls()
-    plan = build_plan(load_config(fast_config(tmp_path, SMALL)))
-    collect(stage, sensor, tmp_path / "raw.h5", plan)
-    grid = read_raw_grid(tmp_path / "raw.h5")
+    grid = read_raw_grid(small_twin_grid[0])  # SMALL collected on a default world
     offset = grid.rod_center_mm - grid.truth["rod_center_mm"]
     assert np.all(offset.std(axis=0) < 0.001), offset.std(axis=0)
     encoder_quantum_mm = 40.0 / 4096
@@ -286,10 +283,9 @@ def test_collect_over_sim_serve_ptys_like_real_ports(tmp_path):
     assert np.all(grid.z_uT < 0)  # every point pushes the whisker to -y
 
 
-def test_a_truncated_file_without_its_journal_says_so_on_resume(tmp_path):
+def test_a_truncated_file_without_its_journal_says_so_on_resume(tmp_path, small_twin_grid):
     out = tmp_path / "raw.h5"
-    collect(*urls("seed=6"), out, build_plan(load_config(fast_config(tmp_path, SMALL))))
-    out.write_bytes(out.read_bytes()[:20000])
+    out.write_bytes(small_twin_grid[0].read_bytes()[:20000])  # SMALL's complete file, torn
     stage, sensor = urls("")
     result = run_cli("--stage", stage, "--sensor", sensor, "--out", str(out),
                      "--config", str(fast_config(tmp_path, SMALL)), "--resume")

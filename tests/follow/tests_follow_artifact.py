@@ -12,9 +12,9 @@ DATASET = REPO / "data" / "twin-paper-75mm"
 def calibration_path() -> Path:
     """The recorded default grid fitted (the level set, Y only), with the recorded study's target
     written into it."""
+    from recorded_fits import recorded_fit
     from whiskercal import runtime
-    from whiskercal.artifacts.raw_grid import read_raw_grid
-    from whiskercal.fit import FitOptions, fit
+    from whiskercal.fit import FitOptions
     from whiskercal.study.artifact_target import write_target
     from whiskercal.study.report import build_report
 
@@ -23,6 +23,6 @@ def calibration_path() -> Path:
     # set is the closer z lookup for contacts with friction (docs/calibration.md), and fit's
     # default (Y, Z) table would add about a minute to every process that runs them.
     options = FitOptions(tip_model="level-set", field_table=False)
-    plain = fit(read_raw_grid(DATASET / "raw_grid.h5"), options).write(folder / "calibration.h5")
+    plain = recorded_fit(DATASET.name, options)  # the replay tests' calibration too
     report = build_report(DATASET / "plane_study.h5", runtime.load(plain))
     return write_target(plain, folder / "calibration-target.h5", report.choice, report.study.sha256)

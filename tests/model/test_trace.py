@@ -1,5 +1,6 @@
 """Level-set tracing on surfaces with known level sets; every failure detected."""
 
+import functools
 import math
 
 import numpy as np
@@ -22,34 +23,41 @@ def problem_for(z_of, points=WIDE_GRID, entry_mm=26.0, **extra) -> LevelSetProbl
                            (float(z.min()), float(z.max())), entry_mm, **extra)
 
 
-RIGID = problem_for(rigid_z)
-BENT = problem_for(bent_z)
+# fitted when a test first asks (not at collection, which every worker does for every module)
+@functools.cache
+def rigid_problem() -> LevelSetProblem:
+    return problem_for(rigid_z)
+
+
+@functools.cache
+def bent_problem() -> LevelSetProblem:
+    return problem_for(bent_z)
 
 
 @pytest.mark.parametrize("z_uT", [-9000.0, -5000.0, -1500.0, -200.0])
 def test_fast_tracer_finds_the_rigid_whiskers_tip(z_uT):
-    tip = trace_fast(RIGID, z_uT).tip_mm
+    tip = trace_fast(rigid_problem(), z_uT).tip_mm
     np.testing.assert_allclose(tip, rigid_tip_mm(z_uT, LENGTH_MM), atol=1e-6)
 
 
 @pytest.mark.parametrize("z_uT", [-8000.0, -3000.0, -500.0])
 def test_fast_tracer_follows_a_curved_level_set(z_uT):
-    tip = trace_fast(BENT, z_uT).tip_mm
+    tip = trace_fast(bent_problem(), z_uT).tip_mm
     np.testing.assert_allclose(tip, bent_tip_mm(z_uT, LENGTH_MM, 26.0), atol=1e-5)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("z_uT", [-6000.0, -800.0])
 def test_paper_and_fast_tracers_agree_at_the_papers_step(z_uT):
-    fast, paper = trace_fast(BENT, z_uT), trace_paper(BENT, z_uT)
+    fast, paper = trace_fast(bent_problem(), z_uT), trace_paper(bent_problem(), z_uT)
     assert np.linalg.norm(fast.tip_mm - paper.tip_mm) < 1e-3
     assert paper.evaluations > 100 * fast.evaluations
 
 
 def test_entry_lies_on_the_level_set_at_the_entry_radius():
-    entry = find_entry(BENT, -4000.0)
+    entry = find_entry(bent_problem(), -4000.0)
     assert math.hypot(*entry) == pytest.approx(26.0, abs=1e-9)
-    assert float(BENT.surface(entry)) == pytest.approx(-4000.0, abs=1e-6)
+    assert float(bent_problem().surface(entry)) == pytest.approx(-4000.0, abs=1e-6)
 
 
 def test_entry_moves_out_when_the_near_arc_misses_the_level_set():
@@ -63,10 +71,10 @@ def test_entry_moves_out_when_the_near_arc_misses_the_level_set():
 
 
 def test_z_outside_the_calibrated_range_is_refused():
-    low, high = RIGID.z_range_uT
+    low, high = rigid_problem().z_range_uT
     for z in (low - 1.0, high + 1.0, float("nan")):
         with pytest.raises(ZOutOfRangeError, match="outside the calibrated range"):
-            trace_fast(RIGID, z)
+            trace_fast(rigid_problem(), z)
 
 
 def test_leaving_the_domain_is_detected_by_both_tracers():

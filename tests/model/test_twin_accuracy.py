@@ -34,8 +34,14 @@ def fit(grid, **options):
                                         **options), np.ones(len(grid.z_uT)))
 
 
-def test_rod_correction_moves_points_onto_the_shaft(grid):
-    calibration = fit(grid)
+@pytest.fixture(scope="module")
+def default_fit(grid):
+    """The grid fitted with the default options (the tests below only read it)."""
+    return fit(grid)
+
+
+def test_rod_correction_moves_points_onto_the_shaft(grid, default_fit):
+    calibration = default_fit
     true_contact = grid.contact_mm[calibration.used]
     before = np.linalg.norm(grid.rod_center_mm[calibration.used] - true_contact, axis=1)
     after = np.linalg.norm(calibration.contact_points_mm - true_contact, axis=1)
@@ -43,15 +49,15 @@ def test_rod_correction_moves_points_onto_the_shaft(grid):
     assert np.mean(after) < 0.5 * grid.rod_radius_mm
 
 
-def test_lookup_against_the_twins_true_tips(grid):
-    calibration = fit(grid)
+def test_lookup_against_the_twins_true_tips(default_fit):
+    calibration = default_fit
     rmse = truth_rmse_mm(calibration)
     assert rmse < 0.1 * DEFAULT_SENSOR.whisker.reach_mm
     assert calibration.lookup_report.holdout_rmse_mm < 0.1 * rmse
     assert calibration.fit.r2 > 0.999
 
 
-def test_rod_correction_and_fitting_the_traced_region_both_pay(grid):
-    best = truth_rmse_mm(fit(grid))
+def test_rod_correction_and_fitting_the_traced_region_both_pay(grid, default_fit):
+    best = truth_rmse_mm(default_fit)
     assert best < truth_rmse_mm(fit(grid, correct_rod_radius=False))
     assert best < truth_rmse_mm(fit(grid, fit_traced_region_only=False))

@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from recorded_fits import recorded_fit
 from replay_session import REST_UT
 
 from whiskercal import runtime
-from whiskercal.artifacts.raw_grid import read_raw_grid
-from whiskercal.fit import fit, options_from_args
+from whiskercal.fit import options_from_args
 from whiskercal.twin import truth
 from whiskercal.twin.params import SENSORS
 
@@ -20,17 +20,16 @@ RATE_HZ = 167.0       # the authors' logged rate
 
 
 @pytest.fixture(scope="session")
-def artifact(tmp_path_factory) -> Path:
+def artifact() -> Path:
     """data/twin-paper-75mm fitted with its golden file's fit arguments (what regress fits),
     with the level set's lookup and without the (Y, Z) table: a replayed log streams Y alone
     (the table adds about a minute), and the synthetic stream below runs 25 % past the level
     set's calibrated range, which the mechanics' wider range would carry past the twin's tip
     curve."""
     golden = json.loads((DATASET / "golden.json").read_text())
-    path = tmp_path_factory.mktemp("replay-cal") / "cal.h5"
     fit_args = [*golden["pipeline"]["fit_args"], "--tip-model", "level-set", "--no-field-table"]
-    fit(read_raw_grid(DATASET / "raw_grid.h5"), options_from_args(fit_args)).write(path)
-    return path
+    # the follow and contour tests' plain calibration is this fit too: made once per process
+    return recorded_fit(DATASET.name, options_from_args(fit_args))
 
 
 @pytest.fixture(scope="session")

@@ -14,13 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from whiskercal.artifacts.calibration import data_from_calibration, write_calibration
-from whiskercal.collect.config import load_config as load_collect_config
-from whiskercal.collect.plan import lattice_points, visiting_order
 from whiskercal.model.calibrate import CalibrationOptions, calibrate
 from whiskercal.model.collision import CollisionParams
 from whiskercal.model.kalman import KalmanParams
-from whiskercal.twin.physics import mechanics
-from whiskercal.twin import truth
+from whiskercal.testing.twin_grid import noisy_z, simulate_grid
 from whiskercal.twin.params import DEFAULT_SENSOR
 
 ROD_RADIUS_MM = 1.5
@@ -28,18 +25,10 @@ AVERAGED_NOISE_UT = 1.0  # 5.6 µT sample noise averaged over ~30 samples per po
 
 
 def simulated_grid(sensor=DEFAULT_SENSOR, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Rod centres (n, 2) mm and measured z (n,) µT of the default plan on the twin."""
-    points = lattice_points(load_collect_config().grid)
-    points = points[visiting_order(points)]
-    z, previous, column = [], None, None
-    for center in points:
-        if center[0] != column:
-            previous, column = None, center[0]
-        equilibrium = mechanics.solve_rod(sensor.whisker, center, ROD_RADIUS_MM, previous=previous)
-        previous = equilibrium if equilibrium.kind != "free" else None
-        z.append(truth.z_of_equilibrium(sensor, equilibrium))
-    noise = np.random.default_rng(seed).normal(0.0, AVERAGED_NOISE_UT, len(z))
-    return points, np.asarray(z) + noise
+    """Rod centres (n, 2) mm and measured z (n,) µT of the default plan on the twin (the
+    noise-free grid is ``whiskercal.testing``'s, simulated once per process and sensor)."""
+    grid = simulate_grid(sensor, None, ROD_RADIUS_MM)
+    return grid.rod_center_mm, noisy_z(grid, AVERAGED_NOISE_UT, seed)
 
 
 def write_twin_calibration(path: Path, sensor=DEFAULT_SENSOR) -> Path:

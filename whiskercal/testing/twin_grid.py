@@ -47,10 +47,17 @@ def default_grid_config() -> GridConfig:
     return load_config().grid
 
 
-@functools.lru_cache(maxsize=16)
 def simulate_grid(sensor: SensorParams = DEFAULT_SENSOR, grid: GridConfig | None = None,
                   rod_radius_mm: float = ROD_RADIUS_MM) -> SimulatedGrid:
     """Noise-free z at every point of a grid plan (cached per sensor, grid and rod)."""
+    # one cache entry however the arguments are spelt: simulate_grid() and
+    # simulate_grid(DEFAULT_SENSOR, None, 1.5) are the same few seconds of mechanics
+    return _simulate_grid(sensor, grid, float(rod_radius_mm))
+
+
+@functools.lru_cache(maxsize=16)
+def _simulate_grid(sensor: SensorParams, grid: GridConfig | None,
+                   rod_radius_mm: float) -> SimulatedGrid:
     points = lattice_points(grid or default_grid_config())
     points = points[visiting_order(points)]
     z, kinds, contacts, tips, previous, column = [], [], [], [], None, None
