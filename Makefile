@@ -27,6 +27,9 @@ $(INSTALLED): pyproject.toml $(LOCK)
 # One OpenBLAS kernel on every x86-64 CPU: the default fit's goldens (data/) are computed with
 # Haswell's, and its joint fit stops elsewhere under another's (data/README.md).
 export OPENBLAS_CORETYPE ?= Haswell
+# A test run after the first reads its compiled test modules and whiskercal from __pycache__
+# instead of compiling them again in every worker.
+unexport PYTHONDONTWRITEBYTECODE
 PYTEST := $(PY) -m pytest -n 2 --dist worksteal -q
 test: $(INSTALLED)
 	$(PYTEST) -m "not slow" --cov=whiskercal --cov-report=
