@@ -5,7 +5,7 @@ Layout: attributes ``edges_mm`` (radial distances where neighbouring patches mee
 ``rmse_uT`` (misfit on the grid's contacts), ``cv_rmse_uT`` (misfit on each inner grid column
 left out of the fit in turn: between the columns; optional, absent from older artifacts), ``source`` (``grid+mechanics`` or ``grid``) and
 ``mechanics_points``; one subgroup per patch, ``patch0``, ``patch1``, ..., ordered by radial
-distance, each laid out like ``/surface``. Artifacts without the group load as before; the shaft
+distance, each laid out like ``/surface``. Artifacts without the group load too; the shaft
 localizer then uses ``/surface``.
 """
 

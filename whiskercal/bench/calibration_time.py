@@ -11,7 +11,7 @@ leaving the first baseline to the last point's last sample (``RunSummary.points_
 
 A plan meets the goal on a build when its points take at most ``GOAL_POINTS_TIME_S``, its
 worst seed's true RMS on the tip curve and on realistic contacts is within ``GOAL_MARGIN_MM``
-of the full plan's worst, and its estimate stays as honest as today's: the truth over the
+of the full plan's worst, and its estimate stays as honest as the full plan's: the truth over the
 estimate, worst seed, no larger than the sessions' honesty factor (``sessions.HONEST_FACTOR``)
 or the full plan's own worst ratio where that is larger. How far (mm) each falls below the
 truth is reported beside it (``underestimate_mm``).
@@ -44,7 +44,7 @@ COARSE = NamedPlan("coarse-lattice", "the quick plan's 7 mm lattice, settle and 
                    travel_feed_mm_min=QUICK.travel_feed_mm_min)
 PLANS = (FULL, COARSE, QUICK)
 QUICK_PLANS = (FULL, QUICK)
-GOAL_POINTS_TIME_S = 60.0  # the issue's stage time, first point to last
+GOAL_POINTS_TIME_S = 60.0  # the goal's stage time, first point to last
 GOAL_MARGIN_MM = 0.01      # the shipped error may exceed the full plan's by this much
 SETTLE_SPEEDS_MM_S = (10.0, 25.0)  # the default approach feed (600 mm/min) and quick's (1500)
 STAGE_ACCEL_MM_S2 = 200.0

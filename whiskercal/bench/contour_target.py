@@ -1,12 +1,12 @@
 """The study's rule checked on the closed loop: contour error against the deflection target.
 
 The default sensor's recorded grid (``data/twin-paper-75mm``) is fitted with the paper's level
-set as its z lookup (``fit --tip-model level-set``: what docs/bench.md measured; ``fit``'s own
-default ships the mechanics' lookup) and given the target its recorded flat-plane study
+set as its z lookup (``fit --tip-model level-set``, whose lookup reproduces on any machine;
+``fit``'s own default ships the mechanics' lookup) and given the target its recorded flat-plane study
 chooses through it (``optimal-depth``); then the contour loop runs on the twin round each
 object at a range of targets (|z| from 3 to 12 mT, the sign of the chosen one, and the chosen
 one itself), each run compared with the object's true outline without alignment. Targets
-past the calibrated range (|z| above its end, about 10.2 mT here) are listed, not run: the
+past the calibrated range (|z| above its end) are listed, not run: the
 lookup has no tip to give there. The full run does it twice, once per tip model: the z lookup
 alone and the (Y, Z) table (``fit``'s default, fitted once and reused for every run, with the
 target the study chooses through the table; ``--quick`` skips it). The same runs measure the

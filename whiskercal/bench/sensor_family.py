@@ -58,7 +58,7 @@ QUICK_BUILDS = 1
 SESSION_SEEDS = (1, 2, 3, 4, 5)
 DRAWN_BUILDS = 30
 DRAW_SEED = 41
-# the goal for tip contacts against planes tilted 0-40° with friction μ 0-0.4 (mm RMS)
+# the goal for tip contacts against planes tilted 0-40° with friction μ 0-0.4 (mm RMS)
 REALISTIC_GOAL_MM = 0.3
 
 

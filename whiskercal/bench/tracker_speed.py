@@ -5,7 +5,7 @@ needed), and its :meth:`~whiskercal.runtime.Calibration.tracker` is timed per ca
 contact, in contact inside the calibrated range, and in contact past it under the streaming
 "clip" policy; then a whole seeded stream goes through :func:`whiskercal.replay.replay`, whose
 per-sample cost includes collecting the track. The budget is the sensor's period at 300 Hz
-(3.3 ms) and the issue's 1 ms; ``within_1ms`` records whether the slowest path kept to it.
+(3.3 ms), and within it 1 ms; ``within_1ms`` records whether the slowest path kept to it.
 """
 
 from __future__ import annotations

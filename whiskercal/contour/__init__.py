@@ -163,7 +163,7 @@ def _loop_rate(config: FollowConfig, nuisances) -> float:
 
 def _nuisance_config(nuisances, rezero: bool) -> dict:
     """The run config's record of the nuisances and the re-zero (nothing when both are off, so
-    that runs without them are written as before)."""
+    that a run without them is recorded as a run on the ideal twin)."""
     recorded = {} if nuisances is None or nuisances.off else {"nuisances": nuisances.to_dict()}
     return {**recorded, **({"rezero": True} if rezero else {})}
 

@@ -16,7 +16,7 @@ three radial patches (:class:`~whiskercal.model.patched_surface.PatchedSurface`)
 
 Without an identified mechanics model (none fitted, or its χ² per degree of freedom over
 ``mechfit.identify.MAX_CHI2_PER_DOF``) the middle patch stands alone and the surface is
-extrapolated past the grid as before. docs/shaft.md has the candidates and their measured
+extrapolated past the grid by its polynomial. docs/shaft.md has the candidates and their measured
 accuracy.
 """
 

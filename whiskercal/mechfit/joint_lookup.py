@@ -67,9 +67,9 @@ def joint_z_lookup(fit: MechanicsFit, rod_center_mm, fields_uT, noise_uT, rod_ra
     the noise ``noise_uT``, Y and Z µT); None when its tip curve does not reach the range.
 
     A fit whose χ²/dof lies above the noise's spread is a local minimum or a model that misses
-    something, and the parameters' uncertainty does not bound its error: the thin 120 mm wire's
-    seed 2 with the sweep, fitted at χ²/dof 1.18 (k_θ·L/EI 172 against 77), put its lookup
-    1.56 mm from the truth under a 0.13 mm estimate.
+    something, and the parameters' uncertainty does not bound its error: such a fit can put its
+    lookup millimetres from the truth under a far smaller estimate (a case is in
+    docs/research/2026-11-29-calibration.md).
     """
     lookup = _lookup(fit, z_range_uT, samples, kind)
     if lookup is None:

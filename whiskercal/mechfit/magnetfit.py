@@ -12,9 +12,8 @@ the generic starts, until the best has settled: explained the grid (within twice
 with its stage offset inside the bounds (``_start_groups``, ``_settled``). A refinement whose
 offset runs into its bound is ended there (``_stop_at_bound``).
 With a tip sweep, where the best still leaves more than the noise, one more multipole order is
-tried from it and kept when it pays for its term (without the stage offset, on the 90 mm x 0.30
-mm build, whose root turns furthest, and on the stiff 60 mm wire, four orders left 2-3x the
-noise; the 4x stiffer root's sweep takes six).
+tried from it and kept when it pays for its term (the builds whose root turns furthest, stiff
+wires and stiff roots need it; the cases are in docs/research/2026-11-29-calibration.md).
 A group's refinements (and the polish's) are independent, each with its own objective, and run
 side by side on the CPUs there are (``workers``), which leaves the result as it was.
 The rod contacts are solved only when the mechanics or the offset change (a finite-difference
@@ -155,11 +154,10 @@ def _joint_starts(start: MechanicsFit) -> list[np.ndarray]:
 def _start_groups(start, centers, y_uT, noise_y_uT, rod_radius_mm, trace_length_mm, sweep):
     """Suspensions (as outer parameters) to start the joint fit from, in groups tried in turn
     until one explains the grid: a Y fit's made here, ``start``'s (the z lookup's mechanics),
-    the generic starts. Neither of the first two serves every build: from the Y fit a stiff
-    60 mm wire with a tip sweep stopped at 50x the noise, from the z lookup's a 4x stiffer root
-    with a sweep at 8x. The Y fit goes first: from the z lookup's start the recorded default
-    grid lands in another minimum (k_θ·L/EI 15.1 against 15.4) whose table biases the contour
-    runs by 0.004 mm."""
+    the generic starts. Neither of the first two serves every build: with a tip sweep, each
+    leaves some build far above the noise that another start explains. The Y fit goes first:
+    from the z lookup's start the recorded default grid lands in a neighbouring minimum whose
+    table biases the contour runs (the cases are in docs/research/2026-11-29-calibration.md)."""
     yield _joint_starts(fit_mechanics(centers, y_uT, rod_radius_mm, trace_length_mm, noise_y_uT,
                                       sweep=sweep))
     if start is not None:
@@ -175,8 +173,7 @@ def _unexplained(result, n: int) -> bool:
 def _settled(fit, n: int) -> bool:
     """A joint refinement (result, objective) that explains the grid with its stage offset
     inside the bounds: one at a bound is the fit making up with the stage for a suspension in
-    the wrong basin (the thin 120 mm wire's seed 1 from the Y fit's start: x at +0.1 mm for the
-    rig's -0.01, k_θ·L/EI 282 for the twin's 77, 1.45x the noise left on Y)."""
+    the wrong basin (a case is in docs/research/2026-11-29-calibration.md)."""
     return not _unexplained(fit[0], n) and not _fit_at_bound(fit)
 
 

@@ -16,7 +16,8 @@ from whiskercal.model.surface import MAX_DEGREE, Surface
 # the noise times sqrt(1 + terms / points), 1.05 to 1.15 for 21..45 terms on 180 points. At 5x
 # the surface's own error is clearly the larger one (sqrt(5² - 1) = 4.9 times the noise), while
 # ratios of 2..4 may still be error the standard error of the mean does not count (the stage's
-# positioning, baseline drift). Measured on the recorded default grid: degree 5 18x, degree 8 3.4x.
+# positioning, baseline drift). The twin's default grid, whose noise is small and white, lies far
+# above it, so the level-set shift below decides whether it warns (docs/model.md).
 UNDERFIT_FACTOR = 5.0
 # ... and only when that error moves level sets by more than this (mm). Below it, a closer fit
 # cannot move the tips by more than about a tenth of a millimetre, far inside the level-set

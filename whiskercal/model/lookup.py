@@ -1,8 +1,9 @@
 """The tip lookup: tips traced at a few z values, and a fast interpolant z -> (x_tip, y_tip).
 
 Tracing is far too slow for 300 Hz, so tips are traced once at ``n`` z values over the calibrated
-range, evenly spaced in z, and an interpolant is built. (Samples spread evenly along the tip's
-path instead were tried and measured worse on the twin, and they cost the O(1) piece index.)
+range, evenly spaced in z, and an interpolant is built. (Even spacing in z keeps the piece index
+O(1); samples spread evenly along the tip's path would give that up without being closer to the
+twin's true tips.)
 The interpolant's kind is chosen by hold-out error against dense traces. Every kind is stored
 as a table of polynomial pieces on the uniform z grid (a single piece for the global
 polynomial), so evaluation is one index computation and a Horner loop: plain floats for one

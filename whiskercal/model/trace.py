@@ -276,7 +276,7 @@ def _extend(problem: LevelSetProblem, edge: tuple[float, float], back: tuple[flo
 
     The direction is the chord from ``back`` (a point ``EXTENSION_CHORD_MM`` back along the
     level set) to ``edge``: a polynomial's gradient is least accurate at the edge of its data,
-    and the chord averages it out (measured on a ray surface: 0.7° off with the edge gradient).
+    and the chord averages it out.
     """
     if remaining_mm <= 1e-12:
         return np.array(edge), 0.0
@@ -404,8 +404,7 @@ def trace_fast(problem: LevelSetProblem, z_uT: float, rtol: float = 1e-10, atol_
     dp/ds = sign * t(p) - pull_per_mm * (f - z) grad f / |grad f|², with t the unit tangent.
     The tangent field's integral curves are the level sets themselves, so without the pull term
     (the default) the error is only the integrator's, removed across the level set by the final
-    projection; a positive pull makes f = z attracting but costs steps (measured: 5x more at
-    1/mm). A step that would leave the domain is shortened to end on its boundary.
+    projection; a positive pull makes f = z attracting but costs steps. A step that would leave the domain is shortened to end on its boundary.
     """
     root, entry, remaining, sign = _start(problem, z_uT)
     vg, floor2 = problem.surface.value_and_gradient, problem.min_gradient_uT_per_mm ** 2

@@ -37,8 +37,9 @@ class Criteria:
     """More of the contact samples off the plane than this means tangential contact."""
     jump_sigma: float = 6.0
     """A slip is a step of z that leaves the median step by this many robust standard deviations
-    of the steps (the default sensor's 5.6 µT noise makes them ~9 µT; its stick-slip at the
-    paper's 40 mm drops z by 62-91 µT a slip, which eight would miss a third of) ..."""
+    of the steps: at six every jump of the default sensor's stick-slip at the paper's depth
+    stands out of its noise's steps, where eight would miss some
+    (docs/research/2026-11-29-study.md) ..."""
     jump_floor_uT: float = 60.0
     """... and by this absolute size, so that quantization never counts as a slip."""
     min_contact_samples: int = 10

@@ -169,7 +169,7 @@ def contact_onset_mm(distance_mm: np.ndarray, z_uT: np.ndarray, noise_uT: float,
     (the last), ``noise_uT`` the standard error of a step's mean z. A straight line through the
     steps whose |z| stands ``sigmas`` noise above zero (the lower half of their rise, when that
     holds two), extrapolated to z = 0, gives the onset; it is kept between the first and the
-    last step. With fewer than two such steps the last step is the estimate, as before.
+    last step. With fewer than two such steps the last step is the estimate.
     """
     distance_mm, magnitude = np.asarray(distance_mm, float), np.abs(np.asarray(z_uT, float))
     touching = magnitude > sigmas * max(float(noise_uT), 0.0)

@@ -134,8 +134,8 @@ def settle_settings(representation: str, segments: int = 40) -> SettleSettings:
         shorter as the explicit dead load's geometric stiffness grows (at alpha = 10 a step ten
         times the damping time made the chain wander without settling).
         For the flex: a 0.01 timestep and a total mass of (N/40)², because the edge constraints
-        stretch by about 0.075·T·dt²/M·(N/40)² (T the axial force; measured: 7.5e-4 at N=40 for
-        T=1 with M=0.01, 7.6e-6 with M=1), which holds the stretch near 8e-6·T at every N.
+        stretch by about 0.075·T·dt²/M·(N/40)² (T the axial force; a scaling read off the
+        flex's settled stretch), which holds the stretch near 8e-6·T at every N.
         A heavier flex settles more slowly (its lowest mode scales as 1/√M).
     """
     if representation == "chain":

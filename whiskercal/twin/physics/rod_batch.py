@@ -9,7 +9,7 @@ the warm step with its switch between a shaft and a tip contact (``contacts._cir
 the same physical checks (``contacts.circle_state_ok``), giving the same solutions. A point that
 needs the path in from first touch (no warm start, or the warm step failed) follows it here too,
 as ``contacts._circle_path`` does, step for step (``_from_touch``): the tip sweep's points take
-that path at every evaluation of a fit, and the loop no longer stops for them.
+that path at every evaluation of a fit, so the loop does not stop for them.
 Only a centre on the rigid stub is left to ``contacts.solve_rod`` (to refuse): the loop stops
 there (``run_rods``).
 """
