@@ -225,7 +225,7 @@ def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice,
     when it has an estimate.
 
     Z pins the suspension down where Y alone leaves it loose: on the family with the tip sweep
-    its lookups came 2-300x closer to the true tips (docs/calibration.md).
+    its lookups lie far closer to the true tips (docs/research/2026-11-29-calibration.md).
     """
     current = choice.estimated_tip_error_mm
     stands_in = choice.refusal is not None or requested == "auto"

@@ -60,8 +60,7 @@ BOUND_PATIENCE = 5
 # a chosen fit leaving a significant misfit with a tip sweep is refined again from its own
 # mechanics with k_θ·L/EI at these multiples (the ratio a grid pins least), the map fitted
 # afresh, while that lowers χ² by more than POLISH_GAIN, at most POLISH_PASSES times, each
-# refinement on at most POLISH_EVALUATIONS (a start this near a minimum reached it in 37 and 72
-# on the 4x stiffer root's collected grid)
+# refinement on at most POLISH_EVALUATIONS (enough for a start this near a minimum to reach it)
 POLISH_FACTORS = (0.8, 1.25)
 POLISH_GAIN = 1.0
 POLISH_PASSES = 3
@@ -75,8 +74,8 @@ RESTART_PASSES = 4
 # the mechanics (3) and the map's geometry (7), the stage offset's apart
 NONLINEAR_PARAMETERS = 10
 # the generic starts' EI/(L·k_θ): the Y fit's decades and 0.3, for soft roots whose minimum has
-# a narrow basin (k_θ·L/EI 1.8 is reached from 1.5-3, not from 1 or 10: at 1 the fit stops at
-# 2.08 and 26x the noise, at 10 a sweep contact leaves the rod)
+# a narrow basin (reached from a start near it, not from a decade away, where the fit stops in
+# another minimum far above the noise or a sweep contact leaves the rod)
 JOINT_ROT_COMPLIANCE_STARTS = (0.01, 0.1, 0.3, 1.0)
 
 
@@ -310,8 +309,7 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
     best, fits = _best_from_starts(groups, *args, orders, sweep)
     # as for the polynomial map (``identify._richer_map``), only with a tip sweep: on a grid
     # alone a misfit may come from the stage's position error, which a richer map absorbs into
-    # the suspension (the recorded default grid's table took a fifth order and biased the
-    # contour runs)
+    # the suspension (on the recorded default grid a fifth order would bias the contour runs)
     while _swept(sweep) and max(best[1].orders) < MAX_ORDER and _misfit_left(best, fields.size):
         richer = _one_order_more(best[1].orders)
         more = [_joint_fit(best[0].x[:best[1].solved_count], *args, richer, sweep)]
@@ -345,9 +343,9 @@ def _polished(best, args, sweep):
     """``best`` (result, objective) refined again from its mechanics with k_θ·L/EI at
     ``POLISH_FACTORS`` times its own, while one of those lowers χ² by more than ``POLISH_GAIN``
     with its offset inside the bounds: (the best, every fit tried). A start group's minimum
-    may be a stall of the least squares on a noisy Jacobian: on the 4x stiffer root's collected
-    grid the fit stopped at k_θ·L/EI 52 (twin 62.6, χ² 755) and, from 0.8 of that, reached
-    61.3 at χ² 636, where a start at the twin's own suspension lands too."""
+    may be a stall of the least squares on a noisy Jacobian, which a start at a nearby ratio gets
+    past to the minimum a start at the twin's own suspension lands in (a case is in
+    docs/research/2026-11-29-calibration.md)."""
     fits = []
     for _ in range(POLISH_PASSES):
         result, joint = best
