@@ -323,8 +323,8 @@ def _best_joint_fit(start, centers, fields, noise, rod_radius_mm, trace_length_m
             break
         best = candidate
     # with a tip sweep only, as a richer order: on a grid alone the misfit left is the stage's
-    # position error along the wire (not fitted there), which no refinement removes; polishing
-    # the recorded default grid moved k_θ·L/EI from 15.84 to 15.89 (twin 15.6) for a minute
+    # position error along the wire (not fitted there), which no refinement removes: polishing
+    # it costs time and barely moves the suspension
     if _swept(sweep) and _misfit_left(best, fields.size):
         best, polished = _polished(best, args, sweep)
         fits += polished
