@@ -46,11 +46,13 @@ def test_the_quick_bench_writes_its_rows_chart_and_verdict(tmp_path):
     assert {(r["nuisance"], r["countermeasure_on"]) for r in rows} == {
         ("none", False), ("none", True), ("all", False), ("all", True)}
     for row in rows:
-        assert ROW_KEYS <= set(row) and row["case"] == "cylinder"
-    baseline = next(r for r in rows if r["nuisance"] == "none" and not r["countermeasure_on"])
-    assert 0.0 < baseline["mean_error_mm"] < 1.0  # against the true outline, no alignment
+        assert ROW_KEYS <= set(row) and row["case"] in ("cylinder", "plane 20 mm")
+    for case in ("cylinder", "plane 20 mm"):  # the plane study's one quick depth passes
+        baseline = next(r for r in rows if r["case"] == case and r["nuisance"] == "none"
+                        and not r["countermeasure_on"])
+        assert 0.0 < baseline["mean_error_mm"] < 1.0  # against the truth, no alignment
     assert {(r["speed_mm_s"], r["rate_hz"]) for r in found["speed_rate_rows"]} == {
         (8.0, 30.0), (8.0, 300.0)}
-    assert set(found["goal"]) == {"cylinder"} and found["goal"]["cylinder"]["goal_mm"] == GOAL_MM
+    assert set(found["goal"]) == {"cylinder", "plane 20 mm"} and found["goal"]["cylinder"]["goal_mm"] == GOAL_MM
     assert found["levels"]["robot"]["rate_hz"] == 30.0 and found["sources"]["robot.rate_hz"]
     assert (tmp_path / "error-budget.png").read_bytes().startswith(b"\x89PNG")

@@ -115,3 +115,38 @@ def test_a_trial_without_contact_is_flagged_not_a_traceback(tmp_path, fake_study
     assert row.failing and row.reasons[0].startswith("no contact (0 samples")
     assert row.contact_fraction == 0.0 and np.isnan(row.median_z_uT)
     assert report.choice is None and "no trial qualifies" in report.no_target
+
+
+class _CountermeasuredCalibration(FakeCalibration):
+    """The fake calibration, its tracker asked for counter-measures, recording what it reads."""
+
+    def tracker(self, out_of_range="nan", rezero=False, creep=None):
+        self.asked, self.read = (rezero, creep), []
+        inner, read = super().tracker(out_of_range), self.read
+
+        class Recording:
+            def update(self, z_uT, axial_uT=None):
+                read.append(z_uT)
+                return inner.update(z_uT)
+
+        return Recording()
+
+
+def test_countermeasures_read_each_trial_from_its_start_at_rest_and_keep_the_slide(fake_study):
+    from whiskercal.artifacts.plane_study import PHASE_SLIDE
+    from whiskercal.study.localize import Countermeasures
+    from whiskercal.study.report import trial_series
+
+    path, geometry = fake_study
+    study = read_study(path)
+    trial = study.trials[0]
+    calibration = _CountermeasuredCalibration(geometry)
+    plain, _ = trial_series(study, trial, FakeCalibration(geometry), 300.0)
+    series, _ = trial_series(study, trial, calibration, 300.0,
+                             countermeasures=Countermeasures(rezero=True, creep=(0.05, 3.0)))
+    slide = np.flatnonzero(trial.stream["phase"] == PHASE_SLIDE)
+    assert calibration.asked == (True, (0.05, 3.0))
+    assert len(calibration.read) == slide[-1] + 1 > slide.size  # from the stream's first sample
+    assert abs(calibration.read[0]) < 300.0  # at rest, out of contact: a re-zeroed rest needs it
+    assert series.raw_tip_mm.shape == plain.raw_tip_mm.shape == (slide.size, 2)
+    np.testing.assert_array_equal(series.raw_tip_mm, plain.raw_tip_mm)  # the fake's tips are z's

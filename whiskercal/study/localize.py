@@ -6,6 +6,9 @@ constant-state Kalman filter). Samples whose z the calibration cannot map (outsi
 calibrated range) get no estimate and are counted. The chip's Z axis goes along when the
 calibration carries a (Y, Z) table (``fit``'s default) or loads to follow (``load_branches``);
 otherwise Y alone, as the lookup takes it.
+
+``Countermeasures`` asks the tracker for what a rig that drifts and creeps needs
+(``runtime.Calibration.tracker``): the rest re-zeroed out of contact, the creep undone.
 """
 
 from __future__ import annotations
@@ -13,6 +16,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class Countermeasures:
+    """What the tracker does against a real rig's nuisances (docs/error-budget.md): ``rezero``
+    its rest out of contact (the stream must then start out of contact), ``creep`` the
+    suspension's (share, time constant s) undone. None of them: the tracker as it ships."""
+
+    rezero: bool = False
+    creep: tuple[float, float] | None = None
+
+    @property
+    def any(self) -> bool:
+        return self.rezero or self.creep is not None
 
 
 @dataclass
@@ -26,7 +43,8 @@ class Estimates:
     """Samples in contact whose z the calibration refused (out of its range)."""
 
 
-def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None) -> Estimates:
+def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None,
+          countermeasures: Countermeasures = Countermeasures()) -> Estimates:
     """Run a fresh tracker of ``calibration`` over a stream of z (µT, relative to static).
 
     Parameters
@@ -39,9 +57,13 @@ def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None) -> 
     axial_uT
         The chip's Z axis per sample (µT from its static reading), used when the calibration
         has a ``field_table`` or ``load_branches``.
+    countermeasures
+        Against drift and creep (none by default).
     """
     # "nan": a z outside the calibrated range gives no raw tip, and the tracker goes on
-    tracker = calibration.tracker(out_of_range="nan")
+    options = {"rezero": countermeasures.rezero, "creep": countermeasures.creep} \
+        if countermeasures.any else {}
+    tracker = calibration.tracker(out_of_range="nan", **options)
     n = len(z_uT)
     contact = np.zeros(n, bool)
     raw = np.full((n, 2), np.nan)

@@ -17,7 +17,7 @@ from whiskercal.artifacts.plane_study import (PHASE_APPROACH, PHASE_SLIDE, Study
 from whiskercal.errors import ArtifactError
 from whiskercal.study.analysis import Criteria, TrialMetrics, TrialSeries, analyse_study
 from whiskercal.study.config import PlaneGeometry
-from whiskercal.study.localize import track
+from whiskercal.study.localize import Countermeasures, Estimates, track
 from whiskercal.rig.overload import SENSOR_AXIS_Y
 
 SENSOR_AXIS_Z = 2
@@ -83,11 +83,14 @@ def slid_mm(trial: TrialRecord) -> float:
 
 
 def trial_series(study: Study, trial: TrialRecord, calibration, threshold_uT: float,
-                 settle_mm: float = Criteria.settle_mm) -> tuple[TrialSeries, int]:
+                 settle_mm: float = Criteria.settle_mm,
+                 countermeasures: Countermeasures = Countermeasures()) -> tuple[TrialSeries, int]:
     """The slide of one trial, localized through ``calibration``; and its unmapped sample count.
 
     The push-in's depth and z go along for the kink test; samples within ``settle_mm`` of
-    the slide's start are marked unsteady.
+    the slide's start are marked unsteady. With ``countermeasures`` the tracker reads the
+    trial's stream from its start, the stage at rest out of contact (a re-zeroed rest needs
+    it), and the slide's estimates are kept; without, it reads the slide alone.
     """
     phase = trial.stream["phase"]
     slide = phase == PHASE_SLIDE
@@ -101,7 +104,7 @@ def trial_series(study: Study, trial: TrialRecord, calibration, threshold_uT: fl
     approach = phase == PHASE_APPROACH
     approach_depth = geometry.depth_of_stage_mm(stage_mm[approach],
                                                 study.header["first_contact_stage_mm"])
-    estimates = track(calibration, z_all[slide], axial_all[slide])
+    estimates = _slide_estimates(calibration, z_all, axial_all, slide, countermeasures)
     along = np.linalg.norm(stage_mm[slide] - stage_mm[slide][:1], axis=1) if slide.any() else np.zeros(0)
     truth = trial.truth
     series = TrialSeries(
@@ -116,6 +119,18 @@ def trial_series(study: Study, trial: TrialRecord, calibration, threshold_uT: fl
     return series, estimates.unmapped
 
 
+def _slide_estimates(calibration, z_uT, axial_uT, slide, countermeasures) -> Estimates:
+    """The tracker's estimates over the slide (see ``trial_series``)."""
+    if not countermeasures.any or not slide.any():
+        return track(calibration, z_uT[slide], axial_uT[slide])
+    read = slice(0, int(np.flatnonzero(slide)[-1]) + 1)
+    whole = track(calibration, z_uT[read], axial_uT[read], countermeasures)
+    kept = slide[read]
+    raw, filtered, contact = whole.raw_tip_mm[kept], whole.filtered_tip_mm[kept], whole.contact[kept]
+    return Estimates(contact=contact, raw_tip_mm=raw, filtered_tip_mm=filtered,
+                     unmapped=int(np.sum(contact & np.isnan(raw[:, 0]))))
+
+
 def _missing_row(depth_mm: float) -> TrialMetrics:
     """A placeholder row for a planned trial that is not in the file: failing, so that the
     target keeps its distance from depths nobody measured."""
@@ -128,7 +143,8 @@ def _missing_row(depth_mm: float) -> TrialMetrics:
 
 def build_report(study_path: str | Path, calibration, criteria: Criteria = Criteria(),
                  margin_weight_mm: float = 0.1, allow_missing: bool = False,
-                 tie_mm: float = TIE_MM) -> StudyReport:
+                 tie_mm: float = TIE_MM,
+                 countermeasures: Countermeasures = Countermeasures()) -> StudyReport:
     """Analyse a study file with a loaded calibration and choose the target.
 
     Parameters
@@ -145,6 +161,8 @@ def build_report(study_path: str | Path, calibration, criteria: Criteria = Crite
         Analyse a study that lacks planned trials instead of refusing it.
     tie_mm
         Scores within this of the lowest tie; the shallowest tied depth wins.
+    countermeasures
+        What the tracker does against drift and creep (``study.localize``; none by default).
     """
     study = read_study(study_path)
     if not allow_missing or not study.trials:
@@ -152,7 +170,8 @@ def build_report(study_path: str | Path, calibration, criteria: Criteria = Crite
     threshold = float(study.config.get("contact", {}).get("threshold_uT", 300.0))
     series, unmapped = [], {}
     for trial in study.trials:
-        one, count = trial_series(study, trial, calibration, threshold, criteria.settle_mm)
+        one, count = trial_series(study, trial, calibration, threshold, criteria.settle_mm,
+                                  countermeasures)
         series.append(one)
         unmapped[trial.depth_mm] = count
     rows = analyse_study(series, criteria)

@@ -22,7 +22,9 @@ unless asked (docs/error-budget.md says what each models and where its realistic
   stamps stay nominal.
 
 The state classes below turn a table into what one run sees (seeded); ``twin.mobile`` applies
-them. A table whose levels are all 0 changes nothing, bit for bit.
+them all, and the stage rig (``twin.world``, the ``sim://`` ports) the drift and the creep,
+which are the sensor's: on a stage the plane or rod is the scene's own (with its own friction),
+and no robot reports a pose. A table whose levels are all 0 changes nothing, bit for bit.
 """
 
 from __future__ import annotations
@@ -41,7 +43,8 @@ from whiskercal.typedconfig import Table, integer, number, numbers, validate
 
 __all__ = ["ContactTable", "DriftTable", "DynamicsTable", "NUISANCE_NAMES", "Nuisances",
            "PoseChannel", "REALISTIC", "RobotTable", "SOURCES", "SensorNuisances",
-           "ViscoelasticTable", "load_dynamics", "load_nuisances", "nuisances_named", "only"]
+           "STAGE_RIG_NUISANCES", "ViscoelasticTable", "load_dynamics", "load_nuisances",
+           "nuisances_named", "only", "stage_rig_part", "stage_rig_refusal"]
 
 UT3 = numbers(3, says="a list of 3 numbers of µT (X, Y, Z)")
 UT3_NONNEGATIVE = numbers(3, ge=0, says="a list of 3 numbers of µT >= 0 (X, Y, Z)")
@@ -187,6 +190,24 @@ def only(name: str, level: Nuisances = REALISTIC) -> Nuisances:
     if name not in NUISANCE_NAMES:
         raise UsageError(f"unknown nuisance {name!r}; choose from {', '.join(NUISANCE_NAMES)}")
     return Nuisances(**{name: getattr(level, name)})
+
+
+# the nuisances of the sensor itself, which a stage rig has as a robot does
+STAGE_RIG_NUISANCES = ("drift", "viscoelastic")
+
+
+def stage_rig_part(nuisances: Nuisances) -> Nuisances:
+    """``nuisances``' drift and creep alone: what a stage rig (``sim://``) takes of them."""
+    return Nuisances(**{name: getattr(nuisances, name) for name in STAGE_RIG_NUISANCES})
+
+
+def stage_rig_refusal(nuisances: Nuisances) -> str:
+    """Why a stage rig cannot take ``nuisances`` (a contact or robot level set), or ""."""
+    if nuisances == stage_rig_part(nuisances):
+        return ""
+    return ("a stage rig (sim://) takes the nuisances [nuisances.drift] and "
+            "[nuisances.viscoelastic] only: the scene on the stage has its own contact, and no "
+            "robot reports a pose; give the contact and robot tables to contour run")
 
 
 def load_nuisances(path: str | Path) -> Nuisances:

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from whiskercal.errors import UsageError
 from whiskercal.protocol.sensor_config import SensorConfig
 from whiskercal.twin.contact_path import ContactPath
 from whiskercal.twin.devices.boards import Boards
@@ -43,6 +44,10 @@ class WorldConfig:
     solves; ``clock_drift_ppm`` the sensor board's clock error; ``stock`` a plain grbl stage;
     ``dynamics`` a ``twin.nuisances.DynamicsTable`` (None or no modes: the quasi-static
     whisker; with modes the field follows the suspension's ringing, ``physics.dynamics``);
+    ``nuisances`` a ``twin.nuisances.Nuisances`` (None or all off: the ideal rig): the reading's
+    drift (its stray field while the stage moves) and the suspension's creep act here; the
+    contact's roughness and the robot's nuisances belong to the moving-base twin
+    (``twin.mobile``) and are refused;
     ``homing`` its homing cycle: ``"xy"`` (X and Y together, whiskercal's firmware always), or
     ``""`` for the board's default, which on stock grbl 1.1 homes Z first (ALARM:9 on a two-axis
     stage, which has no Z switch); ``origin`` ``"set"`` for a stock build with
@@ -64,6 +69,7 @@ class WorldConfig:
     max_step_mm: float = 0.05
     clock_drift_ppm: float = 0.0
     dynamics: object = None
+    nuisances: object = None
 
 
 class World:
@@ -90,6 +96,8 @@ class World:
         self._field_of = (self.contact.equilibrium, self._static_uT)
         self._magnetometers: dict[SensorConfig, object] = {}
         self._ringing = self._ringing_root()
+        self._nuisances = self._rig_nuisances()
+        self._last_sample_s = 0.0
 
     def _ringing_root(self):
         """The suspension's modal response when the config asks for modes, else None."""
@@ -101,6 +109,18 @@ class World:
         rest = self.contact.equilibrium
         return RingingRoot(dynamics.modes_of(self.sensor.whisker), rest.root_rotation_rad,
                            getattr(rest, "root_shift_mm", (0.0, 0.0)))
+
+    def _rig_nuisances(self):
+        """The sensor's nuisances of this session (seeded) when the config asks for any, else None."""
+        nuisances = self.config.nuisances
+        if nuisances is None or nuisances.off:
+            return None
+        from whiskercal.twin.nuisances import SensorNuisances, stage_rig_refusal
+
+        refusal = stage_rig_refusal(nuisances)
+        if refusal:
+            raise UsageError(refusal)
+        return SensorNuisances(nuisances, self.config.seed)
 
     def _wire_devices(self) -> None:
         """The stage, both boards and the clock; seeds: magnetometer noise, then link faults."""
@@ -210,8 +230,8 @@ class World:
         stage_mm = self.stage_true_mm(t)
         tool_mm = self.config.geometry.to_whisker(stage_mm)
         equilibrium = self.contact.at(t, tool_mm)
-        if self._ringing is not None:
-            self._field_of = (None, self._ringing_field(t, equilibrium))
+        if self._ringing is not None or self._nuisances is not None:
+            self._field_of = (None, self._real_field(t, equilibrium))
         elif self._field_of[0] is not equilibrium:  # standing still: the field is the same
             self._field_of = (equilibrium, self.physics.field_uT(equilibrium))
         field_out[:] = self._field_of[1]
@@ -219,15 +239,24 @@ class World:
                              field_out[1] - self._static_uT[1], self.contact.take_slips())
         return "failed" if self.contact.last_solve_failed else equilibrium.kind
 
-    def _ringing_field(self, t: float, equilibrium) -> np.ndarray:
-        """The field at the suspension's dynamic pose at ``t`` (the modes' response to the
-        quasi-static ``equilibrium``), µT (3,)."""
+    def _real_field(self, t: float, equilibrium) -> np.ndarray:
+        """The field the chip reads at ``t`` as a real rig has it, µT (3,): the magnet's at the
+        suspension's pose ringing with the modes (their response to the quasi-static
+        ``equilibrium``) and crept, the reading drifting (``twin.nuisances``)."""
+        rotation = equilibrium.root_rotation_rad
         shift = getattr(equilibrium, "root_shift_mm", None)
-        rotation, moved = self._ringing.at(t, equilibrium.root_rotation_rad,
-                                           (0.0, 0.0) if shift is None else shift)
+        if self._ringing is not None:
+            rotation, moved = self._ringing.at(t, rotation, (0.0, 0.0) if shift is None else shift)
+            shift = None if shift is None else moved
+        if self._nuisances is not None:
+            rotation += self._nuisances.creep(rotation, t - self._last_sample_s)
+            self._last_sample_s = t
         pose = {"root_rotation_rad": rotation} if shift is None else \
-            {"root_rotation_rad": rotation, "root_shift_mm": moved}
-        return self.physics.field_uT(replace(equilibrium, **pose))
+            {"root_rotation_rad": rotation, "root_shift_mm": shift}
+        field = self.physics.field_uT(replace(equilibrium, **pose))
+        if self._nuisances is None:
+            return field
+        return self._nuisances.field_uT(np.asarray(field, float), t, self.stage.busy(t))
 
     def _magnetometer(self, config: SensorConfig):
         """The sensor's magnetometer with the board's settings (made once per setting)."""

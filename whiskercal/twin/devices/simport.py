@@ -34,7 +34,7 @@ _MIN_STEP_S = 1e-7
 # host bytes wait at most this long for the boards, however slow the simulation runs.
 PACED_STEP_WALL_S = 0.02
 _WORLD_OPTIONS = ("scene", "rod_radius", "seed", "stock", "homing", "origin", "corrupt", "drop", "speed", "sensor",
-                  "backlash", "drift_ppm", "fault", "firmware")
+                  "backlash", "drift_ppm", "fault", "firmware", "nuisances")
 _STAGE_FAULTS = {"missed_steps": "missed_steps_at_s", "stall": "stall_at_s",
                  "encoder_magnet": "encoder_magnet_at_s", "encoder_bus": "encoder_bus_at_s"}
 
@@ -87,15 +87,20 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         setattr(stage_faults, _STAGE_FAULTS[fault], when)
         if fault == "missed_steps" and argument:
             stage_faults.missed_steps_mm = number(argument, "the missed_steps fault's size", unit="mm")
-    sensor, dynamics = None, None
+    sensor, dynamics, nuisances = None, None, None
     if "sensor" in options:  # a shipped id or the path of a .toml sensor file (percent-decoded)
-        from whiskercal.twin.nuisances import load_dynamics
+        from whiskercal.twin.nuisances import load_dynamics, load_nuisances, stage_rig_part
         from whiskercal.twin.params import SENSORS
         from whiskercal.twin.sensor_file import resolve_sensor
 
-        sensor = resolve_sensor(value("sensor", ""))
-        # a file's [dynamics] table: the wire's bending modes (off without one)
-        dynamics = None if value("sensor", "") in SENSORS else load_dynamics(value("sensor", ""))
+        path = value("sensor", "")
+        sensor = resolve_sensor(path)
+        if path not in SENSORS:
+            # a file's [dynamics] (the wire's bending modes) and the drift and creep of its
+            # [nuisances]; its contact and robot tables are contour run's
+            dynamics, nuisances = load_dynamics(path), stage_rig_part(load_nuisances(path))
+    if "nuisances" in options:
+        nuisances = _nuisances(value("nuisances", ""))
     world = create_world(
         name, scene=value("scene", "rod"), sensor=sensor,
         seed=seed_value(value("seed", 0), "sim:// option seed"),
@@ -105,9 +110,24 @@ def world_from_options(name: str, options: dict[str, list[str]]) -> World:
         speed=number(value("speed", 0), "sim:// option speed (0: as fast as the host allows)", low=0),
         backlash_mm=number(value("backlash", 0.02), "sim:// option backlash", low=0, unit="mm"),
         clock_drift_ppm=number(value("drift_ppm", 0), "sim:// option drift_ppm", low=-1e4, high=1e4),
-        stage_faults=stage_faults, sensor_faults=sensor_faults, dynamics=dynamics)
+        stage_faults=stage_faults, sensor_faults=sensor_faults, dynamics=dynamics,
+        nuisances=nuisances)
     world.url_options = _world_level(options)
     return world
+
+
+def _nuisances(text: str):
+    """The ``nuisances=`` option: off, realistic (the drift and creep at their realistic
+    levels), realistic:drift, realistic:viscoelastic, or a .toml file's [nuisances] table."""
+    from whiskercal.twin.nuisances import nuisances_named, stage_rig_part, stage_rig_refusal
+
+    nuisances = nuisances_named(text)
+    if text == "realistic":
+        return stage_rig_part(nuisances)
+    refusal = stage_rig_refusal(nuisances)
+    if refusal:
+        raise UsageError(f"sim:// option nuisances={text}: {refusal}")
+    return nuisances
 
 
 def _firmware(options: dict[str, list[str]], board: str) -> str:
