@@ -229,7 +229,7 @@ class Collector:
         before: read the encoder again and refuse the point (it is re-taken on resume) when the
         stage alarmed or the position moved, rather than save it where the rod no longer was."""
         if not np.all(np.isfinite(encoder_mm)):
-            return  # no encoder: nothing measures the carriage (docs/walkthrough.md)
+            return  # no encoder: nothing measures the carriage (docs/inputs-and-outputs.md)
         try:
             status = self.rig.status()
         except StageAlarmError as error:
