@@ -239,7 +239,8 @@ class Collector:
         after = None if status is None or status.alarm else self._check_encoder(status, index)
         moved = np.inf if after is None else float(np.max(np.abs(after - encoder_mm)))
         if moved > self.config.safety.encoder_tolerance_mm:
-            how = "the stage raised ALARM:10" if after is None else f"it moved {moved:.2f} mm"
+            how = (f"the stage raised ALARM:{int(StageAlarm.ENCODER_MISMATCH)}" if after is None
+                   else f"it moved {moved:.2f} mm")
             raise EncoderMismatchError(
                 f"stage encoder position changed while point {index} was sampled ({how}): missed "
                 "steps or a stall; the point was not saved; re-home the stage and continue with "
