@@ -148,7 +148,7 @@ REALISTIC = Nuisances(
     drift=DriftTable(session_offset_uT=(713.0, 713.0, 713.0), temperature_K_per_min=0.05,
                      motor_step_uT=(15.0, 15.0, 15.0)),
     viscoelastic=ViscoelasticTable(creep_share=0.05, tau_s=3.0),
-    contact=ContactTable(roughness_rms_mm=0.12, correlation_mm=0.02, mu_static=0.30, mu_kinetic=0.22),
+    contact=ContactTable(roughness_rms_mm=0.25, correlation_mm=0.02, mu_static=0.30, mu_kinetic=0.22),
     robot=RobotTable(latency_s=0.033, pose_noise_mm=0.03, heading_noise_rad=0.0005, rate_hz=30.0,
                      jitter_s=0.003))
 
