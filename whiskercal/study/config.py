@@ -175,14 +175,13 @@ class PlaneGeometry:
     slide_sign: int
     tip_reach_mm: float
     fixture_offset_mm: np.ndarray
-    plate_half_length_mm: float
-    plate_thickness_mm: float
+    plate_half_length_mm: float = 60.0
+    plate_thickness_mm: float = 10.0
 
     @classmethod
     def from_config(cls, config: dict[str, Any]) -> "PlaneGeometry":
-        """The geometry a configuration describes (a study file written before a key existed
-        takes the key's default)."""
-        geometry = {**default_config()["geometry"], **config["geometry"]}
+        """The geometry a configuration describes."""
+        geometry = config["geometry"]
         return cls(origin_stage_mm=np.asarray(geometry["whisker_origin_stage_mm"], float),
                    angle_rad=float(np.radians(geometry["whisker_angle_deg"])),
                    tilt_rad=float(np.radians(geometry["plane_tilt_deg"])),
