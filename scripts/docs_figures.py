@@ -110,11 +110,12 @@ BENCH_TABLES = {
                        ("aligned_mean_error_mm", "aligned mean (mm)", 2),
                        ("coverage", "coverage", 2), ("contacts_lost", "contacts lost", 0),
                        ("time_to_go_round_s", "round in (s)", 4)],
-    "error-budget": [("case", "object", 0), ("nuisance", "nuisance", 0),
+    "error-budget": [("case", "case (object, plane study depth)", 0), ("nuisance", "nuisance", 0),
                      ("countermeasure_on", "counter-measure on", 0),
                      ("countermeasure", "counter-measure", 0),
                      ("mean_error_mm", "mean error, no alignment (mm)", 3),
                      ("max_error_mm", "max (mm)", 3), ("coverage", "coverage", 2),
+                     ("failing", "the study fails the trial", 0),
                      ("contacts_lost", "contacts lost", 0),
                      ("fluctuation_uT", "in-contact fluctuation (µT)", 3),
                      ("estimated_latency_ms", "latency estimate (ms)", 2)],
@@ -138,7 +139,7 @@ EXTRA_TABLES = {
                             ("estimated_latency_ms", "latency estimate (ms)", 2)]),
     "error-budget-goal": ("error-budget", lambda result: [{"case": case, **verdict} for case, verdict
                                                           in result["goal"].items()],
-                          [("case", "object", 0), ("all_mean_error_mm", "all nuisances, every "
+                          [("case", "case", 0), ("all_mean_error_mm", "all nuisances, every "
                            "counter-measure (mm)", 3), ("goal_mm", "goal (mm)", 2),
                            ("met", "met", 0), ("set_by", "set by", 0)]),
     "error-budget-fluctuation": ("error-budget", lambda result: [result["contact_fluctuation"]],
