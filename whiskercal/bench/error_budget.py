@@ -119,9 +119,7 @@ def run_case(artifact: Path, shape: str, nuisances, countermeasures: bool, durat
     from whiskercal.follow import FollowConfig
 
     config = FollowConfig().replace(slip_resets_filter=countermeasures)
-    visco = nuisances.viscoelastic
-    # the creep undone with its share and time constant as a held push on the rig measures them
-    creep = (visco.creep_share, visco.tau_s) if countermeasures and visco.creep_share else None
+    creep = measured_creep(nuisances, countermeasures)
     run = contour_record(shape, artifact, nuisances=nuisances, rezero=countermeasures,
                          scale_filter=countermeasures, creep=creep, config=config,
                          duration_s=duration_s, seed=seed, speed_mm_s=speed_mm_s,
@@ -159,10 +157,7 @@ def budget_rows(artifact: Path, shapes, duration_s: float, nuisances=NUISANCES,
     for shape in shapes:
         for nuisance in nuisances:
             for on in (False, True):
-                row = {"case": shape, "nuisance": nuisance,
-                       "level": "off" if nuisance == "none" else "realistic",
-                       "countermeasure": COUNTERMEASURES[nuisance] if on else "none",
-                       "countermeasure_on": on,
+                row = {**_row_head(shape, nuisance, on),
                        **run_case(artifact, shape, level_of(nuisance), on, duration_s,
                                   mount=mount_of(nuisance, on, mounts))}
                 rows.append(row)
@@ -190,14 +185,27 @@ def speed_rate_rows(artifact: Path, speeds, rates, duration_s: float, shape: str
     return rows
 
 
+def measured_creep(nuisances, on: bool):
+    """The creep's (share, time constant s) the tracker undoes, as a held push on the rig
+    measures them; None without the counter-measure or without creep."""
+    visco = nuisances.viscoelastic
+    return (visco.creep_share, visco.tau_s) if on and visco.creep_share else None
+
+
 def plane_countermeasures(nuisances, on: bool):
-    """The study's counter-measures of a row: the rest re-zeroed, the creep undone with its
-    share and time constant as measured on the rig; none when ``on`` is False."""
+    """The study's counter-measures of a row: the rest re-zeroed, the creep undone; none when
+    ``on`` is False."""
     from whiskercal.study.localize import Countermeasures
 
-    visco = nuisances.viscoelastic
-    creep = (visco.creep_share, visco.tau_s) if on and visco.creep_share else None
-    return Countermeasures(rezero=on, creep=creep)
+    return Countermeasures(rezero=on, creep=measured_creep(nuisances, on))
+
+
+def _row_head(case: str, nuisance: str, on: bool) -> dict:
+    """What a budget row says of itself: its case, nuisance, level and counter-measure."""
+    return {"case": case, "nuisance": nuisance,
+            "level": "off" if nuisance == "none" else "realistic",
+            "countermeasure": COUNTERMEASURES[nuisance] if on else "none",
+            "countermeasure_on": on}
 
 
 def plane_study(out: Path, nuisances, depths_mm=None, seed: int = PLANE_SEED) -> Path:
@@ -236,10 +244,8 @@ def plane_rows(artifact: Path, folder: Path, nuisances=PLANE_NUISANCES, depths_m
             if passing is None:
                 passing = [r.depth_mm for r in report.rows if not r.failing]
             for trial in (r for r in report.rows if r.depth_mm in passing):
-                row = {"case": f"plane {trial.depth_mm:g} mm", "nuisance": nuisance,
-                       "level": "off" if nuisance == "none" else "realistic",
-                       "countermeasure": COUNTERMEASURES[nuisance] if on else "none",
-                       "countermeasure_on": on, "mean_error_mm": trial.true_filtered_mean_mm,
+                row = {**_row_head(f"plane {trial.depth_mm:g} mm", nuisance, on),
+                       "mean_error_mm": trial.true_filtered_mean_mm,
                        "coverage": trial.contact_fraction, "failing": trial.failing,
                        "reasons": list(trial.reasons)}
                 rows.append(row)
@@ -258,8 +264,8 @@ def goal(rows: list[dict]) -> dict:
         if everything is None:
             continue
         alone = [r for r in mine if r["nuisance"] not in ("all", "none")]
-        # a plane trial's coverage is the share of its slide in contact
         error = everything["mean_error_mm"]
+        # a plane trial's coverage is the share of its slide in contact
         met = bool(np.isfinite(error) and error <= GOAL_MM and everything["coverage"] > 0)
         worst = max(alone, key=lambda r: _finite(r["mean_error_mm"]), default=None)
         verdict[case] = {"all_mean_error_mm": error, "goal_mm": GOAL_MM, "met": met,

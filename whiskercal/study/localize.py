@@ -42,6 +42,16 @@ class Estimates:
     unmapped: int
     """Samples in contact whose z the calibration refused (out of its range)."""
 
+    @classmethod
+    def of(cls, contact: np.ndarray, raw_tip_mm: np.ndarray, filtered_tip_mm: np.ndarray) -> "Estimates":
+        """The estimates with their count of contact samples left without a raw tip."""
+        return cls(contact=contact, raw_tip_mm=raw_tip_mm, filtered_tip_mm=filtered_tip_mm,
+                   unmapped=int(np.sum(contact & np.isnan(raw_tip_mm[:, 0]))))
+
+    def kept(self, mask: np.ndarray) -> "Estimates":
+        """The samples of ``mask`` alone."""
+        return Estimates.of(self.contact[mask], self.raw_tip_mm[mask], self.filtered_tip_mm[mask])
+
 
 def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None,
           countermeasures: Countermeasures = Countermeasures()) -> Estimates:
@@ -79,8 +89,7 @@ def track(calibration, z_uT: np.ndarray, axial_uT: np.ndarray | None = None,
             raw[i] = state.raw_tip_mm
         if state.filtered_tip_mm is not None:
             filtered[i] = state.filtered_tip_mm
-    unmapped = int(np.sum(contact & np.isnan(raw[:, 0])))
-    return Estimates(contact=contact, raw_tip_mm=raw, filtered_tip_mm=filtered, unmapped=unmapped)
+    return Estimates.of(contact, raw, filtered)
 
 
 def _reads_z_axis(calibration) -> bool:

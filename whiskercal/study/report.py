@@ -124,11 +124,7 @@ def _slide_estimates(calibration, z_uT, axial_uT, slide, countermeasures) -> Est
     if not countermeasures.any or not slide.any():
         return track(calibration, z_uT[slide], axial_uT[slide])
     read = slice(0, int(np.flatnonzero(slide)[-1]) + 1)
-    whole = track(calibration, z_uT[read], axial_uT[read], countermeasures)
-    kept = slide[read]
-    raw, filtered, contact = whole.raw_tip_mm[kept], whole.filtered_tip_mm[kept], whole.contact[kept]
-    return Estimates(contact=contact, raw_tip_mm=raw, filtered_tip_mm=filtered,
-                     unmapped=int(np.sum(contact & np.isnan(raw[:, 0]))))
+    return track(calibration, z_uT[read], axial_uT[read], countermeasures).kept(slide[read])
 
 
 def _missing_row(depth_mm: float) -> TrialMetrics:
