@@ -110,14 +110,17 @@ class TrialsConfig(Table):
 
 
 class GeometryConfig(Table):
-    """Whisker frame in stage coordinates (mm, deg), the tip's reach (mm), the plane's tilt (deg)
-    and the fixture's offset from the stage position (mm)."""
+    """Whisker frame in stage coordinates (mm, deg), the tip's reach (mm), the plane's tilt (deg),
+    the fixture's offset from the stage position (mm) and the plate's half length and thickness
+    (mm)."""
 
     whisker_origin_stage_mm: Pair
     whisker_angle_deg: Number
     tip_reach_mm: number(gt=0, le=MAX_REACH_MM)
     plane_tilt_deg: Number
     fixture_offset_mm: Pair
+    plate_half_length_mm: Positive
+    plate_thickness_mm: Positive
 
 
 class ContactConfig(Table):
@@ -158,6 +161,10 @@ class StudyConfig(Table):
         return self
 
 
+WIRE_POINTS = 80  # points of the undeflected whisker a plate position is checked against
+PATH_STEP_MM = 0.5  # the plate's positions along a move checked against the whisker
+
+
 @dataclass(frozen=True)
 class PlaneGeometry:
     """Where the plane is, in the whisker frame and in stage coordinates (mm, unit vectors)."""
@@ -168,17 +175,22 @@ class PlaneGeometry:
     slide_sign: int
     tip_reach_mm: float
     fixture_offset_mm: np.ndarray
+    plate_half_length_mm: float
+    plate_thickness_mm: float
 
     @classmethod
     def from_config(cls, config: dict[str, Any]) -> "PlaneGeometry":
-        """The geometry a configuration describes."""
-        geometry = config["geometry"]
+        """The geometry a configuration describes (a study file written before a key existed
+        takes the key's default)."""
+        geometry = {**default_config()["geometry"], **config["geometry"]}
         return cls(origin_stage_mm=np.asarray(geometry["whisker_origin_stage_mm"], float),
                    angle_rad=float(np.radians(geometry["whisker_angle_deg"])),
                    tilt_rad=float(np.radians(geometry["plane_tilt_deg"])),
                    slide_sign=int(config["trials"]["slide_sign"]),
                    tip_reach_mm=float(geometry["tip_reach_mm"]),
-                   fixture_offset_mm=np.asarray(geometry["fixture_offset_mm"], float))
+                   fixture_offset_mm=np.asarray(geometry["fixture_offset_mm"], float),
+                   plate_half_length_mm=float(geometry["plate_half_length_mm"]),
+                   plate_thickness_mm=float(geometry["plate_thickness_mm"]))
 
     @property
     def push_whisker(self) -> np.ndarray:
@@ -216,6 +228,41 @@ class PlaneGeometry:
         """How far (mm) stage positions push the plane past the first-contact position."""
         push_stage = self.to_stage_vector(self.push_whisker)
         return (np.atleast_2d(stage_mm) - np.asarray(contact_stage_mm, float)) @ push_stage
+
+    def plate_touches_wire(self, stage_mm: np.ndarray) -> np.ndarray:
+        """Whether the plate, at each stage position (n, 2), holds a point of the undeflected
+        whisker (n,): a point behind the surface by at most the plate's thickness and within
+        its half length along it."""
+        tool = self.frame.to_whisker(np.atleast_2d(np.asarray(stage_mm, float)) + self.fixture_offset_mm)
+        wire = np.column_stack([np.linspace(0.0, self.tip_reach_mm, WIRE_POINTS), np.zeros(WIRE_POINTS)])
+        offset = tool[:, None, :] - wire[None, :, :]
+        depth = offset @ self.push_whisker
+        along = offset @ self.slide_whisker
+        inside = (depth >= 0) & (depth <= self.plate_thickness_mm) & \
+            (np.abs(along) <= self.plate_half_length_mm)
+        return inside.any(axis=1)
+
+    def path_touches_wire(self, waypoints_stage_mm) -> bool:
+        """Whether straight moves through ``waypoints_stage_mm`` carry the plate into the
+        undeflected whisker anywhere (checked every ``PATH_STEP_MM``)."""
+        points = [np.asarray(p, float) for p in waypoints_stage_mm]
+        for start, end in zip(points, points[1:]):
+            steps = max(2, int(np.ceil(np.linalg.norm(end - start) / PATH_STEP_MM)) + 1)
+            if self.plate_touches_wire(np.linspace(start, end, steps)).any():
+                return True
+        return False
+
+    def clear_paths_stage_mm(self, here_stage_mm: np.ndarray, target_stage_mm: np.ndarray):
+        """Candidate paths from ``here`` to ``target`` (whose plane stands short of the tip),
+        shortest first: straight, and through each point of the target's surface line (moves
+        along it keep the plane short of the tip). Which of them keep the plate off the wire is
+        ``path_touches_wire``'s to say."""
+        here, target = np.asarray(here_stage_mm, float), np.asarray(target_stage_mm, float)
+        along = self.to_stage_vector(self.slide_whisker)
+        reach = 2.0 * (self.plate_half_length_mm + self.tip_reach_mm) + np.linalg.norm(target - here)
+        vias = [target + s * along for s in np.arange(-reach, reach, PATH_STEP_MM * 10)]
+        paths = [[here, target]] + [[here, via, target] for via in vias]
+        return sorted(paths, key=lambda path: sum(np.linalg.norm(b - a) for a, b in zip(path, path[1:])))
 
     def trial_waypoints_stage_mm(self, contact_stage_mm: np.ndarray, depth_mm: float,
                                  config: dict[str, Any]) -> dict[str, np.ndarray]:

@@ -209,6 +209,25 @@ class StudyRun:
         self.rig.move_to_stage(target_mm, speed_mm_s * 60.0,
                                on_poll=recorder.on_poll if recorder is not None else None)
 
+    def _move_clear(self, target_mm: np.ndarray, speed_mm_s: float) -> None:
+        """Move to ``target_mm``, whose plane stands short of the tip, by the shortest path whose
+        plate never holds a point of the undeflected whisker and which stays inside the travel
+        (``PlaneGeometry.clear_paths_stage_mm``): a straight move from home can carry the plate
+        across the whole wire."""
+        here = self.rig.position_stage_mm()
+        margin = float(self.config["safety"]["travel_margin_mm"])
+        for path in self.geometry.clear_paths_stage_mm(here, target_mm):
+            inside = not any(self.rig.outside_travel(point, margin) for point in path[1:-1])
+            if inside and not self.geometry.path_touches_wire(path):
+                for point in path[1:]:
+                    self._move(point, speed_mm_s, None, PHASE_APPROACH)
+                return
+        raise UsageError(
+            f"no path inside the stage's travel carries the plate from ({here[0]:.1f}, "
+            f"{here[1]:.1f}) mm to the contact search at ({target_mm[0]:.1f}, {target_mm[1]:.1f}) "
+            "mm without touching the whisker; move the plate clear of the tip by hand, or check "
+            "[geometry] (the plate's size, the whisker's origin)")
+
     def _mean_field(self, samples: int) -> tuple[np.ndarray, np.ndarray]:
         """Mean and spread (µT) of samples converted after the stage came to rest."""
         block = self.rig.measure(samples)
@@ -220,7 +239,7 @@ class StudyRun:
         rapid = float(self.config["trials"]["rapid_speed_mm_s"])
         push = self.geometry.to_stage_vector(self.geometry.push_whisker)
         start = self.geometry.contact_guess_stage_mm() - float(contact_cfg["search_start_mm"]) * push
-        self._move(start, rapid, None, PHASE_APPROACH)
+        self._move_clear(start, rapid)
         baseline, baseline_std = self._mean_field(int(contact_cfg["baseline_samples"]))
         self.static_field_uT = baseline
         if "first_contact_stage_mm" in header:

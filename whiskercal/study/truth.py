@@ -81,6 +81,9 @@ def check_world(world, geometry) -> None:
     pushed = np.array([np.cos(fixture.normal_rad), np.sin(fixture.normal_rad)])
     if (np.max(np.abs(np.asarray(rig.origin_stage_mm) - geometry.origin_stage_mm)) > 1e-6
             or abs(rig.angle_rad - geometry.angle_rad) > 1e-9
-            or np.max(np.abs(pushed - geometry.push_whisker)) > 1e-9):
-        raise UsageError("the configuration's geometry (whisker origin, angle, plane tilt) differs "
+            or np.max(np.abs(pushed - geometry.push_whisker)) > 1e-9
+            or abs(fixture.half_length_mm - geometry.plate_half_length_mm) > 1e-9
+            or abs(fixture.thickness_mm - geometry.plate_thickness_mm) > 1e-9):
+        raise UsageError("the configuration's geometry (whisker origin, angle, plane tilt, plate "
+                         "size) differs "
                          "from the simulated rig's; set [geometry] to match docs/twin.md")
