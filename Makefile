@@ -19,6 +19,8 @@ $(INSTALLED): pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -c $(LOCK) -e '.[dev]'
+	# the numba kernels compiled once into their cache, not in every first test worker or fit
+	$(PY) -m whiskercal.mechfit.kernels
 	touch $@
 
 # The fast tier (what a contributor runs many times a day): every test not marked slow, with
