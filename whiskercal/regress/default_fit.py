@@ -12,8 +12,8 @@ are named ``default.*``.
 
 from __future__ import annotations
 
-from pathlib import Path
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
