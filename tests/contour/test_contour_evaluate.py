@@ -187,3 +187,15 @@ def test_the_run_metrics_alignment_refuses_to_shrink_points_onto_the_outline():
     assert np.mean(aligned_errors_mm(bigger, dense)) < 0.3  # a scale of 1/1.15: kept
     metres = bigger / 1000.0 + [0.437, 0.005]  # metres read as mm: shrunk to a dot, refused
     assert np.all(np.isnan(aligned_errors_mm(metres, dense)))
+
+
+def test_the_run_metrics_give_no_alignment_for_contacts_at_one_place():
+    # a run that followed a few samples without moving: no similarity scales a point
+    from whiskercal.contour.metrics import aligned_errors_mm, contour_metrics
+    from whiskercal.twin.outlines import outline
+
+    dense = outline("octagon").dense()
+    one_place = np.repeat(dense[:1] + [0.2, 0.0], 5, axis=0)
+    assert np.all(np.isnan(aligned_errors_mm(one_place, dense)))
+    metrics = contour_metrics(one_place, dense)
+    assert metrics["mean_error_mm"] > 0.0 and math.isnan(metrics["aligned_mean_error_mm"])

@@ -27,24 +27,31 @@ def distances_mm(points_mm: np.ndarray, outline_mm: np.ndarray) -> tuple[np.ndar
 
 
 def similarity(source: np.ndarray, target: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Scale, rotation (2x2) and translation that best map ``source`` onto ``target`` (Umeyama)."""
+    """Scale, rotation (2x2) and translation that best map ``source`` onto ``target`` (Umeyama);
+    the scale NaN where ``source`` has no spread."""
     mu_s, mu_t = source.mean(axis=0), target.mean(axis=0)
     a, b = source - mu_s, target - mu_t
     u, sigma, vt = np.linalg.svd(b.T @ a / len(source))
     d = np.diag([1.0, np.sign(np.linalg.det(u @ vt))])
     rotation = u @ d @ vt
-    scale = float(np.trace(np.diag(sigma) @ d) / np.mean(np.sum(a ** 2, axis=1)))
+    spread = float(np.mean(np.sum(a ** 2, axis=1)))
+    if spread == 0.0:  # the source at one place: any scale fits it, none is the answer
+        return float("nan"), rotation, mu_t - mu_s
+    scale = float(np.trace(np.diag(sigma) @ d) / spread)
     return scale, rotation, mu_t - scale * rotation @ mu_s
 
 
 def aligned_errors_mm(points_mm: np.ndarray, outline_mm: np.ndarray) -> np.ndarray:
     """Distances after the best similarity alignment (iterated closest points); NaN when the
     alignment scales the points by less than half or more than twice: shrunk onto a piece of
-    the outline, points of any shape lie on it, so such a figure would mean nothing."""
+    the outline, points of any shape lie on it, so such a figure would mean nothing. NaN too
+    for points with no spread (one place, repeated), which no similarity can scale."""
     moved, scale = points_mm.copy(), 1.0
     for _ in range(_ALIGN_ITERATIONS):
         _, nearest = distances_mm(moved, outline_mm)
         scale, rotation, shift = similarity(points_mm, nearest)
+        if not np.isfinite(scale):
+            break
         moved = scale * points_mm @ rotation.T + shift
     if not _ALIGN_SCALES[0] <= scale <= _ALIGN_SCALES[1]:
         return np.full(len(points_mm), np.nan)
