@@ -19,6 +19,7 @@ def test_the_plane_reaches_the_contact_search_without_touching_the_whisker(tmp_p
     geometry = PlaneGeometry.from_config(config)
     search_start = geometry.contact_guess_stage_mm() - float(config["contact"]["search_start_mm"]) \
         * geometry.to_stage_vector(geometry.push_whisker)
-    arrived = np.flatnonzero(np.all(np.isclose(truth["stage_mm"], search_start, atol=0.05), axis=1))[0]
+    at_start = np.all(np.isclose(truth["stage_mm"], search_start, atol=0.05), axis=1)
+    arrived = np.flatnonzero(at_start)[0]
     assert np.all(truth["kind"][:arrived].astype(str) == "free")  # no sample touched, none failed
     assert np.all(truth["root_rotation_rad"][:arrived] == 0.0)

@@ -29,9 +29,9 @@ def compile_kernels() -> None:
     mechanics.solve_rod(whisker, centers[0], 1.5)
     mechanics.solve_shape(whisker, Circle(np.array([50.0, -4.0]), 1.5)).shape_mm(20)
     mechanics.solve_plane(whisker, plane_for_depth(whisker, 10.0))
-    # poses inside the field table, and one outside it (evaluated exactly beside the rest)
+    # poses inside the field table; shifts stacked column by column (Fortran order), as some
+    # callers build them; and one pose outside the table (evaluated exactly beside the rest)
     magnet.field_uT(magnet.MagnetParams(), np.array([0.01, 0.02]), np.zeros((2, 2)))
-    # shifts stacked column by column (Fortran order), as some callers build them
     magnet.field_uT(magnet.MagnetParams(), np.array([0.01, 0.02]), np.zeros((2, 2), order="F"))
     magnet.field_uT(magnet.MagnetParams(), np.array([0.01, 3.0]), np.zeros((2, 2)))
 

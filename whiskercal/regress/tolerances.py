@@ -108,7 +108,7 @@ SHAFT_SHARE = ToleranceClass(
     "threshold decisions on continuous estimates; equal in every measured perturbation, a sample "
     "on a threshold may flip: 5e-3 is two samples of the shortest trial (about 450 in contact).")
 
-# The default fit's classes were measured over five arithmetic variants of one machine on the
+# The default fit's classes were measured over four arithmetic variants of one machine on the
 # three recorded datasets: OpenBLAS's SkylakeX, Haswell and Prescott kernels, and Haswell's with
 # numpy's AVX-512 loops switched off (NPY_DISABLE_CPU_FEATURES), which reproduces a CPU without
 # AVX-512 to the last digit. Each bound is about one and a half times the widest move measured.
@@ -136,8 +136,8 @@ MODEL_Z = ToleranceClass(
     "under a thousandth of the lookups' spans.")
 TABLE_AXIS = ToleranceClass(
     "table_axis", 200.0, 0.0,
-    "The ends of the (Y, Z) table's Z axis (µT): what the joint fit's tip loads reach, which "
-    "follows where it stopped; over the " + ARITHMETIC_VARIANTS + ", an end moved by up to "
+    "The (Y, Z) table's axes (µT): Y's sampled rows span the grid's range; the Z axis's ends "
+    "what the joint fit's tip loads reach, which follows where it stopped; over the " + ARITHMETIC_VARIANTS + ", an end moved by up to "
     "119 µT (the paper's 75 mm build), two thirds of its table's Z spacing. 200 µT is about "
     "one cell, against axes spanning thousands of µT.")
 TABLE_TIP = ToleranceClass(

@@ -165,6 +165,11 @@ WIRE_POINTS = 80  # points of the undeflected whisker a plate position is checke
 PATH_STEP_MM = 0.5  # the plate's positions along a move checked against the whisker
 
 
+def _length_mm(path) -> float:
+    """The length (mm) of straight moves through a path's points."""
+    return float(sum(np.linalg.norm(b - a) for a, b in zip(path, path[1:])))
+
+
 @dataclass(frozen=True)
 class PlaneGeometry:
     """Where the plane is, in the whisker frame and in stage coordinates (mm, unit vectors)."""
@@ -233,8 +238,10 @@ class PlaneGeometry:
         """Whether the plate, at each stage position (n, 2), holds a point of the undeflected
         whisker (n,): a point behind the surface by at most the plate's thickness and within
         its half length along it."""
-        tool = self.frame.to_whisker(np.atleast_2d(np.asarray(stage_mm, float)) + self.fixture_offset_mm)
-        wire = np.column_stack([np.linspace(0.0, self.tip_reach_mm, WIRE_POINTS), np.zeros(WIRE_POINTS)])
+        stage = np.atleast_2d(np.asarray(stage_mm, float))
+        tool = self.frame.to_whisker(stage + self.fixture_offset_mm)
+        wire = np.column_stack([np.linspace(0.0, self.tip_reach_mm, WIRE_POINTS),
+                                np.zeros(WIRE_POINTS)])
         offset = tool[:, None, :] - wire[None, :, :]
         depth = offset @ self.push_whisker
         along = offset @ self.slide_whisker
@@ -259,10 +266,11 @@ class PlaneGeometry:
         ``path_touches_wire``'s to say."""
         here, target = np.asarray(here_stage_mm, float), np.asarray(target_stage_mm, float)
         along = self.to_stage_vector(self.slide_whisker)
-        reach = 2.0 * (self.plate_half_length_mm + self.tip_reach_mm) + np.linalg.norm(target - here)
+        reach = (2.0 * (self.plate_half_length_mm + self.tip_reach_mm)
+                 + np.linalg.norm(target - here))
         vias = [target + s * along for s in np.arange(-reach, reach, PATH_STEP_MM * 10)]
         paths = [[here, target]] + [[here, via, target] for via in vias]
-        return sorted(paths, key=lambda path: sum(np.linalg.norm(b - a) for a, b in zip(path, path[1:])))
+        return sorted(paths, key=_length_mm)
 
     def trial_waypoints_stage_mm(self, contact_stage_mm: np.ndarray, depth_mm: float,
                                  config: dict[str, Any]) -> dict[str, np.ndarray]:

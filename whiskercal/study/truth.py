@@ -85,5 +85,5 @@ def check_world(world, geometry) -> None:
             or abs(fixture.half_length_mm - geometry.plate_half_length_mm) > 1e-9
             or abs(fixture.thickness_mm - geometry.plate_thickness_mm) > 1e-9):
         raise UsageError("the configuration's geometry (whisker origin, angle, plane tilt, plate "
-                         "size) differs "
-                         "from the simulated rig's; set [geometry] to match docs/twin.md")
+                         "size) differs from the simulated rig's; set [geometry] to match "
+                         "docs/twin.md")
