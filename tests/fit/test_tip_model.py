@@ -219,3 +219,24 @@ def test_auto_refuses_a_z_lookup_it_cannot_vouch_for_unless_a_trusted_table_ship
     assert "--tip-model level-set" in str(error.value) and "[sweep]" in str(error.value)
     if estimate == estimate:  # finite: the figure and the bound are named
         assert "0.80 mm RMS, over 0.5 mm" in str(error.value)
+
+
+@pytest.mark.parametrize("y_alone, requested, trusted_table, refused", [
+    (9.7, "auto", False, True),            # Y alone millimetres off, nothing else to read
+    (9.7, "auto", True, False),            # a trusted table or loads ship beside it
+    (9.7, "mechanics", False, False),      # asked for by name: shipped knowingly
+    (0.3, "auto", False, False),           # Y alone within twice the goal
+    (float("nan"), "auto", False, False),  # the joint model did not explain the grid: no figure
+])
+def test_auto_refuses_a_z_lookup_that_y_alone_puts_millimetres_off_slanted_contacts(
+        y_alone, requested, trusted_table, refused):
+    choice = tip_model.TipModelChoice("mechanics-yz", 0.02)  # the tip curve itself is fine
+    if not refused:
+        assert tip_model.refuse_unless_resolved(choice, requested, trusted_table,
+                                                y_alone) is choice
+        return
+    with pytest.raises(ModelError) as error:
+        tip_model.refuse_unless_resolved(choice, requested, trusted_table, y_alone)
+    message = str(error.value)
+    assert "9.7 mm RMS on the table's loads" in message and "over 0.5 mm" in message
+    assert "softer root" in message and "--tip-model mechanics" in message

@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from whiskercal.fit.field_table import REFUSE_ESTIMATE_MM, offset_warnings, trust_verdict
+from whiskercal.fit.field_table import (REFUSE_ESTIMATE_MM, loose_ratios, offset_warnings,
+                                        trust_verdict)
 from whiskercal.fit.tip_model import WARN_TIP_ERROR_MM
 from whiskercal.mechfit.table_error import (HELD_SAMPLES, ambiguity_tip_error_mm,
                                             estimated_tip_error_mm, noise_propagation_mm,
@@ -52,6 +53,18 @@ def test_the_rule_warns_between_the_goal_and_the_refusal_and_refuses_a_poor_resi
     write, warnings = trust_verdict(0.05, 0.05, (2.5, 1.0))
     assert not write and "2.5x the noise" in warnings[0]
     assert trust_verdict(float("nan"), float("nan"), (1.0, 1.0))[0] is False
+
+
+def test_a_suspension_the_grid_does_not_identify_gets_no_table_however_small_its_estimate():
+    profile = [{"stiffness_ratio": 14.0, "delta_chi2": 40.0},
+               {"stiffness_ratio": 310.0, "delta_chi2": 3.5}]
+    assert loose_ratios(profile) == (310.0,)
+    write, warnings = trust_verdict(0.05, 0.02, (1.0, 1.0), loose=loose_ratios(profile))
+    assert not write and len(warnings) == 1
+    assert warnings[0].startswith("no (Y, Z) table written, it cannot be trusted: the grid's Y "
+                                  "and Z do not pin the suspension down (k_theta*L/EI 310 fits "
+                                  "about as well as the best)")
+    assert loose_ratios(profile[:1]) == () and trust_verdict(0.05, 0.02, (1.0, 1.0))[0]
 
 
 def test_the_held_estimate_decides_and_one_readings_is_warned():

@@ -67,6 +67,10 @@ class FieldTableFit:
     branches: dict[str, np.ndarray] | None = None
     # the joint fit the table came from (None when none was made): for checks against a truth
     mechanics: MechanicsFit | None = None
+    # what reading Y alone is estimated to err on the table's loads (mm RMS), where the joint
+    # model explains the grid to its noise and identifies the suspension; NaN otherwise
+    # (``fit.tip_model``'s refusal)
+    y_alone_mm: float = float("nan")
 
     @property
     def trusted(self) -> bool:
@@ -110,24 +114,29 @@ def offset_warnings(offset_mm) -> list[str]:
             "estimates may be low"]
 
 
-def _identification_warnings(profile: list[dict]) -> list[str]:
-    """A warning when a k_θ·L/EI four times off fits the grid about as well (Δχ² below 9)."""
-    loose = [p["stiffness_ratio"] for p in profile if p["delta_chi2"] < MIN_DELTA_CHI2]
-    if not loose:
-        return []
-    shown = ", ".join(f"{r:.3g}" for r in loose)
-    return [f"the grid's Y and Z do not pin the suspension down (k_theta*L/EI {shown} fits "
-            "about as well as the best); the (Y, Z) table may be off by millimetres"]
+def loose_ratios(profile: list[dict]) -> tuple[float, ...]:
+    """The k_θ·L/EI four times off the best's that fit the grid about as well (Δχ² below
+    ``MIN_DELTA_CHI2``): where there is one, the grid's Y and Z do not identify the suspension."""
+    return tuple(p["stiffness_ratio"] for p in profile if p["delta_chi2"] < MIN_DELTA_CHI2)
 
 
 def trust_verdict(estimate_mm: float, held_estimate_mm: float, residual_ratio,
-                  z_lookup_mm: float = float("nan")) -> tuple[bool, list[str]]:
+                  z_lookup_mm: float = float("nan"),
+                  loose: tuple[float, ...] = ()) -> tuple[bool, list[str]]:
     """(write the table?, warnings) from the table's estimated tip error (mm RMS) for one
-    reading and for a held contact (``HELD_SAMPLES`` averaged) and the joint fit's residual in
-    units of the noise (Y, Z); ``z_lookup_mm``, what Y alone is estimated to err on the same
-    loads, is named when the table is withheld (the runtime's fallback)."""
+    reading and for a held contact (``HELD_SAMPLES`` averaged), the joint fit's residual in
+    units of the noise (Y, Z) and the k_θ·L/EI that fit about as well as the best (``loose``,
+    from ``loose_ratios``); ``z_lookup_mm``, what Y alone is estimated to err on the same loads,
+    is named when the table is withheld (the runtime's fallback).
+
+    A suspension the grid does not identify leaves the estimate no bound: every session whose
+    joint fit was loose read realistic contacts several times further off than the table's
+    estimate (docs/research/2026-12-03-quick-plan.md)."""
     ratio = float(np.max(residual_ratio))
     reasons = []
+    if loose:
+        reasons.append("the grid's Y and Z do not pin the suspension down (k_theta*L/EI "
+                       f"{', '.join(f'{r:.3g}' for r in loose)} fits about as well as the best)")
     if not held_estimate_mm <= REFUSE_ESTIMATE_MM:
         reasons.append(f"its estimated tip error is {held_estimate_mm:.2f} mm RMS for a contact "
                        f"held {HELD_SAMPLES} samples ({estimate_mm:.2f} for one reading)")
@@ -222,15 +231,18 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     if lookup is not None:
         metrics["z_lookup"] = lookup.metrics()
     residual_ratio = fit.rms_uT / c.noise_uT
+    loose = loose_ratios(metrics["ratio_profile"])
     write, verdict = trust_verdict(estimate, error["held_estimate_mm"], residual_ratio,
-                                   error.get("z_lookup_mm", float("nan")))
+                                   error.get("z_lookup_mm", float("nan")), loose)
+    # the model's loads are worth following, and Y alone's figure on them worth a refusal,
+    # only where the model explains the grid and the grid identifies it
+    credible = bool(np.max(residual_ratio) <= MAX_RESIDUAL_RATIO) and not loose
     branches = None
-    if not write and np.max(residual_ratio) <= MAX_RESIDUAL_RATIO:  # withheld: readings fold
+    if not write and credible:  # withheld: readings fold
         with times.stage("load_branches"):
             branches, verdict = followed_branches(fit, y_range, c.sample_noise_uT, verdict)
         metrics["load_branches"] = branches.pop("metrics")
-    warnings = (_identification_warnings(metrics["ratio_profile"])
-                + offset_warnings(metrics["stage_offset_mm"]) + verdict)
+    warnings = offset_warnings(metrics["stage_offset_mm"]) + verdict
     metrics.update(field_table_estimated_tip_error_mm=estimate, estimated_error_parts=error,
                    field_table_written=write, fit_s=time.perf_counter() - started)
     arrays = {"y_uT": table.y_uT, "axial_uT": table.z_uT, "tip_mm": table.tips_mm}
@@ -239,7 +251,8 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     if branches is not None:
         top.update(_branch_summary(metrics["load_branches"]))
     return FieldTableFit(arrays if write else None, top, warnings, table, lookup,
-                         branches.get("arrays") if branches else None, fit)
+                         branches.get("arrays") if branches else None, fit,
+                         error.get("z_lookup_mm", float("nan")) if credible else float("nan"))
 
 
 def followed_branches(fit, y_range, sample_noise_uT, verdict: list[str]) -> tuple[dict, list]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import platform
 from contextlib import ExitStack
 from dataclasses import asdict, replace
@@ -89,7 +90,8 @@ def _fit(raw: RawGrid, options: FitOptions, progress: Callable[[str], None] | No
         calibration, tip_model = adopt_joint_lookup(calibration, tip_model, table.z_lookup,
                                                     options.tip_model)
     tip_model = refuse_unless_resolved(tip_model, options.tip_model,
-                                       table is not None and table.trusted)
+                                       table is not None and table.trusted,
+                                       math.nan if table is None else table.y_alone_mm)
     with times.stage("truth"):
         truth = compare_with_twin_truth(grid, calibration,
                                         None if truth_curve is None else truth_curve.result())

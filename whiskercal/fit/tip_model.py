@@ -47,11 +47,19 @@ JOINT_TIP_MODEL = "mechanics-yz"
 # beside it is refused by ``auto`` (``refuse_unless_resolved``)
 REFUSE_TIP_ERROR_MM = 2.0 * WARN_TIP_ERROR_MM
 # what a calibration that cannot be estimated should change, in the refusal's words
-WHAT_TO_CHANGE = ("Change the plan: the tip sweep on (collect's [sweep] enabled = true), with "
+WHAT_TO_CHANGE = ("Change the plan: the full plan (collect --plan full) where a shorter one was "
+                  "taken, the tip sweep on (collect's [sweep] enabled = true), with "
                   "more angles or offsets nearer the tip ([sweep] angles, offsets_mm), or a reach "
                   "band closer to the tip ([grid] reach_max_mm); check the build's trace length "
                   "([rig] trace_length_mm); or ship a model knowingly with --tip-model level-set "
                   "or --tip-model mechanics")
+# what a calibration whose only reading is Y alone, millimetres off on realistic contacts,
+# should change, in the refusal's words
+WHAT_TO_CHANGE_FOR_Z = ("Change the build so that its magnet moves further for a tip load (a "
+                        "softer root, the magnet nearer the chip), or read it with less noise "
+                        "(collect's [sensor] osr or filt), so that Y and Z tell its loads apart; "
+                        "or ship the z lookup knowingly, for square tip contacts only, with "
+                        "--tip-model mechanics or --tip-model level-set")
 # how the warning that the mechanics stands in for an untraceable level set begins
 UNTRACEABLE_WARNING = "the level set cannot be traced"
 
@@ -192,10 +200,13 @@ def _refused(untraceable: ModelError, why_not: str, mechanics) -> TipModelChoice
 
 
 def refuse_unless_resolved(choice: TipModelChoice, requested: str = "auto",
-                           trusted_table: bool = False) -> TipModelChoice:
-    """``choice``, unless it is a refusal no joint fit stood in for, or (with ``auto``) a z
-    lookup whose estimated tip error is unknown or above :data:`REFUSE_TIP_ERROR_MM` with no
-    trusted (Y, Z) table or loads beside it (``trusted_table``): then raise.
+                           trusted_table: bool = False,
+                           y_alone_mm: float = math.nan) -> TipModelChoice:
+    """``choice``, unless it is a refusal no joint fit stood in for, or (with ``auto``) with no
+    trusted (Y, Z) table or loads beside it (``trusted_table``), a z lookup whose estimated tip
+    error is unknown or above :data:`REFUSE_TIP_ERROR_MM`, or one that reading Y alone is
+    estimated to put further off than that on the table's loads (``y_alone_mm``: contacts with
+    friction or at a slant): then raise.
 
     Such an artifact may be off by millimetres with nothing to tell, and a lab would find out
     only at the robot; an explicit ``--tip-model`` ships it knowingly, with its warning. Where
@@ -204,16 +215,27 @@ def refuse_unless_resolved(choice: TipModelChoice, requested: str = "auto",
     """
     if choice.refusal is not None:
         raise choice.refusal
-    estimate = choice.estimated_tip_error_mm
-    if requested != "auto" or trusted_table or estimate <= REFUSE_TIP_ERROR_MM:
+    if requested != "auto" or trusted_table:
         return choice
+    estimate = choice.estimated_tip_error_mm
+    if not estimate <= REFUSE_TIP_ERROR_MM:
+        raise ModelError(f"{_unvouched(choice)}. {WHAT_TO_CHANGE}")
+    if y_alone_mm > REFUSE_TIP_ERROR_MM:
+        raise ModelError(f"no (Y, Z) table or loads to follow could be trusted, and reading Y "
+                         f"alone is estimated to err {y_alone_mm:.1f} mm RMS on the table's "
+                         f"loads (contacts with friction or at a slant), over "
+                         f"{REFUSE_TIP_ERROR_MM} mm. {WHAT_TO_CHANGE_FOR_Z}")
+    return choice
+
+
+def _unvouched(choice: TipModelChoice) -> str:
+    """Why a z lookup with no estimate, or one over the refusal's bound, is not shipped."""
+    estimate = choice.estimated_tip_error_mm
     if math.isfinite(estimate):
-        why = (f"the best tip model ({choice.name}) is estimated to err {estimate:.2f} mm RMS, "
-               f"over {REFUSE_TIP_ERROR_MM} mm, and no (Y, Z) table could be trusted")
-    else:
-        why = (f"no tip model's error can be estimated from this grid "
-               f"({'; '.join(choice.warnings) or 'no estimate'})")
-    raise ModelError(f"{why}. {WHAT_TO_CHANGE}")
+        return (f"the best tip model ({choice.name}) is estimated to err {estimate:.2f} mm RMS, "
+                f"over {REFUSE_TIP_ERROR_MM} mm, and no (Y, Z) table could be trusted")
+    return (f"no tip model's error can be estimated from this grid "
+            f"({'; '.join(choice.warnings) or 'no estimate'})")
 
 
 def adopt_joint_lookup(calibration: Calibration, choice: TipModelChoice,
