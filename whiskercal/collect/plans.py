@@ -13,11 +13,12 @@ time per millimetre of wire, on every build. A key the user's file gives still w
   outermost column ends no further from the band's far edge than the 3 mm lattice's (1.75 mm
   against 2.75 mm short of it for a 78 mm trace), which the level-set trace to the tip needs (a 7.5 mm lattice stops over 4 mm short, further than
   ``fit`` extrapolates);
-- five tip-sweep positions at the trace length itself, on rays from -5 to -30 deg: a sweep
-  point costs a long approach from above the whisker where the grid's points cost a short step
-  down their column, and the sweep is what pins the tip (the bench's ``coarse-lattice`` plan,
-  this lattice with the whole sweep, tells the two apart); at the tip itself the load tilts
-  toward the root, and past -30 deg the drawn-back tip slips past the rod there;
+- five tip-sweep positions at the trace length itself, on rays from -5 to -40 deg (the full
+  sweep's span): a sweep point costs a long approach from above the whisker where the grid's
+  points cost a short step down their column, and the sweep is what pins the tip (the bench's
+  ``coarse-lattice`` plan, this lattice with the whole sweep, tells the two apart); the deeper
+  rays load the tip toward the root, which the short 60 mm build needs for its suspension to
+  be identified (docs/research/2026-12-03-quick-plan.md);
 - a 0.1 s settle: after a stop at the stage's acceleration the wire's modes leave the averaged
   reading within its own noise (the bench's ``settle`` rows, from the twin's ring-down);
 - the approach at the default travel feed (1500 mm/min) and the moves clear of the whisker at
@@ -78,9 +79,9 @@ class NamedPlan:
 
 
 FULL = NamedPlan("full", "the paper's 180-point lattice and the 28-point tip sweep, 0.3 s settle")
-QUICK = NamedPlan("quick", "a 7 mm lattice, 5 tip-sweep points at the tip from -5 to -30 deg, "
+QUICK = NamedPlan("quick", "a 7 mm lattice, 5 tip-sweep points at the tip from -5 to -40 deg, "
                   "0.1 s settle, approach at 1500 mm/min, travel at 3000 mm/min", step_mm=7.0,
-                  sweep_angles=5, sweep_angle_last_deg=-30.0, sweep_offsets_mm=(0.0,),
+                  sweep_angles=5, sweep_angle_last_deg=-40.0, sweep_offsets_mm=(0.0,),
                   settle_s=0.1, approach_feed_mm_min=1500.0, travel_feed_mm_min=3000.0)
 PLANS = {plan.name: plan for plan in (FULL, QUICK)}
 DEFAULT_PLAN = "full"
