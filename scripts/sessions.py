@@ -7,6 +7,7 @@ continued, and writes the docs' snapshot (docs/figures/sensor-sessions.json) fro
 there are:
 
     python scripts/sessions.py run out/sessions.jsonl [--seeds 1,2,3,4,5] [--drawn 30]
+                                                       [--builds twin-paper-75mm,drawn-03]
     python scripts/sessions.py snapshot out/sessions.jsonl
 
 Sessions run seed by seed: every build on the first seed, then on the next.
@@ -32,9 +33,14 @@ def _rows(path: Path) -> list[dict]:
     return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line]
 
 
-def run(path: Path, seeds: tuple[int, ...], drawn: int) -> None:
-    """Every build on every seed not yet in ``path``, each row appended as it ends."""
+def run(path: Path, seeds: tuple[int, ...], drawn: int, only: tuple[str, ...] = ()) -> None:
+    """Every build (those named in ``only``, if any) on every seed not yet in ``path``, each row
+    appended as it ends."""
     builds = list(sensor_family.FAMILY) + sessions.draw_builds(drawn, sensor_family.DRAW_SEED)
+    unknown = set(only) - {sensor.sensor_id for sensor in builds}
+    if unknown:
+        raise SystemExit(f"no such build: {', '.join(sorted(unknown))}")
+    builds = [sensor for sensor in builds if not only or sensor.sensor_id in only]
     done = {(r["build"], r["seed"]) for r in _rows(path)}
     for seed in seeds:
         for sensor in builds:
@@ -65,9 +71,11 @@ def main() -> None:
     parser.add_argument("rows", type=Path, help="the JSON-lines file of the sessions' rows")
     parser.add_argument("--seeds", default=",".join(map(str, sensor_family.SESSION_SEEDS)))
     parser.add_argument("--drawn", type=int, default=sensor_family.DRAWN_BUILDS)
+    parser.add_argument("--builds", default="", help="only these builds (sensor ids, commas)")
     args = parser.parse_args()
     if args.command == "run":
-        run(args.rows, tuple(int(s) for s in args.seeds.split(",")), args.drawn)
+        run(args.rows, tuple(int(s) for s in args.seeds.split(",")), args.drawn,
+            tuple(name for name in args.builds.split(",") if name))
     else:
         print(f"wrote {snapshot(args.rows).relative_to(ROOT)}")
 

@@ -50,12 +50,18 @@ def test_a_session_meets_the_goal_only_within_every_bound_with_an_honest_estimat
 
 def test_each_build_reports_its_worst_seed_and_spread():
     rows = [_row(seed=1, rmse=0.05), _row(seed=2, rmse=0.2), _row(seed=3, rmse=0.1),
+            _row(seed=4, held=0.9),
             {"build": "drawn-01", "seed": 1, "stiffness_ratio": 2.0, "refused": "no"}]
     first, second = sessions.per_build(rows)
     assert first["worst_seed"] == 2 and math.isclose(first["spread_mm"], 0.15)
-    assert first["missing_goal"] == [] and first["sessions"] == 3
+    assert first["missing_goal"] == [4] and first["sessions"] == 4
     assert second["refused"] == [1] and second["missing_goal"] == [1]
     assert second["worst_rmse_mm"] == math.inf
+    # a refusal misses the goal and says so; a calibration shipped off it does not
+    assert first["shipped_off_goal"] == [4] and second["shipped_off_goal"] == []
+    summary = sessions.summary(rows)
+    assert summary["missing_goal"] == ["drawn-00 seed 4", "drawn-01 seed 1"]
+    assert summary["shipped_off_goal"] == ["drawn-00 seed 4"]
 
 
 @pytest.mark.slow

@@ -177,11 +177,17 @@ def run_jobs(jobs: list[tuple], workers: int | None = None,
 
 
 def summary(rows: list[dict]) -> dict:
-    """The sessions' rows with each build's worst seed and spread (``per_build``) and the
-    sessions that miss a goal."""
+    """The sessions' rows with each build's worst seed and spread (``per_build``), the sessions
+    that miss a goal, and of those the ones that shipped a calibration anyway
+    (``shipped_off_goal``: a refusal says what to change, a shipped one is off unannounced)."""
+    name = "{build} seed {seed}".format
     return {"rows": rows, "per_build": per_build(rows),
-            "missing_goal": [f"{r['build']} seed {r['seed']}" for r in rows
-                             if not meets_goal(r)]}
+            "missing_goal": [name(**r) for r in rows if not meets_goal(r)],
+            "shipped_off_goal": [name(**r) for r in rows if _shipped_off_goal(r)]}
+
+
+def _shipped_off_goal(row: dict) -> bool:
+    return "refused" not in row and not meets_goal(row)
 
 
 def per_build(rows: list[dict]) -> list[dict]:
@@ -200,5 +206,6 @@ def per_build(rows: list[dict]) -> list[dict]:
                             r.get("realistic_held", {}).get("rmse_mm", math.inf) for r in mine),
                         "refused": [r["seed"] for r in mine if "refused" in r],
                         "missing_goal": [r["seed"] for r in mine if not meets_goal(r)],
+                        "shipped_off_goal": [r["seed"] for r in mine if _shipped_off_goal(r)],
                         "tip_models": sorted({str(r.get("tip_model")) for r in mine})})
     return summary
