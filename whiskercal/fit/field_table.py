@@ -234,9 +234,7 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     loose = loose_ratios(metrics["ratio_profile"])
     write, verdict = trust_verdict(estimate, error["held_estimate_mm"], residual_ratio,
                                    error.get("z_lookup_mm", float("nan")), loose)
-    # the model's loads are worth following, and Y alone's figure on them worth a refusal,
-    # only where the model explains the grid and the grid identifies it
-    credible = bool(np.max(residual_ratio) <= MAX_RESIDUAL_RATIO) and not loose
+    credible = _credible(residual_ratio, loose)
     branches = None
     if not write and credible:  # withheld: readings fold
         with times.stage("load_branches"):
@@ -253,6 +251,12 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
     return FieldTableFit(arrays if write else None, top, warnings, table, lookup,
                          branches.get("arrays") if branches else None, fit,
                          error.get("z_lookup_mm", float("nan")) if credible else float("nan"))
+
+
+def _credible(residual_ratio, loose: tuple[float, ...]) -> bool:
+    """Are the model's loads worth following, and what Y alone errs on them worth a refusal?
+    Only where the model explains the grid to its noise and the grid identifies it."""
+    return bool(np.max(residual_ratio) <= MAX_RESIDUAL_RATIO) and not loose
 
 
 def followed_branches(fit, y_range, sample_noise_uT, verdict: list[str]) -> tuple[dict, list]:
