@@ -187,6 +187,7 @@ def summary(rows: list[dict]) -> dict:
 
 
 def _shipped_off_goal(row: dict) -> bool:
+    """A session that shipped a calibration missing a goal (not refused)."""
     return "refused" not in row and not meets_goal(row)
 
 

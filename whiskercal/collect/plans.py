@@ -11,8 +11,8 @@ time per millimetre of wire, on every build. A key the user's file gives still w
 - a 7 mm lattice in the same bands: the mechanics-informed fit has a handful of parameters,
   and a coarser lattice over the same reaches and angles still spans what pins them; its
   outermost column ends no further from the band's far edge than the 3 mm lattice's (1.75 mm
-  against 2.75 mm short of it for a 78 mm trace), which the level-set trace to the tip needs (a 7.5 mm lattice stops over 4 mm short, further than
-  ``fit`` extrapolates);
+  against 2.75 mm short of it for a 78 mm trace), which the level-set trace to the tip needs
+  (a 7.5 mm lattice stops over 4 mm short, further than ``fit`` extrapolates);
 - five tip-sweep positions at the trace length itself, on rays from -5 to -40 deg (the full
   sweep's span): a sweep point costs a long approach from above the whisker where the grid's
   points cost a short step down their column, and the sweep is what pins the tip (the bench's

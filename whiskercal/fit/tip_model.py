@@ -13,9 +13,10 @@ profile says how firmly. So:
   it).
 
 A frictionless tip model is not the contact a robot makes (a contour followed with friction
-reads either z lookup off by the friction's tilt of the force); the (Y, Z) table ``fit`` writes by default (``fit.field_table``) is what places tips pushed with
-friction, and the z lookup chosen here is the fallback where the table has no tip or the robot
-streams Y only (docs/calibration.md).
+reads either z lookup off by the friction's tilt of the force); the (Y, Z) table ``fit`` writes
+by default (``fit.field_table``) is what places tips pushed with friction, and the z lookup
+chosen here is the fallback where the table has no tip or the robot streams Y only
+(docs/calibration.md).
 
 The level set's error is estimated as its distance from an identified mechanics model (plus
 that model's own estimate); without one, neither error can be estimated, and the fit says so.

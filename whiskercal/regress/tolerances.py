@@ -137,7 +137,8 @@ MODEL_Z = ToleranceClass(
 TABLE_AXIS = ToleranceClass(
     "table_axis", 200.0, 0.0,
     "The (Y, Z) table's axes (µT): Y's sampled rows span the grid's range; the Z axis's ends "
-    "what the joint fit's tip loads reach, which follows where it stopped; over the " + ARITHMETIC_VARIANTS + ", an end moved by up to "
+    "what the joint fit's tip loads reach, which follows where it stopped; over the "
+    + ARITHMETIC_VARIANTS + ", an end moved by up to "
     "119 µT (the paper's 75 mm build), two thirds of its table's Z spacing. 200 µT is about "
     "one cell, against axes spanning thousands of µT.")
 TABLE_TIP = ToleranceClass(
