@@ -29,7 +29,8 @@ from whiskercal.mechfit.joint_lookup import JointLookup, joint_z_lookup
 from whiskercal.mechfit.magnetfit import (MAX_STAGE_OFFSET_MM, fit_mechanics_magnet,
                                           offset_at_bound)
 from whiskercal.mechfit.table_error import HELD_SAMPLES, estimated_tip_error_mm
-from whiskercal.mechfit.tables import DEFAULT_SAMPLES, table_load_points, tabulate
+from whiskercal.mechfit.tables import (DEFAULT_SAMPLES, read_back_mm, table_load_points,
+                                       tabulate)
 from whiskercal.model.calibrate import contact_mask
 from whiskercal.model.field_table import FieldTipTable
 
@@ -228,6 +229,7 @@ def field_table_from_contacts(contacts: TableContacts, length_mm: float, start=N
                                        None if lookup is None else lookup.lookup)
     estimate = error["estimate_mm"]
     metrics = _fit_metrics(fit, c, table)
+    metrics["table_read_back_mm"] = read_back_mm(table, load_fields, load_tips)
     if lookup is not None:
         metrics["z_lookup"] = lookup.metrics()
     residual_ratio = fit.rms_uT / c.noise_uT

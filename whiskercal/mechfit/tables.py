@@ -28,6 +28,12 @@ DEFAULT_KIND = "cubic"
 # up to mu 0.4 tilts the load by 22°, a plane tilted 40° from the tip's normal by 40°.
 DEFAULT_BETAS_DEG = tuple(range(-40, 71, 10))
 DEFAULT_SHAPE = (121, 121)
+# the 2-D table is refined from DEFAULT_SHAPE, one axis at a time, while its cells read the
+# model's own loads back further than this (mm, the 90th percentile: a tenth of the tip goal) and
+# a refinement brings that at least REFINE_GAIN closer; each axis at most MAX_REFINE times as fine
+READ_BACK_MM = 0.025
+REFINE_GAIN = 1.5
+MAX_REFINE = 8
 # the z lookup's knots follow the model's own tip curve this closely (mm), a fifth of the tip
 # goal; where they cannot (near a fold) its range ends short (``_followed_low``)
 FOLLOW_TOLERANCE_MM = 0.05
@@ -197,14 +203,15 @@ def _load_grid_points(fit: MechanicsFit, load_grids):
 
 
 def field_tip_table(fit: MechanicsFit, y_range_uT: tuple[float, float],
-                    betas_deg=DEFAULT_BETAS_DEG, shape: tuple[int, int] = DEFAULT_SHAPE,
+                    betas_deg=DEFAULT_BETAS_DEG, shape: tuple[int, int] | None = None,
                     space_fixed: bool = True) -> FieldTipTable:
     """The (Y, Z) -> tip table from the model's tip loads.
 
     Loads tilted by each of ``betas_deg`` from the tip's normal and, with ``space_fixed``, the
     space-fixed loads of ``loadgrid.py`` (pushes along and past the wire's axis included) within
     1.5 times the grid's largest pose. The fit must carry the Y and Z axes (in that order). Y
-    spans ``y_range_uT``; Z spans what the loads reach there.
+    spans ``y_range_uT``; Z spans what the loads reach there; ``shape`` as :func:`tabulate`
+    takes it.
     """
     fields, tips = table_load_points(fit, y_range_uT, betas_deg, space_fixed)
     return tabulate(fields, tips, y_range_uT, shape)
@@ -225,12 +232,64 @@ def table_load_points(fit: MechanicsFit, y_range_uT: tuple[float, float],
 
 
 def tabulate(fields: np.ndarray, tips: np.ndarray, y_range_uT: tuple[float, float],
-             shape: tuple[int, int] = DEFAULT_SHAPE) -> FieldTipTable:
-    """Tips resampled on a regular (Y, Z) grid by linear interpolation between the loads."""
+             shape: tuple[int, int] | None = None) -> FieldTipTable:
+    """Tips resampled on a regular (Y, Z) grid by linear interpolation between the loads.
+
+    ``shape`` (Y, Z cells); None: ``DEFAULT_SHAPE``, refined where its cells read the loads back
+    coarsely (``_refined``)."""
     scale = np.ptp(fields, axis=0)
     interpolant = LinearNDInterpolator(fields / scale, tips)
-    y_axis = np.linspace(y_range_uT[0], y_range_uT[1], shape[0])
-    z_axis = np.linspace(fields[:, 1].min(), fields[:, 1].max(), shape[1])
-    yy, zz = np.meshgrid(y_axis, z_axis, indexing="ij")
-    table = interpolant(np.stack([yy, zz], axis=-1) / scale)
-    return FieldTipTable(y_axis, z_axis, table)
+    z_range = (float(fields[:, 1].min()), float(fields[:, 1].max()))
+
+    def resampled(cells: tuple[int, int]) -> FieldTipTable:
+        y_axis = np.linspace(y_range_uT[0], y_range_uT[1], cells[0])
+        z_axis = np.linspace(z_range[0], z_range[1], cells[1])
+        yy, zz = np.meshgrid(y_axis, z_axis, indexing="ij")
+        return FieldTipTable(y_axis, z_axis, interpolant(np.stack([yy, zz], axis=-1) / scale))
+
+    if shape is not None:
+        return resampled(shape)
+    return _refined(resampled, fields, tips)
+
+
+def _refined(resampled, fields: np.ndarray, tips: np.ndarray) -> FieldTipTable:
+    """The table at ``DEFAULT_SHAPE``, its cells halved along one axis at a time while they
+    read the loads back further than ``READ_BACK_MM`` and halving them helps (``REFINE_GAIN``).
+
+    A long, soft wire bent nearly square moves its tip by millimetres while Z barely changes,
+    so cells sized for the default build read its deepest contacts millimetres off, where its
+    model is right; where the loads fold (two tips at one reading) no cell size helps, and the
+    estimate's ambiguity says so."""
+    shape, table = DEFAULT_SHAPE, resampled(DEFAULT_SHAPE)
+    error = read_back_mm(table, fields, tips)
+    while error > READ_BACK_MM:
+        candidates = []
+        for cells in _halved(shape):
+            finer = resampled(cells)
+            candidates.append((read_back_mm(finer, fields, tips), cells, finer))
+        if not candidates:
+            break
+        best = min(candidates, key=lambda candidate: candidate[0])
+        if best[0] * REFINE_GAIN > error:
+            break
+        error, shape, table = best
+    return table
+
+
+def _halved(shape: tuple[int, int]) -> list[tuple[int, int]]:
+    """``shape`` with either axis' cells halved, where that axis stays within ``MAX_REFINE``."""
+    out = []
+    for axis in (0, 1):
+        cells = list(shape)
+        cells[axis] = 2 * cells[axis] - 1
+        if cells[axis] <= MAX_REFINE * (DEFAULT_SHAPE[axis] - 1) + 1:
+            out.append((cells[0], cells[1]))
+    return out
+
+
+def read_back_mm(table: FieldTipTable, fields: np.ndarray, tips: np.ndarray) -> float:
+    """How far the table reads the loads it was made from off their tips (mm, the 90th
+    percentile of those it answers): the cells' own error, which the loads never show."""
+    errors = np.hypot(*(table(fields[:, 0], fields[:, 1]) - tips).T)
+    answered = errors[np.isfinite(errors)]
+    return float(np.percentile(answered, 90)) if answered.size else math.inf
