@@ -7,7 +7,9 @@ import math
 import pytest
 from click.testing import CliRunner
 
-from whiskercal.bench.error_budget import GOAL_MM, goal
+from whiskercal.bench.error_budget import GOAL_MM, goal, level_of, mount_of
+from whiskercal.bench.mount_cal import NOMINAL
+from whiskercal.mount import Mount
 from whiskercal.cli import cli
 
 ROW_KEYS = {"nuisance", "level", "countermeasure", "case", "mean_error_mm"}
@@ -27,6 +29,32 @@ def test_the_goal_names_the_nuisance_that_sets_a_failing_case():
     assert verdict["octagon"]["met"] is False and verdict["octagon"]["set_by"] == "robot"
     assert verdict["cylinder"] == {"all_mean_error_mm": 0.2, "goal_mm": GOAL_MM, "met": True,
                                    "set_by": None, "alone_mean_error_mm": {"drift": 0.05}}
+
+
+def test_a_miss_run_without_each_nuisance_is_set_by_the_one_whose_absence_helps_most():
+    # alone, viscoelastic errs most; together, the case meets the goal only without contact
+    rows = [_row("octagon", "all", True, 0.68), _row("octagon", "contact", True, 0.17),
+            _row("octagon", "viscoelastic", True, 0.21),
+            _row("octagon", "all but contact", True, 0.12),
+            _row("octagon", "all but viscoelastic", True, 0.55),
+            _row("octagon", "all but robot", True, math.nan)]  # lost the surface: no help
+    verdict = goal(rows)["octagon"]
+    assert verdict["set_by"] == "contact" and verdict["met"] is False
+    assert verdict["alone_mean_error_mm"] == {"contact": 0.17, "viscoelastic": 0.21}
+    assert verdict["without_mean_error_mm"]["viscoelastic"] == 0.55
+
+
+def test_all_but_one_keeps_every_other_nuisance_realistic():
+    from whiskercal.twin.nuisances import REALISTIC, Nuisances
+
+    without_contact = level_of("all but contact")
+    assert without_contact.contact == Nuisances().contact
+    assert without_contact.replace(contact=REALISTIC.contact) == REALISTIC
+    assert level_of("all but mount") == REALISTIC  # the mount is the loop's, not the sensor's
+    fitted = Mount(NOMINAL.x_mm + 1.0, NOMINAL.y_mm - 0.5, NOMINAL.yaw_deg + 2.0)
+    mounts = {"fitted": fitted, "true": NOMINAL}
+    assert mount_of("all but mount", True, mounts) is None
+    assert mount_of("all but drift", True, mounts) == (fitted, (-1.0, 0.5, -2.0))
 
 
 def test_every_realistic_level_says_where_it_comes_from():

@@ -10,9 +10,11 @@ world frame, with no alignment. Counter-measures: the tracker re-zeroes its rest
 (drift) and undoes the creep with its share and time constant as measured on the rig (creep),
 the follower resets the filter on a slip (contact), and the filter is scaled
 to the loop's rate while the contacts are placed with the pose latency estimated from the run's
-own data (robot). A chart shows the error with every nuisance and counter-measure against the
-robot's speed and the loop's rate, and one run at the paper's deflection measures the in-contact
-fluctuation the contact nuisance makes, against the authors' logs.
+own data (robot). An object that misses the goal with everything on is run again without each
+nuisance in turn, to say which sets the miss. A chart shows the error with every nuisance and
+counter-measure against the robot's speed and the loop's rate, and one run at the paper's
+deflection measures the in-contact fluctuation the contact nuisance makes, against the
+authors' logs.
 
 The plane study (``optimal-depth run``) runs on a fresh twin session of the stage rig per
 nuisance, which takes the sensor's nuisances only (``twin.nuisances.stage_rig_part``: the plane
@@ -34,7 +36,8 @@ from whiskercal.plotting import pyplot, save_png
 
 DATASET = Path(whiskercal.__file__).resolve().parents[1] / "data" / "twin-paper-75mm"
 SHAPES = ("cylinder", "rounded-rect", "octagon")
-NUISANCES = ("none", "drift", "viscoelastic", "contact", "robot", "mount", "all")
+EACH = ("drift", "viscoelastic", "contact", "robot", "mount")  # the rows of one nuisance
+NUISANCES = ("none", *EACH, "all")
 COUNTERMEASURES = {"none": "all of them", "drift": "re-zero",
                    "viscoelastic": "re-zero, creep undone (its share and time constant known)",
                    "contact": "filter reset on slips", "robot": "rate-scaled filter, latency estimate",
@@ -68,14 +71,28 @@ def default_artifact(folder: Path, dataset: Path = DATASET) -> Path:
     return write_target(plain, folder / "calibration-target.h5", report.choice, report.study.sha256)
 
 
+ALL_BUT = "all but "  # a row's nuisance: every one realistic except the one named after it
+
+
 def level_of(nuisance: str):
-    """The ``Nuisances`` of a row: none, one alone at its realistic level, or all of them (the
-    mount is no table of the sensor's: see ``mount_of``)."""
+    """The ``Nuisances`` of a row: none, one alone at its realistic level, all of them, or all
+    but one (``ALL_BUT``; the mount is no table of the sensor's: see ``mount_of``)."""
     from whiskercal.twin.nuisances import REALISTIC, Nuisances, only
 
     if nuisance in ("none", "mount"):
         return Nuisances()
+    if nuisance.startswith(ALL_BUT):
+        left_out = nuisance[len(ALL_BUT):]
+        if left_out == "mount":
+            return REALISTIC
+        return REALISTIC.replace(**{left_out: getattr(Nuisances(), left_out)})
     return REALISTIC if nuisance == "all" else only(nuisance)
+
+
+def _with_mount(nuisance: str) -> bool:
+    """Whether a row's loop runs on a mount off the nominal."""
+    return nuisance in ("mount", "all") or (nuisance.startswith(ALL_BUT)
+                                            and nuisance != ALL_BUT + "mount")
 
 
 def calibrated_mount(artifact: Path) -> dict:
@@ -94,7 +111,7 @@ def mount_of(nuisance: str, on: bool, mounts: dict | None):
     mount nuisance."""
     from whiskercal.bench.mount_cal import NOMINAL
 
-    if nuisance not in ("mount", "all") or mounts is None:
+    if not _with_mount(nuisance) or mounts is None:
         return None
     given, true = mounts["fitted"] if on else NOMINAL, mounts["true"]
     return given, (true.x_mm - given.x_mm, true.y_mm - given.y_mm, true.yaw_deg - given.yaw_deg)
@@ -150,20 +167,37 @@ def _latency_corrected(run, calibration, nuisances) -> dict:
 
 
 def budget_rows(artifact: Path, shapes, duration_s: float, nuisances=NUISANCES,
-                progress=None) -> list[dict]:
-    """Every (case, nuisance, counter-measure off and on) row."""
+                progress=None, explain: bool = False) -> list[dict]:
+    """Every (case, nuisance, counter-measure off and on) row; with ``explain``, where every
+    nuisance with every counter-measure misses the goal, the case again with all of them but
+    one, for each one (counter-measures on): the miss is set by the one whose absence helps
+    most, which the rows of each alone cannot tell where nuisances act together."""
     mounts = calibrated_mount(artifact) if {"mount", "all"} & set(nuisances) else None
     rows = []
+
+    def add(shape: str, nuisance: str, on: bool) -> dict:
+        row = {**_row_head(shape, nuisance, on),
+               **run_case(artifact, shape, level_of(nuisance), on, duration_s,
+                          mount=mount_of(nuisance, on, mounts))}
+        rows.append(row)
+        if progress is not None:
+            progress(row)
+        return row
+
     for shape in shapes:
-        for nuisance in nuisances:
-            for on in (False, True):
-                row = {**_row_head(shape, nuisance, on),
-                       **run_case(artifact, shape, level_of(nuisance), on, duration_s,
-                                  mount=mount_of(nuisance, on, mounts))}
-                rows.append(row)
-                if progress is not None:
-                    progress(row)
+        case = {(nuisance, on): add(shape, nuisance, on) for nuisance in nuisances
+                for on in (False, True)}
+        if explain and ("all", True) in case and not _meets(case["all", True]):
+            for left_out in EACH:
+                add(shape, ALL_BUT + left_out, True)
     return rows
+
+
+def _meets(row: dict) -> bool:
+    """A row (every nuisance, every counter-measure) within the goal; a plane trial's coverage
+    is the share of its slide in contact."""
+    error = row["mean_error_mm"]
+    return bool(np.isfinite(error) and error <= GOAL_MM and row["coverage"] > 0)
 
 
 def speed_rate_rows(artifact: Path, speeds, rates, duration_s: float, shape: str = "cylinder",
@@ -204,7 +238,7 @@ def _row_head(case: str, nuisance: str, on: bool) -> dict:
     """What a budget row says of itself: its case, nuisance, level and counter-measure."""
     return {"case": case, "nuisance": nuisance,
             "level": "off" if nuisance == "none" else "realistic",
-            "countermeasure": COUNTERMEASURES[nuisance] if on else "none",
+            "countermeasure": COUNTERMEASURES.get(nuisance, "all of them") if on else "none",
             "countermeasure_on": on}
 
 
@@ -263,15 +297,25 @@ def goal(rows: list[dict]) -> dict:
         everything = next((r for r in mine if r["nuisance"] == "all"), None)
         if everything is None:
             continue
-        alone = [r for r in mine if r["nuisance"] not in ("all", "none")]
-        error = everything["mean_error_mm"]
-        # a plane trial's coverage is the share of its slide in contact
-        met = bool(np.isfinite(error) and error <= GOAL_MM and everything["coverage"] > 0)
-        worst = max(alone, key=lambda r: _finite(r["mean_error_mm"]), default=None)
-        verdict[case] = {"all_mean_error_mm": error, "goal_mm": GOAL_MM, "met": met,
-                         "set_by": None if met or worst is None else worst["nuisance"],
-                         "alone_mean_error_mm": {r["nuisance"]: r["mean_error_mm"] for r in alone}}
+        alone = {r["nuisance"]: r["mean_error_mm"] for r in mine
+                 if r["nuisance"] not in ("all", "none") and not r["nuisance"].startswith(ALL_BUT)}
+        without = {r["nuisance"][len(ALL_BUT):]: r["mean_error_mm"] for r in mine
+                   if r["nuisance"].startswith(ALL_BUT)}
+        met = _meets(everything)
+        verdict[case] = {"all_mean_error_mm": everything["mean_error_mm"], "goal_mm": GOAL_MM,
+                         "met": met, "set_by": None if met else _set_by(alone, without),
+                         "alone_mean_error_mm": alone}
+        if without:
+            verdict[case]["without_mean_error_mm"] = without
     return verdict
+
+
+def _set_by(alone: dict, without: dict) -> str | None:
+    """The nuisance a miss is set by: the one whose absence lowers the error most where the
+    case was run without each (``without``), else the one that alone errs most."""
+    if without:
+        return min(without, key=lambda name: _finite(without[name]))
+    return max(alone, key=lambda name: _finite(alone[name]), default=None)
 
 
 def _finite(value: float) -> float:
@@ -289,7 +333,7 @@ def run(quick: bool = False, progress=None, shapes=None, duration_s: float | Non
     speeds, rates = ((8.0,), (30.0, 300.0)) if quick else (SPEEDS_MM_S, RATES_HZ)
     with tempfile.TemporaryDirectory(prefix="whiskercal-error-budget-") as folder:
         artifact = default_artifact(Path(folder))
-        rows = budget_rows(artifact, shapes, duration_s, nuisances, progress)
+        rows = budget_rows(artifact, shapes, duration_s, nuisances, progress, explain=not quick)
         rows += plane_rows(artifact, Path(folder), [n for n in nuisances if n in PLANE_NUISANCES],
                            QUICK_PLANE_DEPTHS_MM if quick else None, progress)
         chart = speed_rate_rows(artifact, speeds, rates, duration_s, progress=progress)
