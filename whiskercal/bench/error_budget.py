@@ -38,6 +38,7 @@ DATASET = Path(whiskercal.__file__).resolve().parents[1] / "data" / "twin-paper-
 SHAPES = ("cylinder", "rounded-rect", "octagon")
 EACH = ("drift", "viscoelastic", "contact", "robot", "mount")  # the rows of one nuisance
 NUISANCES = ("none", *EACH, "all")
+ALL_BUT = "all but "  # a row's nuisance: every one realistic except the one named after it
 COUNTERMEASURES = {"none": "all of them", "drift": "re-zero",
                    "viscoelastic": "re-zero, creep undone (its share and time constant known)",
                    "contact": "filter reset on slips", "robot": "rate-scaled filter, latency estimate",
@@ -69,9 +70,6 @@ def default_artifact(folder: Path, dataset: Path = DATASET) -> Path:
     plain = fit(read_raw_grid(dataset / "raw_grid.h5"), FitOptions()).write(folder / "calibration.h5")
     report = build_report(dataset / "plane_study.h5", runtime.load(plain))
     return write_target(plain, folder / "calibration-target.h5", report.choice, report.study.sha256)
-
-
-ALL_BUT = "all but "  # a row's nuisance: every one realistic except the one named after it
 
 
 def level_of(nuisance: str):
