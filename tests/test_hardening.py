@@ -25,6 +25,7 @@ from whiskercal.cli import cli
 from whiskercal.collect.checkpoint import Checkpoint
 from whiskercal.collect.journal import Journal, journal_path
 from whiskercal.errors import ArtifactError, UsageError, WhiskercalError
+from ctrl_c import printed_with_ctrl_c_as_from_a_terminal
 
 REPO = Path(__file__).resolve().parents[1]
 CAL = REPO / "tests" / "fixtures" / "calibration-1.3.0-target.h5"
@@ -136,17 +137,22 @@ def test_a_second_collect_on_a_file_being_written_gets_the_lock_error(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["raw.h5.journal"]  # no .rebuild
 
 
-def test_ctrl_c_becomes_a_stop_request_between_steps():
-    from whiskercal.contour import interrupt_as_stop
+CTRL_C_AS_STOP = """
+import signal
+from whiskercal.contour import interrupt_as_stop
 
-    handler = signal.getsignal(signal.SIGINT)
-    with interrupt_as_stop() as interrupted:
-        assert not interrupted()
-        # raised in this thread, so the handler has run when it returns (a signal sent to the
-        # process may be taken by another thread and reach the handler a few steps later)
-        signal.raise_signal(signal.SIGINT)  # no KeyboardInterrupt is raised here
-        assert interrupted()
-    assert signal.getsignal(signal.SIGINT) is handler
+handler = signal.getsignal(signal.SIGINT)
+with interrupt_as_stop() as interrupted:
+    before = interrupted()
+    signal.raise_signal(signal.SIGINT)  # no KeyboardInterrupt is raised here
+    after = interrupted()
+print(before, after, signal.getsignal(signal.SIGINT) is handler)
+"""
+
+
+def test_ctrl_c_becomes_a_stop_request_between_steps():
+    printed = printed_with_ctrl_c_as_from_a_terminal(CTRL_C_AS_STOP)
+    assert printed.split() == ["False", "True", "True"]  # asked after it only; handler restored
 
 
 def test_a_run_stopped_at_once_keeps_one_whole_sample():
