@@ -79,18 +79,22 @@ def level_of(nuisance: str):
 
     if nuisance in ("none", "mount"):
         return Nuisances()
-    if nuisance.startswith(ALL_BUT):
-        left_out = nuisance[len(ALL_BUT):]
+    left_out = _left_out(nuisance)
+    if left_out is not None:
         if left_out == "mount":
             return REALISTIC
         return REALISTIC.replace(**{left_out: getattr(Nuisances(), left_out)})
     return REALISTIC if nuisance == "all" else only(nuisance)
 
 
+def _left_out(nuisance: str) -> str | None:
+    """The nuisance an ``ALL_BUT`` row leaves out; None for any other row."""
+    return nuisance[len(ALL_BUT):] if nuisance.startswith(ALL_BUT) else None
+
+
 def _with_mount(nuisance: str) -> bool:
     """Whether a row's loop runs on a mount off the nominal."""
-    return nuisance in ("mount", "all") or (nuisance.startswith(ALL_BUT)
-                                            and nuisance != ALL_BUT + "mount")
+    return nuisance in ("mount", "all") or _left_out(nuisance) not in (None, "mount")
 
 
 def calibrated_mount(artifact: Path) -> dict:
@@ -295,10 +299,9 @@ def goal(rows: list[dict]) -> dict:
         everything = next((r for r in mine if r["nuisance"] == "all"), None)
         if everything is None:
             continue
-        alone = {r["nuisance"]: r["mean_error_mm"] for r in mine
-                 if r["nuisance"] not in ("all", "none") and not r["nuisance"].startswith(ALL_BUT)}
-        without = {r["nuisance"][len(ALL_BUT):]: r["mean_error_mm"] for r in mine
-                   if r["nuisance"].startswith(ALL_BUT)}
+        alone = {r["nuisance"]: r["mean_error_mm"] for r in mine if r["nuisance"] in EACH}
+        without = {_left_out(r["nuisance"]): r["mean_error_mm"] for r in mine
+                   if _left_out(r["nuisance"]) is not None}
         met = _meets(everything)
         verdict[case] = {"all_mean_error_mm": everything["mean_error_mm"], "goal_mm": GOAL_MM,
                          "met": met, "set_by": None if met else _set_by(alone, without),
