@@ -6,6 +6,7 @@ the degree-3 polynomial fitted to the same grid is off by orders of magnitude mo
 """
 
 import numpy as np
+from numpy.polynomial import legendre
 
 from whiskercal.testing.fields import (NOISE_UT, ROD_RADIUS_MM, STAGE_OFFSET_MM,
                                        pose_fields_of_poses, realistic_pose_contacts,
@@ -65,3 +66,41 @@ def test_the_rest_basis_kept_for_a_geometry_is_the_one_computed_afresh():
         assert np.array_equal(relative_basis(geometry, poses), fresh)
         geometry[0] -= 0.5
     assert not np.array_equal(relative_basis(geometry, poses), fresh)
+
+
+def _potential_field(geometry, pose, order, step_mm=1e-5):
+    """-grad of P_l(u·r̂)/r^(l+1) at the sensing point by central differences, in the chip's
+    (Y, Z) axes: the basis's definition, evaluated apart from its compiled loop."""
+    cx, cy, axis, sx, sy, sw, tilt = geometry
+    rotation, shift = pose[0], pose[1:]
+    turn = np.array([[np.cos(rotation), -np.sin(rotation)], [np.sin(rotation), np.cos(rotation)]])
+    center = np.append(turn @ [cx, cy] + shift, 0.0)
+    u = np.array([np.cos(rotation + axis), np.sin(rotation + axis), 0.0])
+    coefficients = np.eye(order + 1)[order]
+
+    def potential(point):
+        r = point - center
+        distance = np.linalg.norm(r)
+        return legendre.legval(u @ r / distance, coefficients) / distance ** (order + 1)
+
+    point = np.array([sx, sy, sw])
+    gradient = np.array([(potential(point + step) - potential(point - step)) / (2 * step_mm)
+                         for step in np.eye(3) * step_mm])
+    chip = np.array([[np.sin(tilt), np.cos(tilt), 0.0], [np.cos(tilt), -np.sin(tilt), 0.0]])
+    return chip @ -gradient
+
+
+def test_the_basis_is_the_multipoles_field_for_every_order_and_pose():
+    rng = np.random.default_rng(2)
+    orders = (1, 2, 3, 4, 5, 6)
+    for _ in range(20):
+        geometry = np.array([-4.0, 0.05, 0.02, -6.4, 0.15, 0.1, 0.04]) + rng.normal(0, 0.3, 7)
+        poses = rng.normal(0.0, [0.05, 0.3, 0.3], (5, 3))
+        basis = multipole_basis(geometry, poses, orders)
+        for pose, fields in zip(poses, basis):
+            for order, field in zip(orders, fields):
+                expected = _potential_field(geometry, pose, order)
+                # central differences of a smooth potential at 1e-5 mm, a few mm from its
+                # source: good to about 1e-8 of the field; the loop's rounding is 1e-14
+                assert np.allclose(field, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())
+    assert multipole_basis(geometry, np.zeros((2, 5, 3)), orders).shape == (2, 5, 6, 2)

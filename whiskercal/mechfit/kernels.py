@@ -16,8 +16,10 @@ import numpy as np
 def compile_kernels() -> None:
     """Call each compiled kernel once with the types the twin and the fit pass it: a rod grid
     solved from first touch and again warm-started (``rod_batch``, ``elastica``), the twin's
-    own rod, plane and shape solves, and the magnet's interpolated field."""
+    own rod, plane and shape solves, the magnet's interpolated field, and the fit's multipole
+    basis."""
     from whiskercal.mechfit.forward import Suspension, rod_poses
+    from whiskercal.mechfit.magnetmap import multipole_basis, start_geometries
     from whiskercal.twin.physics import magnet, mechanics
     from whiskercal.twin.physics.obstacles import Circle, plane_for_depth
 
@@ -34,6 +36,7 @@ def compile_kernels() -> None:
     magnet.field_uT(magnet.MagnetParams(), np.array([0.01, 0.02]), np.zeros((2, 2)))
     magnet.field_uT(magnet.MagnetParams(), np.array([0.01, 0.02]), np.zeros((2, 2), order="F"))
     magnet.field_uT(magnet.MagnetParams(), np.array([0.01, 3.0]), np.zeros((2, 2)))
+    multipole_basis(start_geometries()[0], np.zeros((2, 3)))
 
 
 if __name__ == "__main__":

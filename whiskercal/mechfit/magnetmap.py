@@ -20,10 +20,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from numpy.polynomial import legendre
 from scipy.optimize import least_squares
 
 from whiskercal.errors import UsageError
+from whiskercal.mechfit.multipole_kernel import multipole_fields
 
 DEFAULT_ORDERS = (1, 2, 3, 4)
 # index of each geometry parameter
@@ -34,23 +34,6 @@ START_GAP_MM = 2.5
 START_OUT_OF_PLANE_MM = 0.05  # |w| enters squared: start off the symmetric point
 
 
-@lru_cache(maxsize=None)
-def _legendre_series(order: int) -> tuple[np.ndarray, np.ndarray]:
-    """The Legendre series of P_l and of P_l', made once per order: a fit evaluates the basis
-    thousands of times, and making the derivative's series cost more than evaluating both."""
-    coefficients = np.zeros(order + 1)
-    coefficients[order] = 1.0
-    derivative = legendre.legder(coefficients)
-    coefficients.flags.writeable = derivative.flags.writeable = False
-    return coefficients, derivative
-
-
-def _legendre(order: int, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """P_l(c) and P_l'(c)."""
-    coefficients, derivative = _legendre_series(order)
-    return legendre.legval(c, coefficients), legendre.legval(c, derivative)
-
-
 def multipole_basis(geometry: np.ndarray, pose: np.ndarray, orders=DEFAULT_ORDERS) -> np.ndarray:
     """Unit-strength fields (..., len(orders), 2) in the chip's (Y, Z) axes at poses (..., 3).
 
@@ -58,25 +41,11 @@ def multipole_basis(geometry: np.ndarray, pose: np.ndarray, orders=DEFAULT_ORDER
     P_l'(u − (u·r̂) r̂)), r from the source's centre to the sensing point.
     """
     pose = np.asarray(pose, float)
-    rotation, shift = pose[..., 0], pose[..., 1:3]
-    cos, sin = np.cos(rotation), np.sin(rotation)
-    cx, cy = geometry[G_CX], geometry[G_CY]
-    center = np.stack([cx * cos - cy * sin + shift[..., 0], cx * sin + cy * cos + shift[..., 1]], -1)
-    axis_angle = rotation + geometry[G_AXIS]
-    u = np.stack([np.cos(axis_angle), np.sin(axis_angle), np.zeros_like(rotation)], -1)
-    rel = np.concatenate([geometry[G_SX:G_SY + 1] - center,
-                          np.broadcast_to(geometry[G_SW], rotation.shape)[..., None]], -1)
-    distance = np.linalg.norm(rel, axis=-1)
-    unit = rel / distance[..., None]
-    c = np.sum(unit * u, axis=-1)
-    tilt = geometry[G_TILT]
-    chip = np.array([[np.sin(tilt), np.cos(tilt), 0.0], [np.cos(tilt), -np.sin(tilt), 0.0]])
-    out = []
-    for order in orders:
-        p, dp = _legendre(order, c)
-        field = ((order + 1) * p)[..., None] * unit - dp[..., None] * (u - c[..., None] * unit)
-        out.append((field / distance[..., None] ** (order + 2)) @ chip.T)
-    return np.stack(out, axis=-2)
+    flat = np.ascontiguousarray(pose.reshape(-1, 3))
+    out = np.empty((len(flat), len(orders), 2))
+    multipole_fields(np.ascontiguousarray(geometry, dtype=float), flat,
+                     np.asarray(orders, np.int64), out)
+    return out.reshape(pose.shape[:-1] + out.shape[1:])
 
 
 def relative_basis(geometry: np.ndarray, pose: np.ndarray, orders=DEFAULT_ORDERS) -> np.ndarray:
