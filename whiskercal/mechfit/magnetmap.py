@@ -26,8 +26,6 @@ from whiskercal.errors import UsageError
 from whiskercal.mechfit.multipole_kernel import multipole_fields
 
 DEFAULT_ORDERS = (1, 2, 3, 4)
-# index of each geometry parameter
-G_CX, G_CY, G_AXIS, G_SX, G_SY, G_SW, G_TILT = range(7)
 # generic starts (mm): a magnet a few mm under the pivot, the chip a few mm below it on the axis
 START_CENTERS_MM = (-3.0, -6.0)
 START_GAP_MM = 2.5

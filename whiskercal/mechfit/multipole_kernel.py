@@ -34,7 +34,7 @@ def multipole_fields(geometry, poses, orders, out) -> None:
         rx = sx - (cx * cos - cy * sin + poses[i, 1])
         ry = sy - (cx * sin + cy * cos + poses[i, 2])
         distance = math.sqrt(rx * rx + ry * ry + sw * sw)
-        ex, ey, ez = rx / distance, ry / distance, sw / distance
+        ex, ey = rx / distance, ry / distance  # the chip's axes lie in the bending plane
         ux, uy = math.cos(rotation + axis), math.sin(rotation + axis)
         c = ex * ux + ey * uy
         p[0], dp[0] = 1.0, 0.0
